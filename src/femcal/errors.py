@@ -1,0 +1,85 @@
+"""Errors raised by femcal.
+
+Every error says *what* went wrong, *where* (file:line, card, field, id) and *what was
+expected*. The library raises these; only the CLI prints them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+
+class FemcalError(Exception):
+    """Base class of every error femcal raises on purpose."""
+
+
+@dataclass(frozen=True)
+class DeckIssue:
+    """One problem found while reading a deck.
+
+    Attributes
+    ----------
+    file, line : where the offending text is (1-based line number).
+    card : card name (``"GRID"``) or section (``"CASE CONTROL"``); ``""`` if unknown.
+    field : NASTRAN field number on its line (2..9), or None for the whole card/line.
+    name : the field's name in the Quick Reference Guide (``"X1"``), or None.
+    found : the text found, or None.
+    expected : what would have been accepted.
+    """
+
+    file: str
+    line: int
+    card: str
+    field: int | None
+    name: str | None
+    found: str | None
+    expected: str
+
+    def __str__(self) -> str:
+        where = f"{self.file}:{self.line}"
+        what = self.card or "deck"
+        if self.field is not None:
+            what += f" field {self.field}"
+            if self.name:
+                what += f" ({self.name})"
+        elif self.name:
+            what += f" {self.name}"
+        found = f": found {self.found!r}" if self.found is not None else ""
+        return f"{where}: {what}{found}; expected {self.expected}"
+
+
+class DeckError(FemcalError):
+    """A deck could not be read. Holds every issue found (up to a limit), in file order."""
+
+    def __init__(self, issues: Sequence[DeckIssue], truncated: int = 0):
+        self.issues = list(issues)
+        self.truncated = truncated
+        lines = [str(i) for i in self.issues]
+        head = f"{len(self.issues) + truncated} error(s) in deck"
+        if truncated:
+            lines.append(f"... and {truncated} more")
+        super().__init__(head + ":\n  " + "\n  ".join(lines))
+
+
+class ModelError(FemcalError):
+    """Cards read fine but do not make a consistent model (missing grid, duplicate id, ...).
+
+    Attributes
+    ----------
+    ids : the NASTRAN ids involved.
+    locations : ``"file:line"`` of the cards involved.
+    """
+
+    def __init__(self, message: str, ids: Sequence[int] = (), locations: Sequence[str] = ()):
+        self.ids = list(ids)
+        self.locations = list(locations)
+        super().__init__(message)
+
+
+class SolverError(FemcalError):
+    """A numerical solution failed; ``partial`` carries whatever was computed."""
+
+    def __init__(self, message: str, partial: object | None = None):
+        self.partial = partial
+        super().__init__(message)
