@@ -77,7 +77,7 @@ LAYOUTS: dict[str, str] = {
     # rigid
     "RBAR": "eid:I! ga:I! gb:I! cna:C cnb:C cma:C cmb:C alpha:R=0. tref:R=0.",
     # constraints
-    "SPC": "sid:I! g:I! c:C d:R=0.",
+    "SPC": "sid:I! g:I! c:C! d:R=0.",
     "SUPORT": "id:I! c:C",
     "ASET": "id:I! c:C",
     # properties
@@ -105,10 +105,12 @@ for _kind in "CS":
     LAYOUTS[f"CORD2{_kind}"] = LAYOUTS["CORD2R"]
     LAYOUTS[f"CORD1{_kind}"] = LAYOUTS["CORD1R"]
 
-#: Cards whose fields hold several entries: (entry width in fields, entries per card).
-MULTI_ENTRY: dict[str, tuple[int, int]] = {
-    "CORD1R": (4, 2), "CORD1C": (4, 2), "CORD1S": (4, 2),
-    "PELAS": (4, 2), "PMASS": (2, 4), "SPC": (4, 2), "SUPORT": (2, 4), "ASET": (2, 4),
+#: Cards whose fields hold several entries: (shared leading fields, entry width, entries per
+#: card). SPC's SID is shared by its two (G, C, D) entries.
+MULTI_ENTRY: dict[str, tuple[int, int, int]] = {
+    "CORD1R": (0, 4, 2), "CORD1C": (0, 4, 2), "CORD1S": (0, 4, 2),
+    "PELAS": (0, 4, 2), "PMASS": (0, 2, 4), "SPC": (1, 3, 2), "SUPORT": (0, 2, 4),
+    "ASET": (0, 2, 4),
 }  # fmt: skip
 
 RECORDS: dict[str, Callable[[list[str], list], object]] = {
@@ -167,7 +169,7 @@ class CardDef:
     name: str
     layout: Layout | None
     record: Callable[[list[str], list], object] | None
-    multi: tuple[int, int] | None = None
+    multi: tuple[int, int, int] | None = None
 
 
 CARDS: dict[str, CardDef] = {}

@@ -129,11 +129,24 @@ def format_real(x: float, width: int = 16, *, exact: bool = False) -> str:
         return s
     if exact:
         raise ValueError(f"{x!r} does not fit {width} characters exactly")
-    for digits in range(17, 0, -1):
-        s = _compact(f"{x:.{digits}E}")
-        if len(s) <= width:
-            return s
-    raise ValueError(f"cannot write {x!r} in {width} characters")
+    # The most precise text that fits: exponent or positional form, whichever keeps more digits.
+    best, best_err = None, math.inf
+    for digits in range(17, -1, -1):
+        for text in (f"{x:.{digits}E}", f"{x:.{digits}f}"):
+            c = _compact(text)
+            if len(c) <= width:
+                err = abs(_to_python(c) - x)
+                if err < best_err:
+                    best, best_err = c, err
+    if best is None:
+        raise ValueError(f"cannot write {x!r} in {width} characters")
+    return best
+
+
+def _to_python(c: str) -> float:
+    """Float value of a compact NASTRAN real (``'1.5-5'`` -> 1.5e-05)."""
+    m = _EXP_NO_E.match(c)
+    return float(m.group(1) + "E" + m.group(2)) if m else float(c)
 
 
 def _compact(r: str) -> str:
@@ -148,7 +161,7 @@ def _compact(r: str) -> str:
         if e == 0:
             return _strip_point_zero(mant)
         return f"{mant}{'+' if e > 0 else '-'}{abs(e)}"
-    return _strip_point_zero(r)
+    return _strip_point_zero(r if "." in r else r + ".")
 
 
 def _strip_point_zero(m: str) -> str:

@@ -64,7 +64,8 @@ class _Reader:
         # card being assembled
         self.name: str | None = None
         self.fields: list[str] = []
-        self.field_lines: list[tuple[int, int]] = []  # (first field index, line) per line
+        # per physical line of the card: (first field index, line number, original text)
+        self.field_lines: list[tuple[int, int, str]] = []
         self.file_idx = 0
         self.line0 = 0
         self.in_output_block = False
@@ -267,6 +268,7 @@ class _Reader:
             if "\t" in s:
                 s = s.expandtabs(8)
                 c0 = s[0]
+            original = s
             s = s.upper()
             if "," in s:
                 parts = s.split(",")
@@ -318,7 +320,7 @@ class _Reader:
                 self.line0 = i
                 fields = self.fields = []
                 self.field_lines = []
-            self.field_lines.append((len(fields), i))
+            self.field_lines.append((len(fields), i, original))
             fields.extend(data)
         return n
 
@@ -354,19 +356,21 @@ class _Reader:
                 if row is not None:
                     table.append(row, fidx, line0)
             else:
-                width, per_card = d.multi
+                shared, width, per_card = d.multi
+                head = fields[:shared]
                 for e in range(per_card):
-                    part = fields[e * width : (e + 1) * width]
+                    start = shared + e * width
+                    part = fields[start : start + width]
                     if not any(part):
                         if e == 0:
-                            errors.append((0, "", "at least one entry"))
+                            errors.append((start, "", "at least one entry"))
                         continue
                     sub: list[tuple[int, str, str]] = []
-                    row = d.layout.parse(part, sub)
-                    errors.extend((k + e * width, s, x) for k, s, x in sub)
+                    row = d.layout.parse(head + part, sub)
+                    errors.extend((k if k < shared else k - shared + start, s, x) for k, s, x in sub)
                     if row is not None:
                         table.append(row, fidx, line0)
-                for k in range(per_card * width, len(fields)):
+                for k in range(shared + per_card * width, len(fields)):
                     if fields[k]:
                         errors.append((k, fields[k], f"at most {per_card} entries"))
                         break
@@ -382,19 +386,24 @@ class _Reader:
             label = None
             if d.layout is not None:
                 slots = d.layout.slots
-                kk = k % (d.multi[0]) if d.multi else k
+                shared, width = d.multi[:2] if d.multi else (0, 0)
+                kk = k if not d.multi or k < shared else shared + (k - shared) % width
                 if kk < len(slots):
                     label = slots[kk].label
-            self.error(fidx, self._line_of(k), name, expected, found=text, field=k % 8 + 2,
-                       name=label)
+            line, original = self._line_of(k)
+            # Show the text as written (fields were upper-cased for reading).
+            at = original.upper().find(text) if text else -1
+            found = original[at : at + len(text)] if at >= 0 else text
+            self.error(fidx, line, name, expected, found=found, field=k % 8 + 2, name=label)
 
-    def _line_of(self, k: int) -> int:
-        line = self.line0
-        for start, ln in self.field_lines:
+    def _line_of(self, k: int) -> tuple[int, str]:
+        """Line number and original text of the physical line holding data field k."""
+        line, text = self.line0, ""
+        for start, ln, original in self.field_lines:
             if start > k:
                 break
-            line = ln
-        return line
+            line, text = ln, original
+        return line, text
 
 
 def _is_card_name(name: str) -> bool:

@@ -293,8 +293,8 @@ class Rbe3Card:
             if key == "UM":
                 k += 1
                 while k < c.n and c.text(k) not in keywords:
-                    if not c.text(k) and not c.text(k + 1):
-                        k += 2
+                    if not c.text(k):
+                        k += 1
                         continue
                     um.append((c.int(k, required=True), c.comp(k + 1, required=True)))
                     k += 2
