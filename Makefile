@@ -16,7 +16,7 @@ $(STAMP): pyproject.toml
 
 demo: setup
 	@mkdir -p out
-	$(VENV)/bin/femcal info models/examples/portal_frame.bdf --json out/portal_frame_info.json
+	$(VENV)/bin/femcal info models/examples/ladder_frame.bdf --json out/ladder_frame_info.json
 
 test: setup
 	$(PY) -m pytest -m "not slow" -q

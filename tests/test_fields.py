@@ -42,7 +42,9 @@ def test_real_forms(text, value):
     assert parse_real(text) == value
 
 
-@pytest.mark.parametrize("text", ["7", "-12", "1_000.", "INF", "NAN", "1.2.3", "1.5E", "E5", "A", "1-3", "."])
+@pytest.mark.parametrize(
+    "text", ["7", "-12", "1_000.", "INF", "NAN", "1.2.3", "1.5E", "E5", "A", "1-3", "."]
+)
 def test_bad_reals(text):
     with pytest.raises(BadField):
         parse_real(text)

@@ -110,8 +110,10 @@ def test_bulk_only_file(write):
     assert d.sol is None and d.card_count == {"GRID": 2}
 
 
-@pytest.mark.parametrize(("text", "sol"), [("SOL 103", 103), ("SOL SEMODES", 103), ("sol 111", 111),
-                                            ("SOL SESTATIC", 101)])
+@pytest.mark.parametrize(
+    ("text", "sol"),
+    [("SOL 103", 103), ("SOL SEMODES", 103), ("sol 111", 111), ("SOL SESTATIC", 101)],
+)
 def test_sol_names_and_numbers(write, text, sol):
     assert read_deck(write(f"{text}\nCEND\nBEGIN BULK\n")).sol == sol
 
@@ -129,7 +131,11 @@ def test_case_control_subcases_and_abbreviations(write):
 
 
 def test_unused_cards_are_kept_and_counted(write):
-    d = read_deck(write(HEAD + "FORCE   1       2       0       1.      1.\nFORCE   2\nCAERO1  5\nGRID    2\n"))
+    d = read_deck(
+        write(
+            HEAD + "FORCE   1       2       0       1.      1.\nFORCE   2\nCAERO1  5\nGRID    2\n"
+        )
+    )
     assert d.unused_count == {"FORCE": 2, "CAERO1": 1}
     assert d.card_count == {"FORCE": 2, "CAERO1": 1, "GRID": 1}
 
@@ -143,7 +149,13 @@ def test_error_names_file_line_card_field_and_text(write):
     with pytest.raises(DeckError) as e:
         read_deck(write(HEAD + "GRID    1\nCQUAD4  10      1       1       2       3       4.5\n"))
     issue = e.value.issues[0]
-    assert (issue.line, issue.card, issue.field, issue.name, issue.found) == (5, "CQUAD4", 7, "G4", "4.5")
+    assert (issue.line, issue.card, issue.field, issue.name, issue.found) == (
+        5,
+        "CQUAD4",
+        7,
+        "G4",
+        "4.5",
+    )
     assert "an integer" in issue.expected
     assert "deck.bdf:5: CQUAD4 field 7 (G4): found '4.5'; expected an integer" in str(e.value)
 
@@ -157,7 +169,10 @@ def test_error_on_continuation_line_points_at_that_line(write):
 
 
 def test_all_errors_are_collected(write):
-    text = HEAD + "GRID    x\nGRID    1       0       a\nCROD    1\nCONM2   1       1               1\n"
+    text = (
+        HEAD
+        + "GRID    x\nGRID    1       0       a\nCROD    1\nCONM2   1       1               1\n"
+    )
     with pytest.raises(DeckError) as e:
         read_deck(write(text))
     found = [(i.line, i.name) for i in e.value.issues]
@@ -173,13 +188,15 @@ def test_error_limit(write):
 
 
 def test_required_field_blank(write):
-    with pytest.raises(DeckError, match="G2.*required"):
+    with pytest.raises(DeckError, match=r"G2.*required"):
         read_deck(write(HEAD + "CROD    1       2       3\n"))
 
 
 def test_field_that_must_be_blank(write):
     with pytest.raises(DeckError, match="blank field"):
-        read_deck(write(HEAD + "CONM2   1       2       0       1.      0.      0.      0.      9\n"))
+        read_deck(
+            write(HEAD + "CONM2   1       2       0       1.      0.      0.      0.      9\n")
+        )
 
 
 def test_too_many_fields(write):

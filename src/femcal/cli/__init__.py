@@ -18,7 +18,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Finite-element normal modes and FRF-based calibration from NASTRAN decks.",
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for name, module in _COMMANDS.items():
+    for _name, module in _COMMANDS.items():
         module.add_parser(sub)
     return parser
 

@@ -44,13 +44,21 @@ def summarise(path: Path) -> dict:
 
 def run(args: argparse.Namespace) -> int:
     s = summarise(args.deck)
-    print(f"deck      {s['deck']}" + (f" (+{len(s['files']) - 1} included)" if len(s["files"]) > 1 else ""))
+    print(
+        f"deck      {s['deck']}"
+        + (f" (+{len(s['files']) - 1} included)" if len(s["files"]) > 1 else "")
+    )
     print(f"solution  SOL {s['sol_text'] or '-'}" + (f" ({s['sol']})" if s["sol"] else ""))
     print(f"grids     {s['n_grids']}   scalar points {s['n_spoints']}   DOF {s['n_dof']}")
-    print(f"elements  {s['n_elements']}: " + ", ".join(f"{k} {v}" for k, v in s["elements"].items()))
+    print(
+        f"elements  {s['n_elements']}: " + ", ".join(f"{k} {v}" for k, v in s["elements"].items())
+    )
     print("cards     " + ", ".join(f"{k} {v}" for k, v in s["cards"].items()))
     if s["unsupported"]:
-        print("not used by SOL 103: " + ", ".join(f"{k} \u00d7{v}" for k, v in s["unsupported"].items()))
+        print(
+            "not used by SOL 103: "
+            + ", ".join(f"{k} \u00d7{v}" for k, v in s["unsupported"].items())
+        )
     if args.json:
         write_text_atomic(args.json, [json.dumps(s, indent=1)])
         print(f"wrote     {args.json}")

@@ -19,7 +19,10 @@ from .spec import Layout
 
 # -------------------------------------------------------------------------- layouts
 
-_SHELL_Q4 = "eid:I! pid:I=@eid g1:I! g2:I! g3:I! g4:I! theta|mcid:RI zoffs:R _ _ tflag:I t1:R t2:R t3:R t4:R"
+_SHELL_Q4 = (
+    "eid:I! pid:I=@eid g1:I! g2:I! g3:I! g4:I! theta|mcid:RI zoffs:R _ "
+    "_ tflag:I t1:R t2:R t3:R t4:R"
+)
 _SHELL_T3 = "eid:I! pid:I=@eid g1:I! g2:I! g3:I! theta|mcid:RI zoffs:R _ _ _ tflag:I t1:R t2:R t3:R"
 _ORIENT = "x1|g0:RI x2:R x3:R"
 _W = "w1a:R=0. w2a:R=0. w3a:R=0. w1b:R=0. w2b:R=0. w3b:R=0."
@@ -28,7 +31,8 @@ LAYOUTS: dict[str, str] = {
     # grids and coordinate systems
     "GRID": "id:I! cp:I x1:R=0. x2:R=0. x3:R=0. cd:I ps:C seid:I",
     "GRDSET": "_ cp:I _ _ _ cd:I ps:C seid:I",
-    "CORD2R": "cid:I! rid:I=0 a1:R=0. a2:R=0. a3:R=0. b1:R=0. b2:R=0. b3:R=0. c1:R=0. c2:R=0. c3:R=0.",
+    "CORD2R": "cid:I! rid:I=0 a1:R=0. a2:R=0. a3:R=0. b1:R=0. b2:R=0. b3:R=0. "
+    "c1:R=0. c2:R=0. c3:R=0.",
     "CORD1R": "cid:I! g1:I! g2:I! g3:I!",
     # shells
     "CQUAD4": _SHELL_Q4,
@@ -41,14 +45,22 @@ LAYOUTS: dict[str, str] = {
     "t1:R t2:R t3:R tflag:I",
     "CSHEAR": "eid:I! pid:I=@eid g1:I! g2:I! g3:I! g4:I!",
     # solids (linear node counts required, the rest optional midside nodes)
-    "CHEXA": "eid:I! pid:I! " + " ".join(f"g{i}:I!" for i in range(1, 9))
-    + " " + " ".join(f"g{i}:I" for i in range(9, 21)),
-    "CPENTA": "eid:I! pid:I! " + " ".join(f"g{i}:I!" for i in range(1, 7))
-    + " " + " ".join(f"g{i}:I" for i in range(7, 16)),
-    "CTETRA": "eid:I! pid:I! " + " ".join(f"g{i}:I!" for i in range(1, 5))
-    + " " + " ".join(f"g{i}:I" for i in range(5, 11)),
-    "CPYRAM": "eid:I! pid:I! " + " ".join(f"g{i}:I!" for i in range(1, 6))
-    + " " + " ".join(f"g{i}:I" for i in range(6, 14)),
+    "CHEXA": "eid:I! pid:I! "
+    + " ".join(f"g{i}:I!" for i in range(1, 9))
+    + " "
+    + " ".join(f"g{i}:I" for i in range(9, 21)),
+    "CPENTA": "eid:I! pid:I! "
+    + " ".join(f"g{i}:I!" for i in range(1, 7))
+    + " "
+    + " ".join(f"g{i}:I" for i in range(7, 16)),
+    "CTETRA": "eid:I! pid:I! "
+    + " ".join(f"g{i}:I!" for i in range(1, 5))
+    + " "
+    + " ".join(f"g{i}:I" for i in range(5, 11)),
+    "CPYRAM": "eid:I! pid:I! "
+    + " ".join(f"g{i}:I!" for i in range(1, 6))
+    + " "
+    + " ".join(f"g{i}:I" for i in range(6, 14)),
     # line elements
     "CBAR": f"eid:I! pid:I=@eid ga:I! gb:I! {_ORIENT} offt:S pa:C pb:C {_W}",
     "BAROR": f"_ pid:I _ _ {_ORIENT} offt:S",
@@ -63,9 +75,8 @@ LAYOUTS: dict[str, str] = {
     "CELAS3": "eid:I! pid:I=@eid s1:I s2:I",
     "CELAS4": "eid:I! k:R! s1:I s2:I",
     "CBUSH": f"eid:I! pid:I=@eid ga:I! gb:I {_ORIENT} cid:I s:R=0.5 ocid:I=-1 s1:R s2:R s3:R",
-    "CONM1": "eid:I! g:I! cid:I=0 " + " ".join(
-        f"m{i}{j}:R=0." for i in range(1, 7) for j in range(1, i + 1)
-    ),
+    "CONM1": "eid:I! g:I! cid:I=0 "
+    + " ".join(f"m{i}{j}:R=0." for i in range(1, 7) for j in range(1, i + 1)),
     "CONM2": "eid:I! g:I! cid:I=0 m:R=0. x1:R=0. x2:R=0. x3:R=0. _ "
     "i11:R=0. i21:R=0. i22:R=0. i31:R=0. i32:R=0. i33:R=0.",
     "CMASS1": "eid:I! pid:I=@eid g1:I c1:C g2:I c2:C",
@@ -83,13 +94,15 @@ LAYOUTS: dict[str, str] = {
     # properties
     "PSHELL": "pid:I! mid1:I t:R mid2:I bk:R=1.0 mid3:I tst:R=0.833333 nsm:R=0. z1:R z2:R mid4:I",
     "PSHEAR": "pid:I! mid:I! t:R! nsm:R=0. f1:R=0. f2:R=0.",
-    "PSOLID": "pid:I! mid:I! cordm:I=0 in|in_word:IS stress|stress_word:IS isop|isop_word:IS fctn:S=SMECH",
+    "PSOLID": "pid:I! mid:I! cordm:I=0 in|in_word:IS stress|stress_word:IS "
+    "isop|isop_word:IS fctn:S=SMECH",
     "PBAR": "pid:I! mid:I! a:R=0. i1:R=0. i2:R=0. j:R=0. nsm:R=0. _ "
     "c1:R=0. c2:R=0. d1:R=0. d2:R=0. e1:R=0. e2:R=0. f1:R=0. f2:R=0. k1:R k2:R i12:R=0.",
     "PROD": "pid:I! mid:I! a:R! j:R=0. c:R=0. nsm:R=0.",
     "PTUBE": "pid:I! mid:I! od:R! t:R nsm:R=0. od2:R",
     # materials
-    "MAT1": "mid:I! e:R g:R nu:R rho:R=0. a:R=0. tref:R=0. ge:R=0. st:R=0. sc:R=0. ss:R=0. mcsid:I=0",
+    "MAT1": "mid:I! e:R g:R nu:R rho:R=0. a:R=0. tref:R=0. ge:R=0. "
+    "st:R=0. sc:R=0. ss:R=0. mcsid:I=0",
     "MAT2": "mid:I! g11:R=0. g12:R=0. g13:R=0. g22:R=0. g23:R=0. g33:R=0. rho:R=0. "
     "a1:R=0. a2:R=0. a3:R=0. tref:R=0. ge:R=0. st:R=0. sc:R=0. ss:R=0. mcsid:I=0",
     "MAT8": "mid:I! e1:R! e2:R! nu12:R! g12:R=0. g1z:R g2z:R rho:R=0. "

@@ -165,8 +165,8 @@ class Deck:
         m = _SOL_RE.match(text)
         if m:
             self.sol_text = m.group(1).upper()
-            self.sol = int(self.sol_text) if self.sol_text.isdigit() else SOL_NAMES.get(
-                self.sol_text
+            self.sol = (
+                int(self.sol_text) if self.sol_text.isdigit() else SOL_NAMES.get(self.sol_text)
             )
 
     @staticmethod

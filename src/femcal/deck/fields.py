@@ -175,7 +175,7 @@ def _strip_point_zero(m: str) -> str:
 
 
 def format_value(v: object, width: int = 16, *, exact: bool = False) -> str:
-    """Text of one field value: None -> blank, int, float, or str (ValueError if it does not fit)."""
+    """Text of one field value: None -> blank, int, float or str; ValueError if it won't fit."""
     if v is None:
         return ""
     if isinstance(v, bool):

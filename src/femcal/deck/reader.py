@@ -12,19 +12,24 @@ one :class:`~femcal.errors.DeckError`.
 
 from __future__ import annotations
 
+import dataclasses
+import itertools
 import os
 import re
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
+from typing import TextIO
 
 from ..errors import DeckError, DeckIssue
-from .cards import CARDS, UNSUPPORTED_STRUCTURAL
+from .cards import CARDS, UNSUPPORTED_STRUCTURAL, CardDef
 from .deck import Deck, RecordList, canonical_case_key
+from .fastlane import FastGroup, split_block
 from .records import RawCard
-from .spec import Table
+from .spec import CHUNK, FAST_FAILURES, Layout, Table
 
 _SMALL = tuple(range(8, 72, 8))
 _LARGE = tuple(range(8, 72, 16))
-_CEND = re.compile(r"^[ \t]*CEND[ \t\r]*(\$.*)?$", re.IGNORECASE | re.MULTILINE)
+_CEND = re.compile(r"^[ \t]*CEND[ \t]*(\$.*)?$", re.IGNORECASE | re.MULTILINE)
 _BEGIN_BULK = re.compile(r"^[ \t]*BEGIN[ \t]+(BULK|SUPER)", re.IGNORECASE | re.MULTILINE)
 _CASE_CMD = re.compile(r"^\s*([A-Za-z][A-Za-z0-9]*)\s*(\([^)]*\))?\s*=\s*(.*?)\s*$")
 _SUBCASE = re.compile(r"^\s*SUBCASE\s+(\d+)\s*$", re.IGNORECASE)
@@ -33,13 +38,17 @@ _SUBCASE = re.compile(r"^\s*SUBCASE\s+(\d+)\s*$", re.IGNORECASE)
 MAX_ERRORS = 100
 
 
-def read_deck(path: str | os.PathLike[str], *, max_errors: int = MAX_ERRORS) -> Deck:
+def read_deck(
+    path: str | os.PathLike[str], *, max_errors: int = MAX_ERRORS, fast_lane: bool = True
+) -> Deck:
     """Read a NASTRAN deck (or a bulk-data-only file) into a :class:`Deck`.
 
     Parameters
     ----------
     path : the main input file; INCLUDE paths are resolved relative to the including file.
     max_errors : how many problems to describe before only counting them.
+    fast_lane : read one-line small-field cards with NumPy (:mod:`femcal.deck.fastlane`).
+        The result is the same either way; False reads every card field by field.
 
     Raises
     ------
@@ -48,26 +57,33 @@ def read_deck(path: str | os.PathLike[str], *, max_errors: int = MAX_ERRORS) -> 
     FileNotFoundError
         If the main file does not exist.
     """
-    return _Reader(Path(path), max_errors).run()
+    return _Reader(Path(path), max_errors, FAST_LAYOUTS if fast_lane else {}).run()
 
 
 class _Reader:
-    def __init__(self, path: Path, max_errors: int):
+    def __init__(self, path: Path, max_errors: int, fast_layouts: dict[str, Layout]):
         self.path = path
         self.deck = Deck(path=str(path))
         self.issues: list[DeckIssue] = []
         self.n_issues = 0
         self.max_errors = max_errors
+        self.fast_layouts = fast_layouts
         self.stack: list[Path] = []
         self.section = "bulk"
         self.done = False
         # card being assembled
         self.name: str | None = None
         self.fields: list[str] = []
-        # per physical line of the card: (first field index, line number, original text)
-        self.field_lines: list[tuple[int, int, str]] = []
+        # per physical line of the card: (first field index, line number)
+        self.field_lines: list[tuple[int, int]] = []
         self.file_idx = 0
         self.line0 = 0
+        self.handlers: dict[str, Callable[[list[str]], None]] = {}
+        # reading order: line i of the current file is line (shift + i) of everything read
+        self.shift = 0
+        self.total = 0
+        self.seq0 = 0  # reading-order number of the current card's first line
+        self.first_seen: dict[str, int] = {}
         self.in_output_block = False
         self.subcase: int | None = None
         self.pending_case = ""
@@ -75,20 +91,18 @@ class _Reader:
 
     # ------------------------------------------------------------------ top level
     def run(self) -> Deck:
-        text = _read_text(self.path)
-        if _CEND.search(text):
-            self.section = "exec"
-        elif _BEGIN_BULK.search(text):
-            self.section = "case"
-        else:
-            self.section = "bulk"
-        self._read_file(self.path, text, None)
+        self.section = _first_section(self.path)
+        self._read_file(self.path, None)
         self._finish_card()
         self._flush_case()
         for t in self.deck.tables.values():
             t.finish()
+        # cards in the order they first appear (the fast lane counts a block at a time)
+        counts = self.deck.card_count
+        order = sorted(counts, key=lambda n: self.first_seen.get(n, 0))
+        self.deck.card_count = {n: counts[n] for n in order}
         if self.n_issues:
-            raise DeckError(self.issues, self.n_issues - len(self.issues))
+            raise DeckError(_as_written(self.issues), self.n_issues - len(self.issues))
         return self.deck
 
     def error(
@@ -108,73 +122,77 @@ class _Reader:
             )
 
     # ------------------------------------------------------------------ files
-    def _read_file(self, path: Path, text: str | None, include_at: tuple[int, int] | None) -> None:
+    def _read_file(self, path: Path, include_at: tuple[int, int] | None) -> None:
         real = path.resolve()
         if real in self.stack:
             chain = " -> ".join(str(p) for p in [*self.stack, real])
             f, ln = include_at or (0, 0)
             self.error(f, ln, "INCLUDE", "no INCLUDE cycle", found=chain)
             return
-        if text is None:
-            try:
-                text = _read_text(path)
-            except OSError as e:
-                f, ln = include_at or (0, 0)
-                self.error(f, ln, "INCLUDE", "a readable file", found=f"{path} ({e.strerror})")
-                return
+        try:
+            # latin-1 never fails; non-ASCII text in a data field is reported by its reader.
+            fh = open(path, encoding="latin-1", newline=None)  # noqa: SIM115 - closed below
+        except OSError as e:
+            if include_at is None:
+                raise
+            f, ln = include_at
+            self.error(f, ln, "INCLUDE", "a readable file", found=f"{path} ({e.strerror})")
+            return
         self.deck.files.append(str(path))
         fidx = len(self.deck.files) - 1
         self.stack.append(real)
+        outer_shift = self.shift
+        self.shift = self.total  # line i of this file is the (shift + i)-th line read
+        lines = _Lines(fh)
         try:
-            self._read_lines(fidx, path, text.splitlines())
+            with fh:
+                self._read_lines(fidx, path, lines)
         finally:
             self.stack.pop()
+            self.total = self.shift + lines.n
+            self.shift = outer_shift
 
-    def _read_lines(self, fidx: int, path: Path, lines: list[str]) -> None:
-        n = len(lines)
-        i = 0
-        while i < n and not self.done:
-            raw = lines[i]
-            i += 1
-            head = raw[:7]
-            if head[:1] in "Ii" and head.upper() == "INCLUDE":
-                i = self._include(fidx, path, lines, i - 1)
-                continue
-            if self.section == "bulk":
-                # The bulk loop handles many lines at once and returns where it stopped.
-                i = self._bulk_lines(fidx, lines, i - 1)
+    def _read_lines(self, fidx: int, path: Path, lines: _Lines) -> None:
+        while not self.done:
+            # The bulk loop reads many lines; it returns at an INCLUDE or the end.
+            raw = self._bulk_lines(fidx, lines) if self.section == "bulk" else lines.next()
+            if raw is None:
+                return
+            if raw[:1] in "Ii" and raw[:7].upper() == "INCLUDE":
+                self._include(fidx, path, lines, raw)
             elif self.section == "exec":
-                self._exec_line(fidx, i, raw)
-            else:
-                self._case_line(fidx, i, raw)
+                self._exec_line(fidx, lines.n, raw)
+            elif self.section == "case":
+                self._case_line(fidx, lines.n, raw)
 
-    def _include(self, fidx: int, path: Path, lines: list[str], i: int) -> int:
-        """Handle the INCLUDE starting at lines[i]; returns the index after it."""
+    def _include(self, fidx: int, path: Path, lines: _Lines, raw: str) -> None:
+        """Handle an INCLUDE line (its quoted name may continue on the next lines)."""
         self._finish_card()
-        line_no = i + 1
-        rest = lines[i][7:].split("$")[0].strip()
+        line_no = lines.n
+        rest = raw[7:].split("$")[0].strip()
         if rest.startswith(("'", '"')):
             q = rest[0]
             body = rest[1:]
-            j = i
-            while q not in body and j + 1 < len(lines):
-                j += 1
-                body += lines[j].split("$")[0].strip()
-            if q not in body:
-                self.error(fidx, line_no, "INCLUDE", f"a closing {q} on the file name", found=rest)
-                return j + 1
+            while q not in body:
+                more = lines.next()
+                if more is None:
+                    self.error(
+                        fidx, line_no, "INCLUDE", f"a closing {q} on the file name", found=rest
+                    )
+                    return
+                body += more.split("$")[0].strip()
             name = body[: body.index(q)]
-            i = j
         else:
             name = rest
         if not name:
-            self.error(fidx, line_no, "INCLUDE", "a file name", found=lines[i])
-            return i + 1
+            self.error(fidx, line_no, "INCLUDE", "a file name", found=raw.strip())
+            return
         target = Path(name)
         if not target.is_absolute():
             target = path.parent / target
-        self._read_file(target, None, (fidx, line_no))
-        return i + 1
+        self.total = self.shift + lines.n  # everything read before the included file
+        self._read_file(target, (fidx, line_no))
+        self.shift = self.total - lines.n  # lines after the INCLUDE come after the included
 
     # ------------------------------------------------------------------ executive / case
     def _exec_line(self, fidx: int, line_no: int, raw: str) -> None:
@@ -189,8 +207,13 @@ class _Reader:
         if word.startswith("SOL"):
             self.deck.set_sol(s)
             if self.deck.sol is None:
-                self.error(fidx, line_no, "SOL", "a solution number or name (e.g. 103, SEMODES)",
-                           found=s.strip())
+                self.error(
+                    fidx,
+                    line_no,
+                    "SOL",
+                    "a solution number or name (e.g. 103, SEMODES)",
+                    found=s.strip(),
+                )
 
     def _case_line(self, fidx: int, line_no: int, raw: str) -> None:
         s = raw.split("$")[0].rstrip()
@@ -205,8 +228,13 @@ class _Reader:
                 self.deck.has_bulk_section = True
                 return
             if len(words) >= 2 and words[1].startswith("SUPER"):
-                self.error(fidx, line_no, "BEGIN SUPER", "BEGIN BULK (superelements are not supported)",
-                           found=s.strip())
+                self.error(
+                    fidx,
+                    line_no,
+                    "BEGIN SUPER",
+                    "BEGIN BULK (superelements are not supported)",
+                    found=s.strip(),
+                )
                 self.done = True
                 return
         self.deck.case.lines.append(s)
@@ -249,26 +277,69 @@ class _Reader:
         target[key] = value
 
     # ------------------------------------------------------------------ bulk
-    def _bulk_lines(self, fidx: int, lines: list[str], i: int) -> int:
-        """Read bulk lines from lines[i]; return the index of the first line not consumed."""
-        n = len(lines)
+    def _bulk_lines(self, fidx: int, lines: _Lines) -> str | None:
+        """Read bulk lines in blocks; return an INCLUDE line (unread), or None at the end.
+
+        Each block goes through the fast lane (:mod:`femcal.deck.fastlane`) first; what it
+        leaves is read line by line by :meth:`_slow_lines`.
+        """
+        while not self.done:
+            block = lines.block(BLOCK_LINES)
+            if not block:
+                return None
+            split = split_block(block, lines.at_end(), self.fast_layouts)
+            stop = split.stop
+            if stop is not None:
+                lines.unread(block[stop:])
+                block = block[:stop]
+            base = lines.n - len(block)
+            for g in split.groups:
+                self._add_fast(fidx, g, base)
+            if len(split.slow):
+                self._slow_lines(fidx, ((base + j + 1, block[j]) for j in split.slow.tolist()))
+            if stop is not None and not self.done:
+                raw = lines.next()
+                assert raw is not None
+                if raw[:7].upper() == "INCLUDE":
+                    return raw
+                self._slow_lines(fidx, [(lines.n, raw)])  # ENDDATA
+        return None
+
+    def _add_fast(self, fidx: int, g: FastGroup, base: int) -> None:
+        """Store a group of cards read by the fast lane."""
+        table = self.deck.tables.get(g.name)
+        if table is None:
+            table = self.deck.tables[g.name] = Table(self.fast_layouts[g.name])
+        seq = self.shift + base + 1 + g.lines
+        table.add_chunk(g.columns, fidx, base + 1 + g.lines, seq)
+        counts = self.deck.card_count
+        counts[g.name] = counts.get(g.name, 0) + len(g.lines)
+        first = int(seq[0])
+        if first < self.first_seen.get(g.name, first + 1):
+            self.first_seen[g.name] = first
+
+    def _slow_lines(self, fidx: int, numbered: Iterable[tuple[int, str]]) -> None:
+        """Read (line number, text) pairs field by field. Cards may span calls.
+
+        This is the hot loop of the slow lane: written for speed (locals, no helper calls
+        for the common small-field line).
+        """
         fields = self.fields
-        while i < n:
-            raw = lines[i]
-            i += 1
-            k = raw.find("$")
-            if k >= 0:
-                raw = raw[:k]
+        field_lines = self.field_lines
+        counts = self.deck.card_count
+        handlers = self.handlers
+        first_seen = self.first_seen
+        name = self.name
+        for i, raw in numbered:
+            if "$" in raw:
+                raw = raw[: raw.index("$")]
             s = raw.rstrip()
             if not s:
                 continue
             c0 = s[0]
-            if c0 in "Ii" and s[:7].upper() == "INCLUDE":
-                return i - 1
             if "\t" in s:
                 s = s.expandtabs(8)
                 c0 = s[0]
-            original = s
             s = s.upper()
             if "," in s:
                 parts = s.split(",")
@@ -279,19 +350,28 @@ class _Reader:
                 data = [p.strip() for p in parts[1 : width + 1]]
                 extra = [p for p in parts[width + 2 :] if p.strip()]
                 if extra:
-                    self.error(fidx, i, head.rstrip("*") if not cont else (self.name or ""),
-                               f"at most {width} data fields and a continuation field on a "
-                               "free-field line", found=",".join(extra))
+                    self.error(
+                        fidx,
+                        i,
+                        head.rstrip("*") if not cont else (name or ""),
+                        f"at most {width} data fields and a continuation field on a "
+                        "free-field line",
+                        found=",".join(extra),
+                    )
                 if len(data) < width:
                     data += [""] * (width - len(data))
             else:
                 head = s[:8].strip()
                 cont = not head or c0 in "+*"
-                large = head.endswith("*") if not cont else c0 == "*"
                 if len(s) > 80 and s[80:].strip():
-                    self.error(fidx, i, head or (self.name or ""), "nothing after column 80",
-                               found=s[80:].strip())
-                if large:
+                    self.error(
+                        fidx,
+                        i,
+                        head or (name or ""),
+                        "nothing after column 80",
+                        found=s[80:].strip(),
+                    )
+                if (c0 == "*") if cont else head.endswith("*"):
                     data = [s[8:24].strip(), s[24:40].strip(), s[40:56].strip(), s[56:72].strip()]
                     width = 4
                 else:
@@ -301,28 +381,47 @@ class _Reader:
                     ]  # fmt: skip
                     width = 8
             if cont:
-                if self.name is None:
-                    self.error(fidx, i, "", "a card name in field 1 (continuation line with no card "
-                               "before it)", found=s.strip())
+                if name is None:
+                    self.error(
+                        fidx,
+                        i,
+                        "",
+                        "a card name in field 1 (continuation line with no card before it)",
+                        found=s.strip(),
+                    )
                     continue
                 if width == 8 and len(fields) % 8:
                     fields.extend([""] * (8 - len(fields) % 8))
-            else:
-                self._finish_card()
-                name = head.rstrip("*")
-                if name == "ENDDATA":
-                    self.done = True
-                    return n
-                if name.startswith("BEGIN") and s.split()[:2] == ["BEGIN", "BULK"]:
-                    continue
-                self.name = name
-                self.file_idx = fidx
-                self.line0 = i
-                fields = self.fields = []
-                self.field_lines = []
-            self.field_lines.append((len(fields), i, original))
-            fields.extend(data)
-        return n
+                field_lines.append((len(fields), i))
+                fields.extend(data)
+                continue
+            if name is not None:
+                # Finish the card before this line (inlined _finish_card).
+                while fields and not fields[-1]:
+                    fields.pop()
+                counts[name] = counts.get(name, 0) + 1
+                if name not in first_seen:
+                    first_seen[name] = self.seq0
+                handler = handlers.get(name)
+                if handler is None:
+                    handler = handlers[name] = self._handler(name)
+                self.fields, self.field_lines = fields, field_lines
+                handler(fields)
+            name = head.rstrip("*")
+            if name == "ENDDATA":
+                self.name = None
+                self.done = True
+                return
+            if name.startswith("BEGIN") and s.split()[:2] == ["BEGIN", "BULK"]:
+                name = None
+                continue
+            self.name = name
+            self.file_idx = fidx
+            self.line0 = i
+            self.seq0 = self.shift + i
+            fields = data
+            field_lines = [(0, i)]
+        self.name, self.fields, self.field_lines = name, fields, field_lines
 
     def _finish_card(self) -> None:
         name = self.name
@@ -332,56 +431,113 @@ class _Reader:
         fields = self.fields
         while fields and not fields[-1]:
             fields.pop()
+        counts = self.deck.card_count
+        counts[name] = counts.get(name, 0) + 1
+        self.first_seen.setdefault(name, self.seq0)
+        handler = self.handlers.get(name)
+        if handler is None:
+            handler = self.handlers[name] = self._handler(name)
+        handler(fields)
+
+    def _handler(self, name: str) -> Callable[[list[str]], None]:
+        """The function that stores one card of this name (made once per name)."""
         deck = self.deck
-        deck.card_count[name] = deck.card_count.get(name, 0) + 1
         d = CARDS.get(name)
-        fidx, line0 = self.file_idx, self.line0
         if d is None:
             if name in UNSUPPORTED_STRUCTURAL:
-                self.error(fidx, line0, name, f"a supported card ({name} is "
-                           f"{UNSUPPORTED_STRUCTURAL[name]}; it would change the SOL 103 answer)")
-            elif not _is_card_name(name):
-                self.error(fidx, line0, name, "a card name (letters and digits, starting with a "
-                           "letter)", found=name, field=1)
-            else:
-                deck.unused.append(RawCard(name, tuple(fields)), fidx, line0)
-            return
-        errors: list[tuple[int, str, str]] = []
-        if d.layout is not None:
-            table = deck.tables.get(name)
-            if table is None:
-                table = deck.tables[name] = Table(d.layout)
-            if d.multi is None:
-                row = d.layout.parse(fields, errors)
-                if row is not None:
-                    table.append(row, fidx, line0)
-            else:
-                shared, width, per_card = d.multi
-                head = fields[:shared]
-                for e in range(per_card):
-                    start = shared + e * width
-                    part = fields[start : start + width]
-                    if not any(part):
-                        if e == 0:
-                            errors.append((start, "", "at least one entry"))
-                        continue
-                    sub: list[tuple[int, str, str]] = []
-                    row = d.layout.parse(head + part, sub)
-                    errors.extend((k if k < shared else k - shared + start, s, x) for k, s, x in sub)
-                    if row is not None:
-                        table.append(row, fidx, line0)
-                for k in range(shared + per_card * width, len(fields)):
-                    if fields[k]:
-                        errors.append((k, fields[k], f"at most {per_card} entries"))
-                        break
-        else:
-            assert d.record is not None
-            obj = d.record(fields, errors)
-            if not errors:
-                rl = deck.records.get(name)
-                if rl is None:
-                    rl = deck.records[name] = RecordList()
-                rl.append(obj, fidx, line0)
+                why = UNSUPPORTED_STRUCTURAL[name]
+
+                def unsupported(fields: list[str]) -> None:
+                    self.error(
+                        self.file_idx,
+                        self.line0,
+                        name,
+                        f"a supported card ({name} is {why}; it would change the SOL 103 answer)",
+                    )
+
+                return unsupported
+            if not _is_card_name(name):
+
+                def bad_name(fields: list[str]) -> None:
+                    self.error(
+                        self.file_idx,
+                        self.line0,
+                        name,
+                        "a card name (letters and digits, starting with a letter)",
+                        found=name,
+                        field=1,
+                    )
+
+                return bad_name
+
+            def unused(fields: list[str]) -> None:
+                deck.unused.append(RawCard(name, tuple(fields)), self.file_idx, self.line0)
+
+            return unused
+        if d.record is not None:
+            parse_record = d.record
+            records = deck.records.setdefault(name, RecordList())
+
+            def record(fields: list[str]) -> None:
+                errors: list[tuple[int, str, str]] = []
+                obj = parse_record(fields, errors)
+                if errors:
+                    self._report(d, name, errors)
+                else:
+                    records.append(obj, self.file_idx, self.line0)
+
+            return record
+        layout = d.layout
+        assert layout is not None
+        table = deck.tables.setdefault(name, Table(layout))
+        append = table.append
+        if d.multi is None:
+            fast = layout.fast
+            pending = table.pending
+
+            def row(fields: list[str]) -> None:
+                try:
+                    pending.append(fast(fields, self.file_idx, self.line0, self.seq0))
+                except FAST_FAILURES:
+                    errors: list[tuple[int, str, str]] = []
+                    r = layout.parse_checked(fields, errors)
+                    if errors:
+                        self._report(d, name, errors)
+                        return
+                    append(r, self.file_idx, self.line0, self.seq0)
+                if len(pending) >= CHUNK:
+                    table.flush()
+
+            return row
+
+        shared, width, per_card = d.multi
+
+        def rows(fields: list[str]) -> None:
+            errors: list[tuple[int, str, str]] = []
+            head = fields[:shared]
+            for e in range(per_card):
+                start = shared + e * width
+                part = fields[start : start + width]
+                if not any(part):
+                    if e == 0:
+                        errors.append((start, "", "at least one entry"))
+                    continue
+                sub: list[tuple[int, str, str]] = []
+                r = layout.parse(head + part, sub)
+                errors.extend((k if k < shared else k - shared + start, s, x) for k, s, x in sub)
+                if r is not None:
+                    append(r, self.file_idx, self.line0, self.seq0)
+            for k in range(shared + per_card * width, len(fields)):
+                if fields[k]:
+                    errors.append((k, fields[k], f"at most {per_card} entries"))
+                    break
+            if errors:
+                self._report(d, name, errors)
+
+        return rows
+
+    def _report(self, d: CardDef, name: str, errors: list[tuple[int, str, str]]) -> None:
+        """Record a card's problems with the line, field number and QRG name of each."""
         for k, text, expected in errors:
             label = None
             if d.layout is not None:
@@ -390,26 +546,136 @@ class _Reader:
                 kk = k if not d.multi or k < shared else shared + (k - shared) % width
                 if kk < len(slots):
                     label = slots[kk].label
-            line, original = self._line_of(k)
-            # Show the text as written (fields were upper-cased for reading).
-            at = original.upper().find(text) if text else -1
-            found = original[at : at + len(text)] if at >= 0 else text
-            self.error(fidx, line, name, expected, found=found, field=k % 8 + 2, name=label)
+            self.error(
+                self.file_idx,
+                self._line_of(k),
+                name,
+                expected,
+                found=text,
+                field=k % 8 + 2,
+                name=label,
+            )
 
-    def _line_of(self, k: int) -> tuple[int, str]:
-        """Line number and original text of the physical line holding data field k."""
-        line, text = self.line0, ""
-        for start, ln, original in self.field_lines:
+    def _line_of(self, k: int) -> int:
+        """Line number of the physical line holding data field k of the current card."""
+        line = self.line0
+        for start, ln in self.field_lines:
             if start > k:
                 break
-            line, text = ln, original
-        return line, text
+            line = ln
+        return line
+
+
+#: Lines handed to the fast lane at a time.
+BLOCK_LINES = 32768
+
+#: Cards the fast lane may read: fixed table layouts with one entry per card.
+FAST_LAYOUTS = {n: d.layout for n, d in CARDS.items() if d.layout is not None and d.multi is None}
+
+
+def _as_written(issues: list[DeckIssue]) -> list[DeckIssue]:
+    """Issues with the ``found`` text in its original case (fields are read upper-cased).
+
+    Reads each file involved once, up to the last line needed.
+    """
+    wanted: dict[str, set[int]] = {}
+    for i in issues:
+        if i.found:
+            wanted.setdefault(i.file, set()).add(i.line)
+    text: dict[tuple[str, int], str] = {}
+    for path, numbers in wanted.items():
+        last = max(numbers)
+        try:
+            with open(path, encoding="latin-1", newline=None) as fh:
+                for n, line in enumerate(fh, 1):
+                    if n in numbers:
+                        text[path, n] = line.rstrip("\n").split("$")[0].expandtabs(8)
+                    if n >= last:
+                        break
+        except OSError:
+            continue
+    out = []
+    for i in issues:
+        original = text.get((i.file, i.line), "")
+        at = original.upper().find(i.found) if i.found else -1
+        if at >= 0:
+            i = dataclasses.replace(i, found=original[at : at + len(i.found)])
+        out.append(i)
+    return out
 
 
 def _is_card_name(name: str) -> bool:
     return bool(name) and name[0].isalpha() and name.isalnum() and name.isascii()
 
 
-def _read_text(path: Path) -> str:
-    # latin-1 never fails; non-ASCII text in a data field is then reported by the field reader.
-    return path.read_bytes().decode("latin-1")
+class _Lines:
+    """A file's lines as a stream, with the number of the last line handed out (``n``)."""
+
+    def __init__(self, fh: TextIO):
+        self._it: Iterator[str] = _chunked_lines(fh)
+        self._back: list[str] = []  # lines given back, next first (reversed)
+        self.n = 0
+
+    def next(self) -> str | None:
+        if self._back:
+            self.n += 1
+            return self._back.pop()
+        for line in self._it:
+            self.n += 1
+            return line
+        return None
+
+    def block(self, size: int) -> list[str]:
+        """Up to ``size`` next lines."""
+        out = self._back[::-1][:size]
+        del self._back[len(self._back) - len(out) :]
+        if len(out) < size:
+            out.extend(itertools.islice(self._it, size - len(out)))
+        self.n += len(out)
+        return out
+
+    def unread(self, lines: list[str]) -> None:
+        """Give lines back; they come out again next."""
+        self._back.extend(reversed(lines))
+        self.n -= len(lines)
+
+    def at_end(self) -> bool:
+        if self._back:
+            return False
+        for line in self._it:
+            self._back.append(line)
+            return False
+        return True
+
+
+def _chunked_lines(fh: TextIO, size: int = 1 << 22) -> Iterator[str]:
+    """Lines of a text file (universal newlines), read in large chunks for speed."""
+    tail = ""
+    while True:
+        chunk = fh.read(size)
+        if not chunk:
+            break
+        parts = (tail + chunk).split("\n")
+        tail = parts.pop()
+        yield from parts
+    if tail:
+        yield tail
+
+
+def _first_section(path: Path) -> str:
+    """Where the main file starts: 'exec' if it has a CEND line, 'case' if it has BEGIN BULK
+    but no CEND, else 'bulk' (a bulk-data-only file). Scans in chunks, stopping at the first
+    CEND or BEGIN BULK, so a large bulk file is never held in memory."""
+    tail = ""
+    with open(path, encoding="latin-1", newline=None) as fh:
+        while True:
+            chunk = fh.read(1 << 22)
+            if not chunk:
+                return "bulk"
+            text = tail + chunk
+            cend, bulk = _CEND.search(text), _BEGIN_BULK.search(text)
+            if cend and (not bulk or cend.start() < bulk.start()):
+                return "exec"
+            if bulk:
+                return "case"
+            tail = text[-200:]

@@ -388,7 +388,7 @@ class Ply:
 
 @dataclass(frozen=True)
 class PcompCard:
-    """PCOMP PID Z0 NSM SB FT TREF GE LAM / MID1 T1 THETA1 SOUT1 MID2 ... (blank MID/T: previous)."""
+    """PCOMP PID Z0 NSM SB FT TREF GE LAM / MID1 T1 THETA1 SOUT1 ... (blank MID, T: as before)."""
 
     pid: int
     z0: float
@@ -434,9 +434,13 @@ class PcompCard:
             mid = c.int(k0, mid)
             t = c.real(k0 + 1, t)
             if mid == INT_BLANK:
-                errors.append((k0, c.text(k0), "a material id (blank only after a ply that has one)"))
+                errors.append(
+                    (k0, c.text(k0), "a material id (blank only after a ply that has one)")
+                )
             if t != t:
-                errors.append((k0 + 1, c.text(k0 + 1), "a thickness (blank only after a ply that has one)"))
+                errors.append(
+                    (k0 + 1, c.text(k0 + 1), "a thickness (blank only after a ply that has one)")
+                )
             theta = c.real(k0 + 2, 0.0)
             sout = c.word(k0 + 3, "NO")
             if sout not in ("YES", "NO"):
@@ -506,7 +510,18 @@ class PbarlCard:
         return cls(pid, mid, group, typ, dims, nsm)
 
     def to_fields(self) -> list:
-        return [self.pid, self.mid, self.group, self.type, None, None, None, None, *self.dims, self.nsm]
+        return [
+            self.pid,
+            self.mid,
+            self.group,
+            self.type,
+            None,
+            None,
+            None,
+            None,
+            *self.dims,
+            self.nsm,
+        ]
 
 
 @dataclass(frozen=True)
@@ -596,7 +611,7 @@ _PBEAM_TAIL_DEFAULTS = (1.0, 1.0, 0.0, 0.0, 0.0, REAL_BLANK, 0.0, REAL_BLANK) + 
 
 @dataclass(frozen=True)
 class PbeamCard:
-    """PBEAM: end A line, optional stress points, stations (SO X/XB ...), then the K/S and M/N lines.
+    """PBEAM: end A, its stress points, stations (SO X/XB ...), then the K/S and M/N lines.
 
     ``tail`` holds K1 K2 S1 S2 NSI(A) NSI(B) CW(A) CW(B) M1(A) M2(A) M1(B) M2(B) N1(A) N2(A)
     N1(B) N2(B) with the QRG defaults (NaN for "same as end A").
@@ -654,12 +669,24 @@ class PbeamCard:
             has_tail = t + 1
             r += 1
         if r < nrows:
-            errors.append((8 * r, c.text(8 * r), "no more PBEAM lines (SO must be YES, YESA or NO)"))
+            errors.append(
+                (8 * r, c.text(8 * r), "no more PBEAM lines (SO must be YES, YESA or NO)")
+            )
         return cls(pid, mid, tuple(stations), tuple(tail), has_tail)
 
     def to_fields(self) -> list:
         s0 = self.stations[0]
-        out: list = [self.pid, self.mid, s0.a, s0.i1, s0.i2, s0.i12, s0.j, s0.nsm, *s0.stress_points]
+        out: list = [
+            self.pid,
+            self.mid,
+            s0.a,
+            s0.i1,
+            s0.i2,
+            s0.i12,
+            s0.j,
+            s0.nsm,
+            *s0.stress_points,
+        ]
         for s in self.stations[1:]:
             out += [s.so, s.x, s.a, s.i1, s.i2, s.i12, s.j, s.nsm]
             if s.so == "YES":

@@ -47,7 +47,13 @@ _PARSERS: dict[str, Callable[[str], object]] = {
     "C": parse_components,
     "S": parse_string,
 }
-_BLANKS: dict[str, object] = {"I": INT_BLANK, "R": REAL_BLANK, "N": REAL_BLANK, "C": INT_BLANK, "S": ""}
+_BLANKS: dict[str, object] = {
+    "I": INT_BLANK,
+    "R": REAL_BLANK,
+    "N": REAL_BLANK,
+    "C": INT_BLANK,
+    "S": "",
+}
 _DTYPES = {"I": np.int64, "R": np.float64, "N": np.float64, "C": np.int64, "S": object}
 _EXPECT = {
     "I": "an integer",
@@ -120,12 +126,74 @@ class Layout:
         self.columns: tuple[Column, ...] = tuple(c for s in slots for c in s.columns)
         self.names: tuple[str, ...] = tuple(c.name for c in self.columns)
         self._index = {n: i for i, n in enumerate(self.names)}
-        self._refs = tuple(
+        self.refs = tuple(
             (i, self._index[c.ref]) for i, c in enumerate(self.columns) if c.ref is not None
         )
         self._defaults = tuple(c.default for c in self.columns)
-        # Fast path: slots with exactly one column, in order.
-        self._simple = all(len(s.columns) == 1 for s in slots)
+        #: fast(fields, file, line, seq) -> row + (file, line, seq); raises one of FAST_FAILURES on
+        #: anything unusual (then use parse_checked, which names the problem).
+        self.fast: Callable[[list[str], int, int, int], tuple] = self._compile()
+
+    def _compile(self) -> Callable[[list[str], int, int, int], tuple]:
+        """Straight-line code for this layout that reads a valid card fast.
+
+        It raises on anything unusual (bad text, a blank required field, extra fields); the
+        caller then re-reads the card with :meth:`_parse_checked`, which names the problem.
+        """
+        n = len(self.slots)
+        env: dict[str, object] = {"INT_BLANK": INT_BLANK, "_Slow": _Slow, "_alt": _alternative}
+        body = [
+            "def fast(f, file, line, seq):",
+            "    n = len(f)",
+            f"    if n < {n}:",
+            f"        f = f + [''] * ({n} - n)",
+            f"    elif n > {n}:",
+            "        raise _Slow",
+        ]
+        col = 0
+        names: list[str] = []
+        for k, slot in enumerate(self.slots):
+            cols = slot.columns
+            if not cols:
+                body.append(f"    if f[{k}]: raise _Slow")
+                continue
+            body.append(f"    s = f[{k}]")
+            if len(cols) == 1:
+                c = cols[0]
+                env[f"p{col}"] = _PARSERS[c.kind]
+                env[f"d{col}"] = c.default
+                # Integers: int() directly when the text is all digits (int() rejects the
+                # non-ASCII digits that isdigit() accepts, which sends them to the slow path).
+                # Reals: float() when the text has a point and no '_' (float() accepts '1_0.'
+                # and NASTRAN does not); '1.-3' and other forms make float() raise, and the
+                # card is then read by parse_checked.
+                if c.kind == "I":
+                    read = f"(int(s) if s.isdigit() else p{col}(s))"
+                elif c.kind == "R":
+                    read = f"(float(s) if '.' in s and '_' not in s else p{col}(s))"
+                else:
+                    read = f"p{col}(s)"
+                fallback = "_Slow.fail()" if c.required else f"d{col}"
+                body.append(f"    v{col} = {read} if s else {fallback}")
+                names.append(f"v{col}")
+                col += 1
+            else:
+                env[f"k{col}"] = tuple(c.kind for c in cols)
+                env[f"d{col}"] = tuple(c.default for c in cols)
+                vs = ", ".join(f"v{col + j}" for j in range(len(cols)))
+                body.append(f"    {vs} = _alt(s, k{col}) if s else d{col}")
+                if cols[0].required:
+                    body.append("    if not s: raise _Slow")
+                names.extend(f"v{col + j}" for j in range(len(cols)))
+                col += len(cols)
+        for i, j in self.refs:
+            c = self.columns[i]
+            blank = "INT_BLANK" if c.kind in ("I", "C") else ("''" if c.kind == "S" else None)
+            test = f"v{i} == {blank}" if blank else f"v{i} != v{i}"
+            body.append(f"    if {test}: v{i} = v{j}")
+        body.append(f"    return ({', '.join(names)}, file, line, seq)")
+        exec("\n".join(body), env)
+        return env["fast"]  # type: ignore[return-value]
 
     def parse(self, fields: list[str], errors: list[tuple[int, str, str]]) -> tuple | None:
         """Typed row from ``fields`` (data fields, '' for blank).
@@ -133,6 +201,13 @@ class Layout:
         Problems are appended to ``errors`` as (field index, text, expected); the row is
         None when any occurred.
         """
+        try:
+            return self.fast(fields, 0, 0, 0)[:-3]
+        except FAST_FAILURES:
+            return self.parse_checked(fields, errors)
+
+    def parse_checked(self, fields: list[str], errors: list[tuple[int, str, str]]) -> tuple | None:
+        """Field-by-field reading that reports every problem."""
         slots = self.slots
         for k in range(len(slots), len(fields)):
             if fields[k]:
@@ -173,7 +248,7 @@ class Layout:
         if len(errors) > n0:
             return None
         blank_int = INT_BLANK
-        for i, j in self._refs:
+        for i, j in self.refs:
             v = row[i]
             if v == blank_int or v != v or v == "":
                 row[i] = row[j]
@@ -198,6 +273,29 @@ class Layout:
         return out
 
 
+class _Slow(Exception):
+    """Raised by compiled fast readers: read this card again, carefully."""
+
+    @classmethod
+    def fail(cls) -> object:
+        raise cls
+
+
+#: What a compiled fast reader may raise; the card is then read by ``parse_checked``.
+FAST_FAILURES = (_Slow, BadField, ValueError)
+
+
+def _alternative(s: str, kinds: tuple[str, ...]) -> tuple:
+    """Values of a one-of-two field: the parsed value in the column whose type fits, blanks
+    in the others."""
+    out = [_BLANKS[k] for k in kinds]
+    for j, k in enumerate(kinds):
+        if _fits(k, s):
+            out[j] = _PARSERS[k](s)
+            return tuple(out)
+    raise _Slow
+
+
 def _is_blank(v: object) -> bool:
     if v is None:
         return True
@@ -208,11 +306,16 @@ def _is_blank(v: object) -> bool:
     return v == ""
 
 
-_CHUNK = 65536
+#: Rows converted to arrays at a time (bounds the memory of pending Python tuples).
+CHUNK = 65536
 
 
 class Table:
     """Rows of one card type as typed NumPy columns, with each row's source location.
+
+    Rows arrive in two ways: one at a time as tuples (``pending``, converted in chunks), and
+    as ready column arrays from the reader's fast lane (:meth:`add_chunk`). Each row carries
+    its place in the reading order (``seq``); :meth:`finish` puts the rows in that order.
 
     Attributes
     ----------
@@ -223,56 +326,77 @@ class Table:
 
     def __init__(self, layout: Layout):
         self.layout = layout
-        self._rows: list[tuple] = []
-        self._files: list[int] = []
-        self._lines: list[int] = []
-        self._chunks: list[tuple[list[np.ndarray], np.ndarray, np.ndarray]] = []
+        #: rows not yet converted: the layout's column values, then file, line and seq.
+        #: Cleared in place on each flush, so a reader may keep a reference to it.
+        self.pending: list[tuple] = []
+        self._chunks: list[tuple[list[np.ndarray], np.ndarray, np.ndarray, np.ndarray]] = []
         self._columns: dict[str, np.ndarray] | None = None
         self.file = np.zeros(0, np.int32)
         self.line = np.zeros(0, np.int32)
 
-    def append(self, row: tuple, file: int, line: int) -> None:
-        self._rows.append(row)
-        self._files.append(file)
-        self._lines.append(line)
-        if len(self._rows) >= _CHUNK:
-            self._flush()
+    def append(self, row: tuple, file: int, line: int, seq: int = -1) -> None:
+        """Add a row (the layout's column values, without location)."""
+        self.pending.append((*row, file, line, seq))
+        if len(self.pending) >= CHUNK:
+            self.flush()
 
-    def _flush(self) -> None:
-        if not self._rows:
+    def add_chunk(
+        self, columns: list[np.ndarray], file: int, lines: np.ndarray, seq: np.ndarray
+    ) -> None:
+        """Add rows given as column arrays (in layout order) with their lines and seq."""
+        n = len(lines)
+        self._chunks.append(
+            (columns, np.full(n, file, np.int32), lines.astype(np.int32), seq.astype(np.int64))
+        )
+        self._columns = None
+
+    def flush(self) -> None:
+        """Convert the pending rows into a chunk of typed column arrays."""
+        if not self.pending:
             return
+        transposed = list(zip(*self.pending, strict=True))
         cols = []
         for j, c in enumerate(self.layout.columns):
             if c.kind == "S":
-                a = np.empty(len(self._rows), dtype=object)
-                a[:] = [r[j] for r in self._rows]
+                a = np.empty(len(self.pending), dtype=object)
+                a[:] = transposed[j]
             else:
-                a = np.fromiter((r[j] for r in self._rows), dtype=c.dtype, count=len(self._rows))
+                a = np.array(transposed[j], dtype=c.dtype)
             cols.append(a)
         self._chunks.append(
-            (cols, np.array(self._files, np.int32), np.array(self._lines, np.int32))
+            (
+                cols,
+                np.array(transposed[-3], np.int32),
+                np.array(transposed[-2], np.int32),
+                np.array(transposed[-1], np.int64),
+            )
         )
-        self._rows, self._files, self._lines = [], [], []
+        self.pending.clear()
         self._columns = None
 
     def finish(self) -> None:
-        """Merge the pending rows into the column arrays."""
-        self._flush()
+        """Merge everything into the column arrays, in reading order."""
+        self.flush()
         if self._chunks and self._columns is None:
             names = self.layout.names
-            self._columns = {
-                n: np.concatenate([ch[0][j] for ch in self._chunks]) for j, n in enumerate(names)
-            }
-            self.file = np.concatenate([ch[1] for ch in self._chunks])
-            self.line = np.concatenate([ch[2] for ch in self._chunks])
-            self._chunks = [([self._columns[n] for n in names], self.file, self.line)]
+            cols = [np.concatenate([ch[0][j] for ch in self._chunks]) for j in range(len(names))]
+            file = np.concatenate([ch[1] for ch in self._chunks])
+            line = np.concatenate([ch[2] for ch in self._chunks])
+            seq = np.concatenate([ch[3] for ch in self._chunks])
+            if len(seq) > 1 and (np.diff(seq) < 0).any():
+                order = np.argsort(seq, kind="stable")
+                cols = [c[order] for c in cols]
+                file, line, seq = file[order], line[order], seq[order]
+            self._columns = dict(zip(names, cols, strict=True))
+            self.file, self.line = file, line
+            self._chunks = [(cols, file, line, seq)]
         elif not self._chunks:
             self._columns = {c.name: np.zeros(0, c.dtype) for c in self.layout.columns}
 
     @property
     def columns(self) -> dict[str, np.ndarray]:
         """Column name -> (n,) array (int64, float64, or object for words)."""
-        if self._columns is None or self._rows:
+        if self._columns is None or self.pending:
             self.finish()
         assert self._columns is not None
         return self._columns
@@ -281,9 +405,7 @@ class Table:
         return self.columns[name]
 
     def __len__(self) -> int:
-        return len(self.file) if self._columns is not None and not self._rows else sum(
-            len(ch[1]) for ch in self._chunks
-        ) + len(self._rows)
+        return sum(len(ch[1]) for ch in self._chunks) + len(self.pending)
 
     def rows(self) -> Iterator[tuple]:
         """Rows as tuples in column order (slow; for writing and small tables)."""

@@ -102,7 +102,9 @@ def deck_lines(deck: Deck, *, field_format: FieldFormat = "large") -> Iterator[s
     yield "ENDDATA"
 
 
-def write_deck(deck: Deck, path: str | os.PathLike[str], *, field_format: FieldFormat = "large") -> Path:
+def write_deck(
+    deck: Deck, path: str | os.PathLike[str], *, field_format: FieldFormat = "large"
+) -> Path:
     """Write ``deck`` to ``path`` (atomically: temporary file, then rename). Returns the path."""
     path = Path(path)
     return write_text_atomic(path, deck_lines(deck, field_format=field_format))

@@ -138,16 +138,22 @@ def build_model(deck: Deck) -> Model:
     _duplicates(p, "GRID", gid, grids)
     bad = np.nonzero(seid != 0)[0]
     for i in bad[:20]:
-        p.add(f"GRID {gid[i]} has SEID {seid[i]}; expected 0 (superelements are not supported)",
-              [int(gid[i])], [(grids.file[i], grids.line[i])])
+        p.add(
+            f"GRID {gid[i]} has SEID {seid[i]}; expected 0 (superelements are not supported)",
+            [int(gid[i])],
+            [(grids.file[i], grids.line[i])],
+        )
 
     spoint_ids = np.array(
         sorted({i for r in deck.records_of("SPOINT") for i in r.ids}), dtype=np.int64
     )
     clash = np.intersect1d(spoint_ids, gid)
     if len(clash):
-        p.add(f"ids used by both GRID and SPOINT: {clash[:20].tolist()}; expected distinct ids",
-              clash[:20].tolist(), [])
+        p.add(
+            f"ids used by both GRID and SPOINT: {clash[:20].tolist()}; expected distinct ids",
+            clash[:20].tolist(),
+            [],
+        )
 
     coords, xyz_grid = _resolve_coordinates(deck, p, gid, cp, g)
     p.raise_if_any()
@@ -167,8 +173,11 @@ def build_model(deck: Deck) -> Model:
         sel = np.nonzero(is_grid & (cd_all == c))[0]
         if c not in coords:
             rows = np.nonzero(cd == c)[0][:20]
-            p.add(f"GRID CD {c} is not a defined coordinate system", gid[rows].tolist(),
-                  [(grids.file[i], grids.line[i]) for i in rows[:5]])
+            p.add(
+                f"GRID CD {c} is not a defined coordinate system",
+                gid[rows].tolist(),
+                [(grids.file[i], grids.line[i]) for i in rows[:5]],
+            )
             continue
         frames[sel] = displacement_frames(coords[int(c)], xyz[sel])
 
@@ -177,8 +186,21 @@ def build_model(deck: Deck) -> Model:
     n_dof = int(ndof_per.sum())
 
     model_stub = Model(
-        node_ids, is_grid, xyz, cp_all, cd_all, ps_all, frames, dof_start, n_dof, coords,
-        {}, {}, {}, {}, list(deck.files),
+        node_ids,
+        is_grid,
+        xyz,
+        cp_all,
+        cd_all,
+        ps_all,
+        frames,
+        dof_start,
+        n_dof,
+        coords,
+        {},
+        {},
+        {},
+        {},
+        list(deck.files),
     )
     elements = _elements(deck, p, model_stub)
     properties = _properties(deck, p)
@@ -190,13 +212,31 @@ def build_model(deck: Deck) -> Model:
     p.raise_if_any()
     params = {r.name: r.values for r in deck.records_of("PARAM")}
     return Model(
-        node_ids, is_grid, xyz, cp_all, cd_all, ps_all, frames, dof_start, n_dof, coords,
-        elements, properties, materials, params, list(deck.files),
+        node_ids,
+        is_grid,
+        xyz,
+        cp_all,
+        cd_all,
+        ps_all,
+        frames,
+        dof_start,
+        n_dof,
+        coords,
+        elements,
+        properties,
+        materials,
+        params,
+        list(deck.files),
     )
 
 
-def _duplicates(p: _Problems, card: str, ids: np.ndarray, table: Table | None,
-                where: list[tuple[int, int]] | None = None) -> None:
+def _duplicates(
+    p: _Problems,
+    card: str,
+    ids: np.ndarray,
+    table: Table | None,
+    where: list[tuple[int, int]] | None = None,
+) -> None:
     if len(ids) < 2:
         return
     order = np.argsort(ids, kind="stable")
@@ -228,8 +268,12 @@ def _resolve_coordinates(
                 cid = int(c["cid"][i])
                 loc = (int(t.file[i]), int(t.line[i]))
                 if cid in seen or cid == 0:
-                    p.add(f"coordinate system {cid} defined twice (or redefines basic 0); "
-                          "expected unique ids", [cid], [seen.get(cid, loc), loc])
+                    p.add(
+                        f"coordinate system {cid} defined twice (or redefines basic 0); "
+                        "expected unique ids",
+                        [cid],
+                        [seen.get(cid, loc), loc],
+                    )
                     continue
                 seen[cid] = loc
                 if card.startswith("CORD2"):
@@ -245,8 +289,12 @@ def _resolve_coordinates(
 
     def place(cid: int, kind: str, origin: np.ndarray, axes: np.ndarray | None, loc) -> None:
         if axes is None:
-            p.add(f"coordinate system {cid}: its three points do not define axes (A = B, or C "
-                  "on the A-B line)", [cid], [loc])
+            p.add(
+                f"coordinate system {cid}: its three points do not define axes (A = B, or C "
+                "on the A-B line)",
+                [cid],
+                [loc],
+            )
             axes = np.eye(3)
         coords[cid] = CoordSystem(cid, kind, origin, axes)
 
@@ -265,8 +313,11 @@ def _resolve_coordinates(
             rows = [id_to_row.get(x) for x in gg]
             if any(r is None for r in rows):
                 missing = [x for x, r in zip(gg, rows, strict=True) if r is None]
-                p.add(f"CORD1{kind} {cid} refers to GRID {missing}, which do not exist",
-                      missing, [(f, ln)])
+                p.add(
+                    f"CORD1{kind} {cid} refers to GRID {missing}, which do not exist",
+                    missing,
+                    [(f, ln)],
+                )
                 del pending1[cid]
                 continue
             if all(done[r] for r in rows):
@@ -287,13 +338,19 @@ def _resolve_coordinates(
     grids = deck.table("GRID")
     for c in undefined:
         rows = np.nonzero((~done) & (cp == c))[0]
-        p.add(f"GRID CP {c} is not a defined coordinate system", gid[rows[:20]].tolist(),
-              [(grids.file[i], grids.line[i]) for i in rows[:5]])
+        p.add(
+            f"GRID CP {c} is not a defined coordinate system",
+            gid[rows[:20]].tolist(),
+            [(grids.file[i], grids.line[i]) for i in rows[:5]],
+        )
     stuck = {**{k: v[-2:] for k, v in pending2.items()}, **{k: v[-2:] for k, v in pending1.items()}}
     if stuck:
-        p.add(f"coordinate systems {sorted(stuck)} cannot be resolved: they refer to each other "
-              "(through RID or CORD1 grids) in a cycle, or to an undefined system",
-              sorted(stuck), [tuple(v) for v in stuck.values()])
+        p.add(
+            f"coordinate systems {sorted(stuck)} cannot be resolved: they refer to each other "
+            "(through RID or CORD1 grids) in a cycle, or to an undefined system",
+            sorted(stuck),
+            [tuple(v) for v in stuck.values()],
+        )
     return coords, xyz
 
 
@@ -316,12 +373,15 @@ def _elements(deck: Deck, p: _Problems, model: Model) -> dict[str, ElementBlock]
         raw = np.column_stack([c[n] for n in cols])
         nodes = _index_nodes(model, raw)
         opt = _OPTIONAL_FROM.get(etype, len(cols))
-        required_missing = (nodes[:, :opt] == -2)
+        required_missing = nodes[:, :opt] == -2
         unknown = nodes == -1
         for i in np.nonzero(unknown.any(axis=1) | required_missing.any(axis=1))[0][:50]:
             bad = raw[i][unknown[i]].tolist()
-            msg = f"{etype} {ids[i]} refers to GRID/SPOINT {bad}, which do not exist" if bad \
+            msg = (
+                f"{etype} {ids[i]} refers to GRID/SPOINT {bad}, which do not exist"
+                if bad
                 else f"{etype} {ids[i]} lacks a required node"
+            )
             p.add(msg, [int(ids[i]), *bad], [(t.file[i], t.line[i])])
         nodes = np.where(nodes < 0, -1, nodes)
         components = None
@@ -333,16 +393,23 @@ def _elements(deck: Deck, p: _Problems, model: Model) -> dict[str, ElementBlock]
             grid[present] = model.is_grid[nodes[present]]
             bad = present & ((grid & ((comps < 1) | (comps > 6))) | (~grid & (comps != 0)))
             for i in np.nonzero(bad.any(axis=1))[0][:20]:
-                p.add(f"{etype} {ids[i]}: component must be one digit 1-6 at a GRID and 0 or blank "
-                      "at a SPOINT", [int(ids[i])], [(t.file[i], t.line[i])])
+                p.add(
+                    f"{etype} {ids[i]}: component must be one digit 1-6 at a GRID and 0 or blank "
+                    "at a SPOINT",
+                    [int(ids[i])],
+                    [(t.file[i], t.line[i])],
+                )
             components = comps
         elif etype in _SCALAR_POINTS_ONLY:
             present = nodes >= 0
             grid = np.zeros_like(present)
             grid[present] = model.is_grid[nodes[present]]
             for i in np.nonzero(grid.any(axis=1))[0][:20]:
-                p.add(f"{etype} {ids[i]} connects a GRID; expected scalar points (SPOINT)",
-                      [int(ids[i])], [(t.file[i], t.line[i])])
+                p.add(
+                    f"{etype} {ids[i]} connects a GRID; expected scalar points (SPOINT)",
+                    [int(ids[i])],
+                    [(t.file[i], t.line[i])],
+                )
             components = np.zeros_like(nodes)
         if etype in ("CBAR", "CBEAM", "CBUSH"):
             g0 = c["g0"]
@@ -350,8 +417,11 @@ def _elements(deck: Deck, p: _Problems, model: Model) -> dict[str, ElementBlock]
             if has.any():
                 missing = has & (model.node_index(np.where(has, g0, 0)) < 0)
                 for i in np.nonzero(missing)[0][:20]:
-                    p.add(f"{etype} {ids[i]} orientation node G0 {g0[i]} does not exist",
-                          [int(ids[i]), int(g0[i])], [(t.file[i], t.line[i])])
+                    p.add(
+                        f"{etype} {ids[i]} orientation node G0 {g0[i]} does not exist",
+                        [int(ids[i]), int(g0[i])],
+                        [(t.file[i], t.line[i])],
+                    )
         pids = c["pid"] if "pid" in c else np.full(len(ids), -1, np.int64)
         data = {k: v for k, v in c.items() if k not in cols and k not in ("eid", "pid")}
         blocks[etype] = ElementBlock(etype, ids, pids, nodes, components, data, t.file, t.line)
@@ -409,8 +479,11 @@ def _materials(deck: Deck, p: _Problems) -> dict[str, object]:
         c = t.columns
         both = np.isnan(c["e"]) & np.isnan(c["g"])
         for i in np.nonzero(both)[0][:20]:
-            p.add(f"MAT1 {c['mid'][i]} has neither E nor G; expected at least one",
-                  [int(c["mid"][i])], [(t.file[i], t.line[i])])
+            p.add(
+                f"MAT1 {c['mid'][i]} has neither E nor G; expected at least one",
+                [int(c["mid"][i])],
+                [(t.file[i], t.line[i])],
+            )
     return mats
 
 
@@ -423,8 +496,9 @@ def _ids_of(props: dict[str, object], name: str) -> np.ndarray:
     return np.array([r.pid for r in v], np.int64)
 
 
-def _check_property_refs(deck: Deck, p: _Problems, elements: dict[str, ElementBlock],
-                         props: dict[str, object]) -> None:
+def _check_property_refs(
+    deck: Deck, p: _Problems, elements: dict[str, ElementBlock], props: dict[str, object]
+) -> None:
     for etype, block in elements.items():
         allowed = ELEMENT_PROPERTIES[etype]
         if allowed is None:
@@ -432,14 +506,22 @@ def _check_property_refs(deck: Deck, p: _Problems, elements: dict[str, ElementBl
         known = np.concatenate([_ids_of(props, n) for n in allowed])
         missing = ~np.isin(block.pids, known)
         for i in np.nonzero(missing)[0][:50]:
-            p.add(f"{etype} {block.ids[i]} refers to property {block.pids[i]}, which is not "
-                  f"defined (expected a {' or '.join(allowed)} card)",
-                  [int(block.ids[i]), int(block.pids[i])], [(block.file[i], block.line[i])])
+            p.add(
+                f"{etype} {block.ids[i]} refers to property {block.pids[i]}, which is not "
+                f"defined (expected a {' or '.join(allowed)} card)",
+                [int(block.ids[i]), int(block.pids[i])],
+                [(block.file[i], block.line[i])],
+            )
 
 
-def _check_material_refs(deck: Deck, p: _Problems, props: dict[str, object],
-                         mats: dict[str, object], elements: dict[str, ElementBlock],
-                         used: set[int]) -> None:
+def _check_material_refs(
+    deck: Deck,
+    p: _Problems,
+    props: dict[str, object],
+    mats: dict[str, object],
+    elements: dict[str, ElementBlock],
+    used: set[int],
+) -> None:
     """Material references of the properties that elements use (NASTRAN ignores the rest)."""
 
     def known(allowed: tuple[str, ...]) -> set[int]:
@@ -462,11 +544,19 @@ def _check_material_refs(deck: Deck, p: _Problems, props: dict[str, object],
                     continue
                 if mid in (INT_BLANK, -1) or (name == "PSHELL" and mid == 0) or mid in ok:
                     continue
-                p.add(f"{name} {t.columns['pid'][i]} field {f.upper()} refers to material {mid}, "
-                      f"which is not defined (expected a {' or '.join(allowed)} card)",
-                      [int(t.columns["pid"][i]), mid], [(t.file[i], t.line[i])])
-    checks = (("PCOMP", ("MAT1", "MAT2", "MAT8")), ("PCOMPG", ("MAT1", "MAT2", "MAT8")),
-              ("PBARL", ("MAT1",)), ("PBEAML", ("MAT1",)), ("PBEAM", ("MAT1",)))
+                p.add(
+                    f"{name} {t.columns['pid'][i]} field {f.upper()} refers to material {mid}, "
+                    f"which is not defined (expected a {' or '.join(allowed)} card)",
+                    [int(t.columns["pid"][i]), mid],
+                    [(t.file[i], t.line[i])],
+                )
+    checks = (
+        ("PCOMP", ("MAT1", "MAT2", "MAT8")),
+        ("PCOMPG", ("MAT1", "MAT2", "MAT8")),
+        ("PBARL", ("MAT1",)),
+        ("PBEAML", ("MAT1",)),
+        ("PBEAM", ("MAT1",)),
+    )
     for name, allowed in checks:
         rl = deck.records_of(name)
         ok = known(allowed)
@@ -475,14 +565,22 @@ def _check_material_refs(deck: Deck, p: _Problems, props: dict[str, object],
                 continue
             mids = {ply.mid for ply in r.plies} if hasattr(r, "plies") else {r.mid}
             for mid in sorted(mids - ok):
-                p.add(f"{name} {r.pid} refers to material {mid}, which is not defined "
-                      f"(expected a {' or '.join(allowed)} card)", [r.pid, mid], [(f, ln)])
+                p.add(
+                    f"{name} {r.pid} refers to material {mid}, which is not defined "
+                    f"(expected a {' or '.join(allowed)} card)",
+                    [r.pid, mid],
+                    [(f, ln)],
+                )
     if "CONROD" in elements:
         b = elements["CONROD"]
         ok = known(("MAT1",))
         for i in np.nonzero(~np.isin(b.data["mid"], list(ok)))[0][:20]:
-            p.add(f"CONROD {b.ids[i]} refers to material {b.data['mid'][i]}, which is not "
-                  "defined (expected a MAT1 card)", [int(b.ids[i])], [(b.file[i], b.line[i])])
+            p.add(
+                f"CONROD {b.ids[i]} refers to material {b.data['mid'][i]}, which is not "
+                "defined (expected a MAT1 card)",
+                [int(b.ids[i])],
+                [(b.file[i], b.line[i])],
+            )
 
 
 def _check_constraint_refs(deck: Deck, p: _Problems, model: Model) -> None:
@@ -494,8 +592,12 @@ def _check_constraint_refs(deck: Deck, p: _Problems, model: Model) -> None:
             return
         bad = np.asarray(ids)[model.node_index(ids) < 0]
         if len(bad):
-            p.add(f"{card} {ident} refers to GRID/SPOINT {sorted(set(bad.tolist()))[:20]}, "
-                  "which do not exist", bad[:20].tolist(), [loc])
+            p.add(
+                f"{card} {ident} refers to GRID/SPOINT {sorted(set(bad.tolist()))[:20]}, "
+                "which do not exist",
+                bad[:20].tolist(),
+                [loc],
+            )
 
     for r, f, ln in _iter_records(deck, "RBE2"):
         check("RBE2", str(r.eid), [r.gn, *r.gm], (f, ln))
@@ -508,8 +610,12 @@ def _check_constraint_refs(deck: Deck, p: _Problems, model: Model) -> None:
         check("SPC1", f"set {r.sid}", list(r.ids), (f, ln))
     for r, f, ln in _iter_records(deck, "ASET1"):
         check("ASET1", "", list(r.ids), (f, ln))
-    for card, cols in (("RBAR", ("ga", "gb")), ("SPC", ("g",)), ("SUPORT", ("id",)),
-                       ("ASET", ("id",))):
+    for card, cols in (
+        ("RBAR", ("ga", "gb")),
+        ("SPC", ("g",)),
+        ("SUPORT", ("id",)),
+        ("ASET", ("id",)),
+    ):
         t = deck.tables.get(card)
         if t is None:
             continue
@@ -518,8 +624,11 @@ def _check_constraint_refs(deck: Deck, p: _Problems, model: Model) -> None:
             ids = c[col]
             bad = np.nonzero(model.node_index(ids) < 0)[0]
             for i in bad[:20]:
-                p.add(f"{card} refers to GRID/SPOINT {ids[i]}, which does not exist",
-                      [int(ids[i])], [(t.file[i], t.line[i])])
+                p.add(
+                    f"{card} refers to GRID/SPOINT {ids[i]}, which does not exist",
+                    [int(ids[i])],
+                    [(t.file[i], t.line[i])],
+                )
 
 
 def _iter_records(deck: Deck, name: str):

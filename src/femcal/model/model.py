@@ -104,8 +104,10 @@ class Model:
         found = (self.node_ids[pos] == ids) if ok else np.zeros(len(ids), bool)
         return np.where(found, pos, -1)
 
-    def dof_index(self, ids: np.ndarray | list[int], components: np.ndarray | list[int]) -> np.ndarray:
-        """g-set DOF indices of (node id, component) pairs (component 1-6 for GRID, 0 for SPOINT)."""
+    def dof_index(
+        self, ids: np.ndarray | list[int], components: np.ndarray | list[int]
+    ) -> np.ndarray:
+        """g-set DOF indices of (node id, component) pairs (1-6 at a GRID, 0 at a SPOINT)."""
         idx = self.node_index(ids)
         comp = np.asarray(components, dtype=np.int64)
         off = np.where(self.is_grid[idx], comp - 1, 0)

@@ -1,0 +1,143 @@
+"""The fast lane changes speed, never results: both lanes read every deck identically."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from femcal.deck import read_deck
+from femcal.deck import reader as reader_module
+from femcal.errors import DeckError
+
+from .conftest import refdeck_cases
+
+HEAD = "SOL 103\nCEND\nBEGIN BULK\n"
+
+
+def same_deck(a, b) -> None:
+    assert a.card_count == b.card_count
+    assert list(a.card_count) == list(b.card_count)  # first-seen order too
+    assert a.tables.keys() == b.tables.keys()
+    for name, ta in a.tables.items():
+        tb = b.tables[name]
+        assert np.array_equal(ta.line, tb.line) and np.array_equal(ta.file, tb.file), name
+        for col, x in ta.columns.items():
+            y = tb.columns[col]
+            if x.dtype == object:
+                assert list(x) == list(y), (name, col)
+            else:
+                assert x.dtype == y.dtype, (name, col)
+                assert np.array_equal(x, y, equal_nan=True), (name, col)
+                assert np.array_equal(np.signbit(x), np.signbit(y)) if x.dtype.kind == "f" else True
+    assert {k: v.items for k, v in a.records.items()} == {k: v.items for k, v in b.records.items()}
+    assert a.unused.items == b.unused.items
+
+
+def read_both(path):
+    results = []
+    for fast in (True, False):
+        try:
+            results.append(read_deck(path, fast_lane=fast))
+        except DeckError as e:
+            results.append([str(i) for i in e.issues])
+    return results
+
+
+@pytest.mark.parametrize(
+    ("name", "main", "ref"), refdeck_cases(), ids=[c[0] for c in refdeck_cases()]
+)
+def test_reference_decks_read_the_same_in_both_lanes(name, main, ref):
+    fast, slow = read_both(main)
+    same_deck(fast, slow)
+
+
+def test_blocks_split_cards_and_includes_keep_order(write, monkeypatch):
+    # Tiny blocks: cards and their continuations straddle block boundaries.
+    monkeypatch.setattr(reader_module, "BLOCK_LINES", 3)
+    write(
+        "GRID    5               5.\nCBAR    9       1       5       6       0.      0.      1.\n"
+        "+       12\nGRID    6\n",
+        "inc.bdf",
+    )
+    text = HEAD + "".join(f"GRID    {i:<8}        {i}.\n" for i in range(1, 5))
+    text += "CBAR    1       1       1       2       0.      0.      1.\n"
+    text += "$ comment between a card and its continuation\n+       12\n"
+    text += "INCLUDE 'inc.bdf'\nGRID    7\nENDDATA\nGRID    8\n"
+    fast, slow = read_both(write(text))
+    same_deck(fast, slow)
+    assert fast.table("GRID")["id"].tolist() == [1, 2, 3, 4, 5, 6, 7]
+    assert fast.table("CBAR")["pa"].tolist() == [12, 12]
+
+
+fields8 = st.sampled_from(
+    [
+        "",
+        "1",
+        "12",
+        "-3",
+        "1.5",
+        "-.5+2",
+        "7.85-9",
+        "1.E3",
+        "1D3",
+        "7",
+        "x",
+        "1_0",
+        "123456",
+        "0",
+        "531",
+        "GGG",
+        "1 2",
+        ".",
+        "1.-",
+        "+",
+        "2.5E+1",
+    ]
+)
+names = st.sampled_from(
+    [
+        "GRID",
+        "CQUAD4",
+        "CTRIA3",
+        "CBAR",
+        "CROD",
+        "CONM2",
+        "PSHELL",
+        "MAT1",
+        "CELAS1",
+        "PROD",
+        "CHEXA",
+        "FORCE",
+        "RBE2",
+        "SPC1",
+        "PARAM",
+    ]
+)
+
+
+@st.composite
+def lines(draw):
+    name = draw(names)
+    vals = draw(st.lists(fields8, min_size=0, max_size=8))
+    line = f"{name:<8}" + "".join(f"{v:>8}" if draw(st.booleans()) else f"{v:<8}" for v in vals)
+    kind = draw(st.sampled_from(["card", "card", "card", "cont", "comment", "blank"]))
+    if kind == "cont":
+        line = "+" + line[1:8].replace(name[1:], " " * (len(name) - 1)) + line[8:]
+    elif kind == "comment":
+        line = "$ " + line
+    elif kind == "blank":
+        line = ""
+    return line
+
+
+@settings(max_examples=200, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.lists(lines(), min_size=1, max_size=25), st.integers(min_value=1, max_value=6))
+def test_random_decks_read_the_same_in_both_lanes(write, monkeypatch, body, block):
+    monkeypatch.setattr(reader_module, "BLOCK_LINES", block)
+    fast, slow = read_both(write(HEAD + "\n".join(body) + "\n"))
+    if isinstance(fast, list) or isinstance(slow, list):
+        assert fast == slow  # the same problems, in the same words
+    else:
+        same_deck(fast, slow)
