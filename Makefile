@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.femcal-setup
 
-.PHONY: setup demo test test-slow lint bench clean
+.PHONY: setup demo test test-slow lint bench-parse clean
 
 setup: $(STAMP)
 
@@ -27,8 +27,14 @@ test-slow: setup
 lint: setup
 	$(VENV)/bin/ruff check src tests benchmarks
 
-bench: setup
+# Deck reading against pyNastran 1.4.1, which lives in its own environment (it pins NumPy < 2).
+bench-parse: setup .venv-bench/.ok
 	$(PY) benchmarks/parse.py
 
+.venv-bench/.ok:
+	python3 -m venv .venv-bench
+	.venv-bench/bin/python -m pip install -q 'pyNastran==1.4.1'
+	@touch $@
+
 clean:
-	rm -rf out .pytest_cache build src/*.egg-info
+	rm -rf out .pytest_cache build src/*.egg-info benchmarks/_work
