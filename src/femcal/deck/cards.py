@@ -62,9 +62,10 @@ LAYOUTS: dict[str, str] = {
     + " "
     + " ".join(f"g{i}:I" for i in range(6, 14)),
     # line elements
-    "CBAR": f"eid:I! pid:I=@eid ga:I! gb:I! {_ORIENT} offt:S pa:C pb:C {_W}",
+    # CBAR/CBEAM PID: blank -> BAROR/BEAMOR PID, else EID (resolved in the model)
+    "CBAR": f"eid:I! pid:I ga:I! gb:I! {_ORIENT} offt:S pa:C pb:C {_W}",
     "BAROR": f"_ pid:I _ _ {_ORIENT} offt:S",
-    "CBEAM": f"eid:I! pid:I=@eid ga:I! gb:I! {_ORIENT} offt|bit:SR pa:C pb:C {_W} sa:I sb:I",
+    "CBEAM": f"eid:I! pid:I ga:I! gb:I! {_ORIENT} offt|bit:SR pa:C pb:C {_W} sa:I sb:I",
     "BEAMOR": f"_ pid:I _ _ {_ORIENT} offt:S",
     "CROD": "eid:I! pid:I=@eid g1:I! g2:I!",
     "CONROD": "eid:I! g1:I! g2:I! mid:I! a:R=0. j:R=0. c:R=0. nsm:R=0.",

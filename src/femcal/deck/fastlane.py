@@ -232,7 +232,8 @@ def _components(field: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     for r, t in zip(rows.tolist(), texts(field[rows]), strict=True):
         digits = t.strip()
         if digits != b"0" and not (
-            digits.isdigit() and all(49 <= c <= 54 for c in digits)
+            digits.isdigit()
+            and all(49 <= c <= 54 for c in digits)
             and all(a < b for a, b in itertools.pairwise(digits))
         ):
             ok[r] = False

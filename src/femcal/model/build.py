@@ -423,6 +423,9 @@ def _elements(deck: Deck, p: _Problems, model: Model) -> dict[str, ElementBlock]
                         [(t.file[i], t.line[i])],
                     )
         pids = c["pid"] if "pid" in c else np.full(len(ids), -1, np.int64)
+        if etype in ("CBAR", "CBEAM"):
+            pids = _bar_pids(deck, etype, ids, pids)
+            c = _bar_orientation_defaults(deck, etype, c)
         data = {k: v for k, v in c.items() if k not in cols and k not in ("eid", "pid")}
         blocks[etype] = ElementBlock(etype, ids, pids, nodes, components, data, t.file, t.line)
         all_ids.append(ids)
@@ -442,6 +445,36 @@ def _elements(deck: Deck, p: _Problems, model: Model) -> dict[str, ElementBlock]
         rigid_locs.extend(zip(t.file.tolist(), t.line.tolist(), strict=True))
     _duplicates(p, "rigid element", np.concatenate(rigid_ids), None, rigid_locs)
     return blocks
+
+
+def _bar_pids(deck: Deck, etype: str, ids: np.ndarray, pids: np.ndarray) -> np.ndarray:
+    """CBAR/CBEAM PID: as written, else the BAROR/BEAMOR PID, else the element id."""
+    orient = deck.tables.get("BAROR" if etype == "CBAR" else "BEAMOR")
+    default = INT_BLANK
+    if orient is not None and len(orient):
+        default = int(orient.columns["pid"][-1])
+    out = np.where(pids == INT_BLANK, default, pids)
+    return np.where(out == INT_BLANK, ids, out)
+
+
+def _bar_orientation_defaults(
+    deck: Deck, etype: str, c: dict[str, np.ndarray]
+) -> dict[str, np.ndarray]:
+    """Blank orientation (X1-X3 and G0 all blank) and OFFT of CBAR/CBEAM from BAROR/BEAMOR."""
+    orient = deck.tables.get("BAROR" if etype == "CBAR" else "BEAMOR")
+    if orient is None or len(orient) == 0:
+        return c
+    o = {k: v[-1] for k, v in orient.columns.items()}
+    c = dict(c)
+    blank = np.isnan(c["x1"]) & np.isnan(c["x2"]) & np.isnan(c["x3"]) & (c["g0"] == INT_BLANK)
+    if blank.any():
+        for k in ("x1", "x2", "x3", "g0"):
+            c[k] = np.where(blank, o[k], c[k])
+    if o["offt"]:
+        offt = c["offt"].copy()
+        offt[offt == ""] = o["offt"]
+        c["offt"] = offt
+    return c
 
 
 def _properties(deck: Deck, p: _Problems) -> dict[str, object]:

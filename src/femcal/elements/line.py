@@ -1,0 +1,375 @@
+"""Two-node line elements: rods (CROD, CONROD, CTUBE), bars and beams (CBAR, CBEAM), bushes
+(CBUSH).
+
+Bars and beams use one flexibility-based formulation: the 6 x 6 flexibility of the element
+clamped at end A is integrated along its length (Gauss-Legendre) from the section compliance
+(axial, shear with factors K1/K2, torsion, bending with I1, I2, I12), inverted, and expanded to
+12 DOF through the rigid-body relation between the ends. For a uniform section this is the exact
+Timoshenko (or, with no shear flexibility, Euler-Bernoulli) stiffness; for a tapered section
+(PBEAM stations, PBEAML dimensions) it is the exact stiffness of the interpolated section.
+
+Element frame (NASTRAN CBAR/CBEAM): x from end A to end B (after offsets), y in the plane of
+x and the orientation vector v, z = x cross y. Plane 1 is x-y (bending about z, moment of
+inertia I1, shear factor K1), plane 2 is x-z (I2, K2).
+
+Local DOF order at each end: u, v, w (translations along x, y, z), rx, ry, rz.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Gauss-Legendre points on [0, 1] used to integrate flexibilities along the element.
+_GAUSS_X, _GAUSS_W = np.polynomial.legendre.leggauss(8)
+_GAUSS_X = 0.5 * (_GAUSS_X + 1.0)
+_GAUSS_W = 0.5 * _GAUSS_W
+
+
+def skew(v: np.ndarray) -> np.ndarray:
+    """(..., 3) -> (..., 3, 3) matrices S with S @ w = v x w."""
+    s = np.zeros((*v.shape[:-1], 3, 3))
+    s[..., 0, 1], s[..., 0, 2] = -v[..., 2], v[..., 1]
+    s[..., 1, 0], s[..., 1, 2] = v[..., 2], -v[..., 0]
+    s[..., 2, 0], s[..., 2, 1] = -v[..., 1], v[..., 0]
+    return s
+
+
+def line_frame(a: np.ndarray, b: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Element frames of line elements.
+
+    Parameters
+    ----------
+    a, b : (n, 3) end points in basic.
+    v : (n, 3) orientation vectors in basic (need not be unit or normal to x).
+
+    Returns
+    -------
+    R : (n, 3, 3) rows are the element x, y, z axes in basic.
+    length : (n,)
+
+    Raises
+    ------
+    ValueError
+        If an element has zero length or v is parallel to its axis (positions listed).
+    """
+    d = b - a
+    length = np.linalg.norm(d, axis=1)
+    bad = np.flatnonzero(length <= 0.0)
+    if len(bad):
+        raise ValueError(f"zero-length elements at positions {bad[:20].tolist()}")
+    x = d / length[:, None]
+    y = v - np.einsum("ni,ni->n", v, x)[:, None] * x
+    ny = np.linalg.norm(y, axis=1)
+    bad = np.flatnonzero(ny <= 1e-9 * np.maximum(np.linalg.norm(v, axis=1), 1e-300))
+    if len(bad):
+        raise ValueError(
+            f"orientation vector parallel to the element axis at positions {bad[:20].tolist()}"
+        )
+    y = y / ny[:, None]
+    z = np.cross(x, y)
+    return np.stack([x, y, z], axis=1), length
+
+
+def _block_rotation(R: np.ndarray, nodes: int) -> np.ndarray:
+    """(n, 3, 3) -> (n, 6*nodes, 6*nodes) block-diagonal rotation (local = T @ basic)."""
+    n = len(R)
+    T = np.zeros((n, 6 * nodes, 6 * nodes))
+    for k in range(2 * nodes):
+        T[:, 3 * k : 3 * k + 3, 3 * k : 3 * k + 3] = R
+    return T
+
+
+def _to_basic(k_local: np.ndarray, R: np.ndarray) -> np.ndarray:
+    T = _block_rotation(R, 2)
+    return np.einsum("nki,nkl,nlj->nij", T, k_local, T)
+
+
+def _offset_matrix(wa: np.ndarray, wb: np.ndarray) -> np.ndarray:
+    """(n, 12, 12) map from grid DOF to element-end DOF for rigid offsets wa, wb (basic)."""
+    n = len(wa)
+    T = np.tile(np.eye(12), (n, 1, 1))
+    T[:, 0:3, 3:6] = -skew(wa)
+    T[:, 6:9, 9:12] = -skew(wb)
+    return T
+
+
+# ------------------------------------------------------------------------------ rods
+
+
+def rod_matrices(
+    xyz: np.ndarray,
+    E: np.ndarray,
+    G: np.ndarray,
+    A: np.ndarray,
+    J: np.ndarray,
+    rho: np.ndarray,
+    nsm: np.ndarray,
+    *,
+    coupled_mass: bool = False,
+) -> tuple[np.ndarray, np.ndarray]:
+    """CROD / CONROD / CTUBE: axial and torsional stiffness, translational mass.
+
+    Parameters
+    ----------
+    xyz : (n, 2, 3) end points in basic.
+    E, G, A, J, rho, nsm : (n,) modulus, shear modulus, area, torsion constant, density,
+        non-structural mass per length.
+    coupled_mass : False: half the mass m = (rho A + nsm) L at each end in all three
+        directions. True: NASTRAN's coupled rod mass: along the axis the mean of the lumped
+        and the consistent matrices, m [[5/12, 1/12], [1/12, 5/12]]; across it, lumped. (Matched
+        to MSC Nastran 2019 on refdecks/cofe_ten_bar_truss to 1e-5 relative.)
+
+    Returns
+    -------
+    K, M : (n, 12, 12) in basic, DOF [T1 T2 T3 R1 R2 R3] at each end.
+    """
+    d = xyz[:, 1] - xyz[:, 0]
+    L = np.linalg.norm(d, axis=1)
+    bad = np.flatnonzero(L <= 0.0)
+    if len(bad):
+        raise ValueError(f"zero-length rods at positions {bad[:20].tolist()}")
+    e = d / L[:, None]
+    ee = np.einsum("ni,nj->nij", e, e)
+    sign = np.array([[1.0, -1.0], [-1.0, 1.0]])
+    K = np.zeros((len(L), 12, 12))
+    ka = (E * A / L)[:, None, None] * ee
+    kt = (G * J / L)[:, None, None] * ee
+    for i in range(2):
+        for j in range(2):
+            K[:, 6 * i : 6 * i + 3, 6 * j : 6 * j + 3] = sign[i, j] * ka
+            K[:, 6 * i + 3 : 6 * i + 6, 6 * j + 3 : 6 * j + 6] = sign[i, j] * kt
+    m = (rho * A + nsm) * L
+    M = np.zeros_like(K)
+    axial = np.array([[5.0, 1.0], [1.0, 5.0]]) / 12.0 if coupled_mass else np.eye(2) / 2.0
+    across = np.eye(3) - ee
+    for i in range(2):
+        for j in range(2):
+            block = axial[i, j] * ee + (0.5 * across if i == j else 0.0)
+            M[:, 6 * i : 6 * i + 3, 6 * j : 6 * j + 3] = m[:, None, None] * block
+    return K, M
+
+
+# ------------------------------------------------------------------------------ bars / beams
+
+
+def beam_stiffness_local(
+    L: np.ndarray,
+    E: np.ndarray,
+    G: np.ndarray,
+    section: np.ndarray,
+    k1: np.ndarray,
+    k2: np.ndarray,
+) -> np.ndarray:
+    """Local 12 x 12 stiffness of straight bars/beams from their section along the length.
+
+    Parameters
+    ----------
+    L : (n,) lengths.
+    E, G : (n,) moduli.
+    section : (n, q, 5) section properties A, I1, I2, I12, J at the Gauss stations
+        ``_GAUSS_X`` (q = 8), or (n, 5) for a uniform section.
+    k1, k2 : (n,) shear factors (shear stiffness K A G); 0 or NaN = no shear flexibility.
+
+    Returns
+    -------
+    (n, 12, 12) in the element frame.
+    """
+    n = len(L)
+    if section.ndim == 2:
+        section = np.broadcast_to(section[:, None, :], (n, len(_GAUSS_X), 5))
+    A, I1, I2, I12, J = (section[..., i] for i in range(5))
+    bad = np.flatnonzero(((A <= 0) | (J <= 0) | (I1 <= 0) | (I2 <= 0)).any(axis=1))
+    if len(bad):
+        raise ValueError(f"bars/beams need A, I1, I2, J > 0 (positions {bad[:20].tolist()})")
+    det = I1 * I2 - I12**2
+    if (det <= 0).any():
+        raise ValueError("bars/beams need I1*I2 > I12^2")
+    # Compliance of the section, (n, q, 6, 6) on [N, Vy, Vz, T, My, Mz].
+    Cs = np.zeros((*A.shape, 6, 6))
+    Cs[..., 0, 0] = 1.0 / (E[:, None] * A)
+    for idx, k in ((1, k1), (2, k2)):
+        k = np.where(np.isnan(k), 0.0, k)
+        with np.errstate(divide="ignore"):
+            shear = np.where(k[:, None] > 0, 1.0 / (k[:, None] * G[:, None] * A), 0.0)
+        Cs[..., idx, idx] = shear
+    Cs[..., 3, 3] = 1.0 / (G[:, None] * J)
+    # Bending: Mz = E (I1 kz + I12 ky), My = E (I12 kz + I2 ky)  ->  inverse on (My, Mz).
+    Cs[..., 4, 4] = I1 / (E[:, None] * det)
+    Cs[..., 5, 5] = I2 / (E[:, None] * det)
+    Cs[..., 4, 5] = Cs[..., 5, 4] = -I12 / (E[:, None] * det)
+    # Section forces at x from end-B forces: My(x) = My_B - (L - x) Vz_B, Mz = Mz_B + (L - x) Vy_B.
+    s = L[:, None] * (1.0 - _GAUSS_X[None, :])  # (n, q) distance to end B
+    P = np.zeros((*A.shape, 6, 6))
+    for i in range(6):
+        P[..., i, i] = 1.0
+    P[..., 4, 2] = -s
+    P[..., 5, 1] = s
+    w = (L[:, None] * _GAUSS_W[None, :])[..., None, None]
+    F = np.einsum("nqki,nqkl,nqlj->nij", P, Cs * w, P)
+    Kbb = np.linalg.inv(F)
+    # Relative displacement of B with respect to the rigid motion of A (local frame).
+    H = np.zeros((n, 6, 12))
+    H[:, :, 6:12] = np.eye(6)
+    H[:, :, 0:6] = -np.eye(6)
+    H[:, 1, 5] = -L  # v_B - (v_A + L rz_A)
+    H[:, 2, 4] = L  # w_B - (w_A - L ry_A)
+    return np.einsum("nki,nkl,nlj->nij", H, Kbb, H)
+
+
+def beam_mass_local(
+    L: np.ndarray,
+    mass_per_length: np.ndarray,
+    *,
+    coupled: bool,
+    torsion_inertia: np.ndarray | None = None,
+) -> np.ndarray:
+    """Local 12 x 12 mass of bars/beams.
+
+    Lumped: half the mass at each end, on the translations. Coupled: linear axial and cubic
+    Hermite transverse consistent mass. ``torsion_inertia`` (n,): mass moment of inertia per
+    length about the axis (CBEAM: rho (I1 + I2) + NSI), half of it times L at each end's
+    rotation about x, in both cases; None for CBAR, which NASTRAN gives none. (The CBAR and
+    CBEAM masses match MSC Nastran on refdecks/cofe_svanberg_bar and _beam, ekm_swept_plane.)
+    """
+    n = len(L)
+    m = mass_per_length * L
+    M = np.zeros((n, 12, 12))
+    if torsion_inertia is not None:
+        M[:, 3, 3] = M[:, 9, 9] = torsion_inertia * L / 2.0
+    if not coupled:
+        for k in (0, 1, 2, 6, 7, 8):
+            M[:, k, k] = m / 2.0
+        return M
+    # axial
+    for i, j, c in ((0, 0, 2), (0, 6, 1), (6, 0, 1), (6, 6, 2)):
+        M[:, i, j] = m * c / 6.0
+    # transverse, plane 1 (v, rz) and plane 2 (w, -ry): Hermite consistent mass m/420 [...]
+    herm = np.array(
+        [[156, 22, 54, -13], [22, 4, 13, -3], [54, 13, 156, -22], [-13, -3, -22, 4]], float
+    )
+    Lp = np.array([1.0, 1.0, 1.0, 1.0])
+    for dofs, sgn in (((1, 5, 7, 11), (1, 1, 1, 1)), ((2, 4, 8, 10), (1, -1, 1, -1))):
+        for a in range(4):
+            for b in range(4):
+                pa = L if a in (1, 3) else Lp[a]
+                pb = L if b in (1, 3) else Lp[b]
+                M[:, dofs[a], dofs[b]] = m / 420.0 * herm[a, b] * pa * pb * sgn[a] * sgn[b]
+    return M
+
+
+def bar_matrices(
+    xyz: np.ndarray,
+    v: np.ndarray,
+    wa: np.ndarray,
+    wb: np.ndarray,
+    E: np.ndarray,
+    G: np.ndarray,
+    section: np.ndarray,
+    k1: np.ndarray,
+    k2: np.ndarray,
+    mass_per_length: np.ndarray,
+    *,
+    pa: np.ndarray | None = None,
+    pb: np.ndarray | None = None,
+    coupled_mass: bool = False,
+    torsion_inertia: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """CBAR / CBEAM stiffness and mass in basic.
+
+    Parameters
+    ----------
+    xyz : (n, 2, 3) grid positions GA, GB (basic).
+    v : (n, 3) orientation vector (basic).
+    wa, wb : (n, 3) offsets from GA and GB to the element ends (basic).
+    E, G : (n,) moduli.
+    section : (n, 5) uniform A, I1, I2, I12, J, or (n, 8, 5) at the Gauss stations along x.
+    k1, k2 : (n,) shear factors (0 or NaN: no shear flexibility).
+    mass_per_length : (n,) rho A + nsm (average for tapered members).
+    pa, pb : (n,) pin-flag codes (e.g. 456: release rotations at that end, element frame);
+        0 or None for none. Released DOF carry no force: statically condensed out of K.
+    coupled_mass : NASTRAN COUPMASS (see :func:`beam_mass_local`).
+    torsion_inertia : (n,) mass moment of inertia per length about the axis (CBEAM), or None.
+
+    Returns
+    -------
+    K, M : (n, 12, 12) in basic, DOF [T1 T2 T3 R1 R2 R3] at GA then GB.
+    """
+    a = xyz[:, 0] + wa
+    b = xyz[:, 1] + wb
+    R, L = line_frame(a, b, v)
+    k_loc = beam_stiffness_local(L, E, G, section, k1, k2)
+    if pa is not None or pb is not None:
+        k_loc = _release_pins(k_loc, pa, pb)
+    m_loc = beam_mass_local(
+        L, mass_per_length, coupled=coupled_mass, torsion_inertia=torsion_inertia
+    )
+    Toff = _offset_matrix(wa, wb)
+    K = np.einsum("nki,nkl,nlj->nij", Toff, _to_basic(k_loc, R), Toff)
+    M = np.einsum("nki,nkl,nlj->nij", Toff, _to_basic(m_loc, R), Toff)
+    return K, M
+
+
+def _release_pins(k: np.ndarray, pa: np.ndarray | None, pb: np.ndarray | None) -> np.ndarray:
+    """Condense out released end DOF (pin flags), one group of equal flags at a time."""
+    n = len(k)
+    pa = np.zeros(n, np.int64) if pa is None else np.asarray(pa)
+    pb = np.zeros(n, np.int64) if pb is None else np.asarray(pb)
+    out = k.copy()
+    for fa, fb in {(int(x), int(y)) for x, y in zip(pa, pb, strict=True)}:
+        if fa <= 0 and fb <= 0:
+            continue
+        rel = [int(c) - 1 for c in str(fa)] if fa > 0 else []
+        rel += [6 + int(c) - 1 for c in str(fb)] if fb > 0 else []
+        keep = [i for i in range(12) if i not in rel]
+        sel = np.flatnonzero((pa == fa) & (pb == fb))
+        kk = k[sel]
+        krr = kk[:, keep][:, :, keep]
+        krp = kk[:, keep][:, :, rel]
+        kpp = kk[:, rel][:, :, rel]
+        cond = krr - krp @ np.linalg.solve(kpp, np.swapaxes(krp, 1, 2))
+        block = np.zeros((len(sel), 12, 12))
+        block[:, np.ix_(keep, keep)[0], np.ix_(keep, keep)[1]] = cond
+        out[sel] = block
+    return out
+
+
+# ------------------------------------------------------------------------------ bushes
+
+
+def bush_matrices(
+    xyz: np.ndarray,
+    R: np.ndarray,
+    k: np.ndarray,
+    s: np.ndarray,
+    grounded: np.ndarray,
+) -> np.ndarray:
+    """CBUSH: six springs between GA and GB in the element frame R, acting at a point S of the
+    way from GA to GB (rigidly connected to both grids).
+
+    Parameters
+    ----------
+    xyz : (n, 2, 3) GA, GB positions (GB may equal GA; for grounded bushes GB is ignored).
+    R : (n, 3, 3) rows are the spring axes in basic.
+    k : (n, 6) stiffnesses K1..K6 (translations then rotations, element frame).
+    s : (n,) location of the spring from GA (0) to GB (1).
+    grounded : (n,) True where GB is blank (ground).
+
+    Returns
+    -------
+    K : (n, 12, 12) in basic; rows/columns of GB are zero for grounded bushes.
+    """
+    n = len(k)
+    p = xyz[:, 0] + s[:, None] * (xyz[:, 1] - xyz[:, 0])
+    # relative motion at p, element frame: R [u_B + th_B x (p - b) - u_A - th_A x (p - a)]
+    D = np.zeros((n, 6, 12))
+    ra = p - xyz[:, 0]
+    rb = p - xyz[:, 1]
+    D[:, 0:3, 0:3] = -R
+    D[:, 0:3, 3:6] = R @ skew(ra)  # -(th x r) = r x th = skew(r) th
+    D[:, 0:3, 6:9] = R
+    D[:, 0:3, 9:12] = -R @ skew(rb)
+    D[:, 3:6, 3:6] = -R
+    D[:, 3:6, 9:12] = R
+    D[grounded, :, 6:12] = 0.0
+    kd = np.einsum("nk,nkj->nkj", k, D)
+    return np.einsum("nki,nkj->nij", D, kd)
