@@ -22,6 +22,7 @@ from .elements.line import bar_matrices, bush_matrices, line_frame, rod_matrices
 from .elements.mass import conm1_matrix, conm2_matrix
 from .elements.sections import section_properties, shear_factors
 from .errors import ModelError
+from .materials import MaterialTables, mat1_moduli
 from .model.coords import displacement_frames
 from .model.model import ElementBlock, Model
 
@@ -123,7 +124,7 @@ class _Context:
         self.model = model
         self.coupled = coupled
         self.k6rot = k6rot
-        self._mat1 = None
+        self.materials = MaterialTables(model.materials)
 
     def mat1(self, mids: np.ndarray, who: str, eids: np.ndarray) -> dict[str, np.ndarray]:
         """E, G, NU, RHO of MAT1 materials, with NASTRAN's rules for blank E, G or NU."""
@@ -141,19 +142,6 @@ class _Context:
         E, G, nu = table["e"][rows], table["g"][rows], table["nu"][rows]
         E, G, nu = mat1_moduli(E, G, nu)
         return {"E": E, "G": G, "nu": nu, "rho": table["rho"][rows]}
-
-
-def mat1_moduli(
-    E: np.ndarray, G: np.ndarray, nu: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """MAT1's completion rules (QRG MAT1 remarks): two given -> the third from E = 2(1+NU)G;
-    only E -> G = NU = 0; only G -> E = NU = 0. NaN marks a blank field."""
-    e_, g_, n_ = ~np.isnan(E), ~np.isnan(G), ~np.isnan(nu)
-    E2 = np.where(e_, E, np.where(g_ & n_, 2.0 * (1.0 + nu) * G, 0.0))
-    G2 = np.where(g_, G, np.where(e_ & n_, E / (2.0 * (1.0 + nu)), 0.0))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        nu2 = np.where(n_, nu, np.where(e_ & g_, E / (2.0 * G) - 1.0, 0.0))
-    return E2, G2, nu2
 
 
 def _property(model: Model, card: str, block: ElementBlock, rows_of: str = "pid"):
@@ -490,6 +478,122 @@ def _conm1(ctx: _Context, block: ElementBlock, Ka: Assembler, Ma: Assembler) -> 
     return float(d["m11"].sum())
 
 
+# ----------------------------------------------------------------------------- shells, solids
+
+
+def _shells(ctx: _Context, block: ElementBlock, Ka: Assembler, Ma: Assembler) -> float:
+    from .elements.shell import quad4_matrices, shell_frame, tria3_matrices
+    from .shellsections import shell_sections
+
+    m = ctx.model
+    k = block.nodes.shape[1]
+    xyz = m.xyz[block.nodes]
+    R, centre = shell_frame(xyz)
+    theta = _material_angle(ctx, block, xyz, R, centre)
+    d = block.data
+    et = np.column_stack([d[f"t{i}"] for i in range(1, k + 1)])
+    sec = shell_sections(
+        m.properties, ctx.materials, block.pids, block.ids, theta, et, d["tflag"], block.type
+    )
+    zoffs = np.where(np.isnan(d["zoffs"]), 0.0, d["zoffs"])
+    kernel = quad4_matrices if k == 4 else tria3_matrices
+    total = 0.0
+    for rigid in (False, True):
+        sel = np.flatnonzero(sec.shear_rigid == rigid)
+        if not len(sel):
+            continue
+        B = sec.B[sel] if sec.B[sel].any() else None
+        K, M = kernel(
+            xyz[sel], sec.A[sel], sec.D[sel], None if rigid else sec.S[sel], B,
+            rho_area=sec.rho_area[sel], nsm=sec.nsm[sel], zoffs=zoffs[sel], k6rot=ctx.k6rot,
+            coupled_mass=ctx.coupled,
+        )  # fmt: skip
+        Ka.add_blocks(block.nodes[sel], 6, K)
+        Ma.add_blocks(block.nodes[sel], 6, M)
+        area = _polygon_area(xyz[sel])
+        total += float(((sec.rho_area[sel] + sec.nsm[sel]) * area).sum())
+    return total
+
+
+def _polygon_area(xyz: np.ndarray) -> np.ndarray:
+    """(n,) area of flat or slightly warped polygons (n, k, 3)."""
+    c = np.cross(xyz[:, 1:-1] - xyz[:, :1], xyz[:, 2:] - xyz[:, :1])
+    return 0.5 * np.linalg.norm(c.sum(axis=1), axis=1)
+
+
+def _material_angle(
+    ctx: _Context, block: ElementBlock, xyz: np.ndarray, R: np.ndarray, centre: np.ndarray
+) -> np.ndarray:
+    """Material x axis angle from the element x axis (degrees): THETA from the projected
+    G1-G2 side, or the projection of MCID's x axis."""
+    d = block.data
+    e12 = xyz[:, 1] - xyz[:, 0]
+    phi = np.degrees(
+        np.arctan2(np.einsum("ni,ni->n", e12, R[:, 1]), np.einsum("ni,ni->n", e12, R[:, 0]))
+    )
+    theta = np.where(np.isnan(d["theta"]), 0.0, d["theta"]) + phi
+    mcid = d["mcid"]
+    for c in np.unique(mcid[(mcid != INT_BLANK) & (mcid >= 0)]):
+        sel = np.flatnonzero(mcid == c)
+        cs = ctx.model.coords.get(int(c))
+        if cs is None:
+            raise ModelError(
+                f"{block.type} {block.ids[sel][:20].tolist()}: MCID {c} is not defined",
+                block.ids[sel][:20],
+            )
+        X = displacement_frames(cs, centre[sel])[:, :, 0]
+        theta[sel] = np.degrees(
+            np.arctan2(np.einsum("ni,ni->n", X, R[sel, 1]), np.einsum("ni,ni->n", X, R[sel, 0]))
+        )
+    return theta
+
+
+_SOLID_KINDS = {
+    "CHEXA": ((8, "HEXA8"), (20, "HEXA20")),
+    "CPENTA": ((6, "PENTA6"), (15, "PENTA15")),
+    "CTETRA": ((4, "TETRA4"), (10, "TETRA10")),
+    "CPYRAM": ((5, "PYRAM5"), (13, "PYRAM13")),
+}
+
+
+def _solids(ctx: _Context, block: ElementBlock, Ka: Assembler, Ma: Assembler) -> float:
+    from .elements.solid import solid_matrices, solid_volume
+
+    m = ctx.model
+    t, rows = _property(m, "PSOLID", block)
+    mids, cordm = t["mid"][rows], t["cordm"][rows]
+    C, rho, iso = ctx.materials.solid(mids, f"{block.type} PSOLID")
+    if (~iso & (cordm != 0)).any():
+        bad = block.ids[~iso & (cordm != 0)][:20]
+        raise ModelError(f"{block.type} {bad.tolist()}: anisotropic material with PSOLID CORDM "
+                         "other than basic is not supported yet", bad)  # fmt: skip
+    present = (block.nodes >= 0).sum(axis=1)
+    total = 0.0
+    matched = np.zeros(len(block), bool)
+    for nn, kind in _SOLID_KINDS[block.type]:
+        sel = np.flatnonzero((present == nn) & (block.nodes[:, :nn] >= 0).all(axis=1))
+        if not len(sel):
+            continue
+        matched[sel] = True
+        nodes = block.nodes[sel, :nn]
+        xyz = m.xyz[nodes]
+        try:
+            K, M = solid_matrices(kind, xyz, C[sel], rho[sel], coupled_mass=ctx.coupled)
+        except ValueError as e:
+            raise ModelError(f"{block.type} ({kind}): {e}", block.ids[sel][:20]) from None
+        Ka.add_blocks(nodes, 3, K)
+        Ma.add_blocks(nodes, 3, M)
+        total += float((rho[sel] * solid_volume(kind, xyz)).sum())
+    if not matched.all():
+        bad = block.ids[~matched][:20]
+        raise ModelError(
+            f"{block.type} {bad.tolist()}: some but not all midside nodes given; expected "
+            f"{' or '.join(str(nn) for nn, _ in _SOLID_KINDS[block.type])} nodes",
+            bad,
+        )
+    return total
+
+
 _Handler = Callable[[_Context, ElementBlock, Assembler, Assembler], float]
 _HANDLERS: dict[str, _Handler] = {
     "CROD": _rods,
@@ -508,4 +612,12 @@ _HANDLERS: dict[str, _Handler] = {
     "CMASS4": _scalar,
     "CONM2": _conm2,
     "CONM1": _conm1,
+    "CQUAD4": _shells,
+    "CTRIA3": _shells,
+    "CQUADR": _shells,
+    "CTRIAR": _shells,
+    "CHEXA": _solids,
+    "CPENTA": _solids,
+    "CTETRA": _solids,
+    "CPYRAM": _solids,
 }

@@ -225,8 +225,8 @@ def beam_mass_local(
 ) -> np.ndarray:
     """Local 12 x 12 mass of bars/beams.
 
-    Lumped: half the mass at each end, on the translations. Coupled: linear axial and cubic
-    Hermite transverse consistent mass. ``torsion_inertia`` (n,): mass moment of inertia per
+    Lumped: half the mass at each end, on the translations. Coupled: along the axis the mean of
+    the lumped and the linear consistent matrices, across it the cubic Hermite consistent mass. ``torsion_inertia`` (n,): mass moment of inertia per
     length about the axis (CBEAM: rho (I1 + I2) + NSI), half of it times L at each end's
     rotation about x, in both cases; None for CBAR, which NASTRAN gives none. (The CBAR and
     CBEAM masses match MSC Nastran on refdecks/cofe_svanberg_bar and _beam, ekm_swept_plane.)
@@ -240,9 +240,10 @@ def beam_mass_local(
         for k in (0, 1, 2, 6, 7, 8):
             M[:, k, k] = m / 2.0
         return M
-    # axial
-    for i, j, c in ((0, 0, 2), (0, 6, 1), (6, 0, 1), (6, 6, 2)):
-        M[:, i, j] = m * c / 6.0
+    # axial: the mean of lumped and consistent, m [[5, 1], [1, 5]] / 12, as NASTRAN's coupled
+    # mass has it (all 278 modes of refdecks/yeti_full_cbar_rbe2 to 5e-7)
+    for i, j, c in ((0, 0, 5), (0, 6, 1), (6, 0, 1), (6, 6, 5)):
+        M[:, i, j] = m * c / 12.0
     # transverse, plane 1 (v, rz) and plane 2 (w, -ry): Hermite consistent mass m/420 [...]
     herm = np.array(
         [[156, 22, 54, -13], [22, 4, 13, -3], [54, 13, 156, -22], [-13, -3, -22, 4]], float

@@ -1,0 +1,174 @@
+"""Material and section stiffness for shells and solids: MAT1, MAT2, MAT8, MAT9; PSHELL and
+PCOMP/PCOMPG resultants (A, B, D, transverse shear S) in an element's frame.
+
+Conventions: in-plane Voigt order xx, yy, xy (engineering shear), transverse shear xz, yz;
+solids xx, yy, zz, xy, yz, zx. Angles in degrees, measured from the element x axis towards y.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import ModelError
+
+
+def mat1_moduli(
+    E: np.ndarray, G: np.ndarray, nu: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """MAT1's completion rules (QRG MAT1 remarks): two given -> the third from E = 2(1+NU)G;
+    only E -> G = NU = 0; only G -> E = NU = 0. NaN marks a blank field."""
+    e_, g_, n_ = ~np.isnan(E), ~np.isnan(G), ~np.isnan(nu)
+    E2 = np.where(e_, E, np.where(g_ & n_, 2.0 * (1.0 + nu) * G, 0.0))
+    G2 = np.where(g_, G, np.where(e_ & n_, E / (2.0 * (1.0 + nu)), 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        nu2 = np.where(n_, nu, np.where(e_ & g_, E / (2.0 * G) - 1.0, 0.0))
+    return E2, G2, nu2
+
+
+@dataclass(frozen=True)
+class PlaneMaterial:
+    """Plane-stress stiffness of materials, looked up by id.
+
+    Attributes
+    ----------
+    Q : (n, 3, 3) in-plane stiffness (material axes).
+    Gt : (n, 2, 2) transverse shear moduli (xz, yz), zero where the card gives none.
+    rho : (n,) density.
+    isotropic : (n,) True for MAT1 (frame-independent).
+    """
+
+    Q: np.ndarray
+    Gt: np.ndarray
+    rho: np.ndarray
+    isotropic: np.ndarray
+
+
+class MaterialTables:
+    """Lookup of MAT1 / MAT2 / MAT8 / MAT9 tables from ``Model.materials``."""
+
+    def __init__(self, materials: dict[str, dict[str, np.ndarray]]):
+        self.tables = materials
+        self.where: dict[int, tuple[str, int]] = {}
+        for card in ("MAT1", "MAT2", "MAT8", "MAT9"):
+            t = materials.get(card)
+            if t is not None:
+                for row, mid in enumerate(t["mid"].tolist()):
+                    self.where[mid] = (card, row)
+
+    def kinds(self, mids: np.ndarray) -> list[str]:
+        return [self.where.get(int(m), ("", 0))[0] for m in mids]
+
+    def plane(self, mids: np.ndarray, who: str) -> PlaneMaterial:
+        """Plane-stress data of materials ``mids`` (n,), for shells."""
+        uniq, inv = np.unique(np.asarray(mids), return_inverse=True)
+        u = self._plane_unique(uniq, who)
+        return PlaneMaterial(u.Q[inv], u.Gt[inv], u.rho[inv], u.isotropic[inv])
+
+    def _plane_unique(self, mids: np.ndarray, who: str) -> PlaneMaterial:
+        n = len(mids)
+        Q = np.zeros((n, 3, 3))
+        Gt = np.zeros((n, 2, 2))
+        rho = np.zeros(n)
+        iso = np.zeros(n, bool)
+        for i, mid in enumerate(np.asarray(mids).tolist()):
+            card, row = self.where.get(mid, ("", 0))
+            t = self.tables.get(card)
+            if card == "MAT1":
+                E, G, nu = mat1_moduli(t["e"][row : row + 1], t["g"][row : row + 1],
+                                       t["nu"][row : row + 1])  # fmt: skip
+                E, G, nu = float(E[0]), float(G[0]), float(nu[0])
+                c = E / (1.0 - nu * nu)
+                Q[i] = [[c, nu * c, 0.0], [nu * c, c, 0.0], [0.0, 0.0, G]]
+                Gt[i] = G * np.eye(2)
+                iso[i] = True
+            elif card == "MAT2":
+                g = {k: float(t[k][row]) for k in ("g11", "g12", "g13", "g22", "g23", "g33")}
+                Q[i] = [[g["g11"], g["g12"], g["g13"]], [g["g12"], g["g22"], g["g23"]],
+                        [g["g13"], g["g23"], g["g33"]]]  # fmt: skip
+                # as MID3, MAT2's G11, G12, G22 are the transverse shear moduli (QRG PSHELL)
+                Gt[i] = [[g["g11"], g["g12"]], [g["g12"], g["g22"]]]
+            elif card == "MAT8":
+                e1, e2, nu12, g12 = (float(t[k][row]) for k in ("e1", "e2", "nu12", "g12"))
+                nu21 = nu12 * e2 / e1
+                d = 1.0 - nu12 * nu21
+                Q[i] = [[e1 / d, nu12 * e2 / d, 0.0], [nu12 * e2 / d, e2 / d, 0.0], [0, 0, g12]]
+                g1z, g2z = float(t["g1z"][row]), float(t["g2z"][row])
+                Gt[i] = np.diag([0.0 if np.isnan(g1z) else g1z, 0.0 if np.isnan(g2z) else g2z])
+            else:
+                raise ModelError(
+                    f"{who}: material {mid} is {card or 'not defined'}; shells take MAT1, MAT2 "
+                    "or MAT8",
+                    [mid],
+                )
+            rho[i] = float(t["rho"][row])
+        return PlaneMaterial(Q, Gt, rho, iso)
+
+    def solid(self, mids: np.ndarray, who: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(C (n, 6, 6), rho (n,), isotropic (n,)) of solid materials (MAT1 or MAT9)."""
+        uniq, inv = np.unique(np.asarray(mids), return_inverse=True)
+        C, rho, iso = self._solid_unique(uniq, who)
+        return C[inv], rho[inv], iso[inv]
+
+    def _solid_unique(
+        self, mids: np.ndarray, who: str
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        n = len(mids)
+        C = np.zeros((n, 6, 6))
+        rho = np.zeros(n)
+        iso = np.zeros(n, bool)
+        for i, mid in enumerate(np.asarray(mids).tolist()):
+            card, row = self.where.get(mid, ("", 0))
+            t = self.tables.get(card)
+            if card == "MAT1":
+                E, G, nu = mat1_moduli(t["e"][row : row + 1], t["g"][row : row + 1],
+                                       t["nu"][row : row + 1])  # fmt: skip
+                C[i] = isotropic_3d(float(E[0]), float(nu[0]), float(G[0]))
+                iso[i] = True
+            elif card == "MAT9":
+                names = ["g11", "g12", "g13", "g14", "g15", "g16", "g22", "g23", "g24", "g25",
+                         "g26", "g33", "g34", "g35", "g36", "g44", "g45", "g46", "g55", "g56",
+                         "g66"]  # fmt: skip
+                k = 0
+                for a in range(6):
+                    for b in range(a, 6):
+                        C[i, a, b] = C[i, b, a] = float(t[names[k]][row])
+                        k += 1
+            else:
+                raise ModelError(
+                    f"{who}: material {mid} is {card or 'not defined'}; solids take MAT1 or MAT9",
+                    [mid],
+                )
+            rho[i] = float(t["rho"][row])
+        return C, rho, iso
+
+
+def isotropic_3d(E: float, nu: float, G: float) -> np.ndarray:
+    """6 x 6 isotropic stiffness (xx, yy, zz, xy, yz, zx) with the shear modulus given."""
+    lam = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
+    C = np.zeros((6, 6))
+    C[:3, :3] = lam
+    C[[0, 1, 2], [0, 1, 2]] = lam + 2.0 * E / (2.0 * (1.0 + nu))
+    C[[3, 4, 5], [3, 4, 5]] = G
+    return C
+
+
+def rotate_plane(Q: np.ndarray, theta_deg: np.ndarray) -> np.ndarray:
+    """In-plane stiffness (n, 3, 3) of material axes at angle theta from the element x axis,
+    expressed in the element axes: Q_elem = T^T Q T with T the engineering-strain rotation."""
+    t = np.radians(theta_deg)
+    c, s = np.cos(t), np.sin(t)
+    T = np.zeros((len(t), 3, 3))
+    T[:, 0] = np.stack([c * c, s * s, c * s], axis=1)
+    T[:, 1] = np.stack([s * s, c * c, -c * s], axis=1)
+    T[:, 2] = np.stack([-2 * c * s, 2 * c * s, c * c - s * s], axis=1)
+    return np.swapaxes(T, 1, 2) @ Q @ T
+
+
+def rotate_shear(G: np.ndarray, theta_deg: np.ndarray) -> np.ndarray:
+    """Transverse shear stiffness (n, 2, 2) of material axes at theta, in element axes."""
+    t = np.radians(theta_deg)
+    c, s = np.cos(t), np.sin(t)
+    R = np.stack([np.stack([c, s], axis=1), np.stack([-s, c], axis=1)], axis=1)
+    return np.swapaxes(R, 1, 2) @ G @ R

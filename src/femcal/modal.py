@@ -1,0 +1,181 @@
+"""Real eigenvalue analysis (SOL 103): K phi = lambda M phi on the a-set.
+
+Shift-invert Lanczos (ARPACK's eigsh with our own OPinv on a factor of K - sigma M) for large
+problems, a dense solution for small ones. The shift is negative so free-free models give
+their rigid-body modes. EIGRL semantics: all roots in [V1, V2] (Hz), at most ND of them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sl
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from .errors import SolverError
+from .linalg import NotPositiveDefinite, factorize
+
+#: Below this a-set size the dense solver is used.
+DENSE_LIMIT = 600
+
+
+@dataclass(frozen=True)
+class EigenRequest:
+    """What to compute: frequencies in [v1, v2] Hz (None: unbounded), at most nd roots,
+    mass or MAX normalisation."""
+
+    v1: float | None = None
+    v2: float | None = None
+    nd: int | None = 10
+    norm: str = "MASS"
+
+
+@dataclass(frozen=True)
+class EigenResult:
+    """Eigenpairs on the a-set, ascending.
+
+    Attributes
+    ----------
+    eigenvalues : (k,) lambda = omega^2 (rad^2/s^2).
+    vectors : (n_a, k) mode shapes, normalised as requested.
+    generalized_mass, generalized_stiffness : (k,) phi^T M phi and phi^T K phi.
+    backend : factorisation used ("cholmod", "superlu", "dense").
+    """
+
+    eigenvalues: np.ndarray
+    vectors: np.ndarray
+    generalized_mass: np.ndarray
+    generalized_stiffness: np.ndarray
+    backend: str
+
+    @property
+    def radians(self) -> np.ndarray:
+        return np.sqrt(np.abs(self.eigenvalues)) * np.sign(self.eigenvalues)
+
+    @property
+    def frequencies_hz(self) -> np.ndarray:
+        return self.radians / (2.0 * np.pi)
+
+
+def _to_lambda(f_hz: float) -> float:
+    return (2.0 * np.pi * f_hz) ** 2
+
+
+def solve_modes(
+    K: sp.spmatrix,
+    M: sp.spmatrix,
+    request: EigenRequest,
+    *,
+    shift_hz: float = 1.0,
+    backend: str = "auto",
+    progress: Callable[[str], None] | None = None,
+) -> EigenResult:
+    """Lowest eigenpairs of K phi = lambda M phi satisfying the request.
+
+    Parameters
+    ----------
+    K, M : (n, n) symmetric; K positive semi-definite, M positive semi-definite (massless DOF
+        give infinite eigenvalues, which are never returned).
+    shift_hz : |sigma| of the negative shift, sigma = -(2 pi shift_hz)^2.
+    backend : factorisation for the sparse path ("auto", "cholmod", "superlu").
+    progress : called with short status lines during long solves.
+
+    Raises
+    ------
+    SolverError
+        When K - sigma M cannot be factorised (a mechanism: a DOF with neither stiffness nor
+        mass that no constraint removes), or the iteration does not converge (the converged
+        pairs are in ``partial``).
+    """
+    n = K.shape[0]
+    if n == 0:
+        raise SolverError("the model has no free DOF after constraints")
+    sigma = -_to_lambda(shift_hz)  # below the spectrum; V1 filters the roots afterwards
+    lam_lo = -np.inf if request.v1 is None else _to_lambda(request.v1) * (1 - 1e-9)
+    lam_hi = np.inf if request.v2 is None else _to_lambda(request.v2) * (1 + 1e-9)
+    if request.nd is None and request.v2 is None:
+        raise SolverError("EIGRL needs ND or V2 (how many roots, or up to which frequency)")
+    if n <= DENSE_LIMIT:
+        lam, vec, name = _dense(K, M, sigma)
+    else:
+        lam, vec, name = _lanczos(K, M, sigma, request, lam_lo, lam_hi, backend, progress)
+    keep = (lam >= lam_lo) & (lam <= lam_hi)
+    lam, vec = lam[keep], vec[:, keep]
+    if request.nd is not None:
+        lam, vec = lam[: request.nd], vec[:, : request.nd]
+    gm = np.einsum("ik,ik->k", vec, M @ vec)
+    if request.norm.upper() == "MAX":
+        big = vec[np.argmax(np.abs(vec), axis=0), np.arange(vec.shape[1])]
+        vec = vec / big
+    else:
+        vec = vec / np.sqrt(np.where(gm > 0, gm, 1.0))
+    gm = np.einsum("ik,ik->k", vec, M @ vec)
+    gk = np.einsum("ik,ik->k", vec, K @ vec)
+    return EigenResult(lam, vec, gm, gk, name)
+
+
+def _shifted_factor(K, M, sigma, backend):
+    A = (K - sigma * M).tocsc()
+    try:
+        return factorize(A, backend=backend)
+    except NotPositiveDefinite as e:
+        raise SolverError(
+            "K - sigma M is singular or not positive definite: the model has a mechanism "
+            f"(DOF with neither stiffness nor mass, or negative stiffness) [{e}]"
+        ) from None
+
+
+def _dense(K, M, sigma):
+    Kd = K.toarray() if sp.issparse(K) else np.asarray(K)
+    Md = M.toarray() if sp.issparse(M) else np.asarray(M)
+    A = Kd - sigma * Md
+    try:
+        L = np.linalg.cholesky(A)
+    except np.linalg.LinAlgError:
+        raise SolverError(
+            "K - sigma M is not positive definite: the model has a mechanism (DOF with neither "
+            "stiffness nor mass) or negative stiffness"
+        ) from None
+    Li = sl.solve_triangular(L, np.eye(len(A)), lower=True)
+    C = Li @ Md @ Li.T
+    mu, y = np.linalg.eigh((C + C.T) / 2)
+    tol = 1e-12 * max(mu.max(), 1e-300)
+    finite = mu > tol
+    mu, y = mu[finite][::-1], y[:, finite][:, ::-1]
+    lam = sigma + 1.0 / mu
+    vec = sl.solve_triangular(L.T, y, lower=False)
+    return lam, vec, "dense"
+
+
+def _lanczos(K, M, sigma, request, lam_lo, lam_hi, backend, progress):
+    n = K.shape[0]
+    solve, name = _shifted_factor(K, M, sigma, backend)
+    op = spla.LinearOperator((n, n), matvec=solve, dtype=float)
+    want = request.nd if request.nd is not None else 20
+    k = min(max(want + 2, 12), n - 2)
+    lam = vec = None
+    while True:
+        if progress:
+            progress(f"Lanczos: {k} roots of {n} DOF ({name})")
+        try:
+            lam, vec = spla.eigsh(
+                K, k=k, M=M, sigma=sigma, OPinv=op, which="LM", mode="normal", tol=1e-10
+            )
+        except spla.ArpackNoConvergence as e:
+            raise SolverError(
+                f"Lanczos did not converge for {k} roots ({len(e.eigenvalues)} converged)",
+                partial=(e.eigenvalues, e.eigenvectors),
+            ) from None
+        order = np.argsort(lam)
+        lam, vec = lam[order], vec[:, order]
+        in_range = (lam >= lam_lo) & (lam <= lam_hi)
+        if request.nd is not None and in_range.sum() >= request.nd:
+            return lam, vec, name  # the ND lowest roots in range are all here
+        if np.isfinite(lam_hi) and lam[-1] > lam_hi:
+            return lam, vec, name  # every root below V2 is here
+        if k >= n - 2:
+            return lam, vec, name
+        k = min(2 * k, n - 2)

@@ -1,0 +1,128 @@
+"""SOL 103 normal modes of a deck: model, matrices, constraints, eigensolution, g-set shapes."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from .constraints import Reduction, autospc, build_reduction
+from .deck.deck import Deck
+from .deck.fields import INT_BLANK
+from .errors import ModelError
+from .modal import EigenRequest, EigenResult, solve_modes
+from .model.model import Model
+from .structure import Matrices, Options, assemble
+
+
+@dataclass(frozen=True)
+class Modes:
+    """Normal modes on the g-set.
+
+    Attributes
+    ----------
+    eigenvalues : (k,) rad^2/s^2; frequencies_hz, radians : (k,).
+    generalized_mass, generalized_stiffness : (k,).
+    shapes : (n_g, k) mode shapes in the nodes' displacement frames.
+    node_ids, dof_start, is_grid : the g-set layout (see :class:`~femcal.model.Model`).
+    autospc : (m, 2) (node id, component) fixed by AUTOSPC or as empty DOF.
+    n_a : size of the solved set; backend : eigensolver backend.
+    """
+
+    eigenvalues: np.ndarray
+    generalized_mass: np.ndarray
+    generalized_stiffness: np.ndarray
+    shapes: np.ndarray
+    node_ids: np.ndarray
+    dof_start: np.ndarray
+    is_grid: np.ndarray
+    autospc: np.ndarray
+    n_a: int
+    backend: str
+
+    @property
+    def radians(self) -> np.ndarray:
+        return np.sign(self.eigenvalues) * np.sqrt(np.abs(self.eigenvalues))
+
+    @property
+    def frequencies_hz(self) -> np.ndarray:
+        return self.radians / (2.0 * np.pi)
+
+    def grid_displacements(self, mode: int) -> np.ndarray:
+        """(n_grids, 6) displacement of each GRID in mode ``mode`` (0-based), CD frames."""
+        starts = self.dof_start[self.is_grid]
+        return self.shapes[starts[:, None] + np.arange(6), mode]
+
+
+def eigen_request(deck: Deck) -> EigenRequest:
+    """The EIGRL or EIGR selected by case control METHOD, as an :class:`EigenRequest`."""
+    value = deck.case.value("METHOD")
+    if value is None:
+        raise ModelError("case control has no METHOD: SOL 103 needs an EIGRL (or EIGR) set")
+    try:
+        sid = int(value.split()[0])
+    except ValueError as e:
+        raise ModelError(f"case control METHOD = {value}: expected a set id") from e
+    for r in deck.records_of("EIGRL"):
+        if r.sid == sid:
+            nd = None if r.nd == INT_BLANK else r.nd
+            return EigenRequest(_hz(r.v1), _hz(r.v2), nd, r.norm)
+    t = deck.tables.get("EIGR")
+    if t is not None:
+        c = t.columns
+        for i in np.flatnonzero(c["sid"] == sid):
+            nd = int(c["nd"][i]) if c["nd"][i] != INT_BLANK else None
+            f2 = _hz(c["f2"][i])
+            if nd is None and f2 is None:
+                nd = 10**9  # all roots (Givens/Householder)
+            return EigenRequest(_hz(c["f1"][i]), f2, nd, str(c["norm"][i] or "MASS"))
+    raise ModelError(f"METHOD = {sid}: no EIGRL or EIGR with SID {sid} in the bulk data", [sid])
+
+
+def _autospc_enabled(deck: Deck, model: Model) -> bool:
+    """Case control AUTOSPC (YES/NO, with options) wins over PARAM AUTOSPC; default YES."""
+    cc = deck.case.value("AUTOSPC")
+    if cc is not None:
+        return not cc.strip().upper().startswith("NO")
+    return str(model.params.get("AUTOSPC", ("YES",))[0]).upper() != "NO"
+
+
+def _hz(v: float) -> float | None:
+    return None if v is None or np.isnan(v) else float(v)
+
+
+def solve_sol103(
+    deck: Deck,
+    model: Model,
+    *,
+    matrices: Matrices | None = None,
+    request: EigenRequest | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> tuple[Modes, Reduction]:
+    """Normal modes of a deck's model, as NASTRAN SOL 103 computes them.
+
+    PARAM AUTOSPC (default YES) is honoured; DOF with neither stiffness nor mass are always
+    removed. Returns the modes and the constraint reduction used.
+    """
+    say = progress or (lambda s: None)
+    mats = matrices or assemble(model, Options())
+    say(f"assembled K and M: {model.n_dof} DOF, {mats.K.nnz} nonzeros in K")
+    red = build_reduction(deck, model)
+    K_aa, M_aa = red.reduce(mats.K), red.reduce(mats.M)
+    auto = _autospc_enabled(deck, model)
+    red = autospc(model, red, K_aa, M_aa, enabled=auto)
+    if len(red.autospc):
+        K_aa, M_aa = red.reduce(mats.K), red.reduce(mats.M)
+    req = request or eigen_request(deck)
+    say(f"a-set {len(red.a_dofs)} DOF; solving for modes")
+    res: EigenResult = solve_modes(K_aa, M_aa, req, progress=progress)
+    shapes = red.expand(res.vectors)
+    node = np.searchsorted(model.dof_start, red.autospc, side="right") - 1
+    comp = red.autospc - model.dof_start[node] + np.where(model.is_grid[node], 1, 0)
+    modes = Modes(
+        res.eigenvalues, res.generalized_mass, res.generalized_stiffness, np.asarray(shapes),
+        model.node_ids, model.dof_start, model.is_grid,
+        np.column_stack([model.node_ids[node], comp]), len(red.a_dofs), res.backend,
+    )  # fmt: skip
+    return modes, red
