@@ -117,8 +117,9 @@ def main(argv: list[str] | None = None) -> int:
                              capture_output=True, text=True).stdout  # fmt: skip
         r = json.loads(out.strip().splitlines()[-1])
         n_el = sum(r["elements"].values())
+        growth = r["peak_mb"] - r["before_mb"]
         print(f"| {label} | {r['n_dof']:,} | {n_el:,} | {r['nnz_K']:,} | {r['seconds']:.2f} | "
-              f"{r['peak_mb']:.0f} | {r['peak_mb'] - r['before_mb']:.0f} |", flush=True)  # fmt: skip
+              f"{r['peak_mb']:.0f} | {growth:.0f} |", flush=True)  # fmt: skip
     return 0
 
 

@@ -226,10 +226,11 @@ def beam_mass_local(
     """Local 12 x 12 mass of bars/beams.
 
     Lumped: half the mass at each end, on the translations. Coupled: along the axis the mean of
-    the lumped and the linear consistent matrices, across it the cubic Hermite consistent mass. ``torsion_inertia`` (n,): mass moment of inertia per
-    length about the axis (CBEAM: rho (I1 + I2) + NSI), half of it times L at each end's
-    rotation about x, in both cases; None for CBAR, which NASTRAN gives none. (The CBAR and
-    CBEAM masses match MSC Nastran on refdecks/cofe_svanberg_bar and _beam, ekm_swept_plane.)
+    the lumped and the linear consistent matrices, across it the cubic Hermite consistent mass.
+    ``torsion_inertia`` (n,): mass moment of inertia per length about the axis (CBEAM:
+    rho (I1 + I2) + NSI), half of it times L at each end's rotation about x, in both cases;
+    None for CBAR, which NASTRAN gives none. (These masses match NASTRAN on
+    refdecks/cofe_svanberg_bar and _beam, ekm_swept_plane and yeti_full_cbar_rbe2.)
     """
     n = len(L)
     m = mass_per_length * L
