@@ -7,9 +7,9 @@ import sys
 from collections.abc import Sequence
 
 from ..errors import FemcalError
-from . import info
+from . import info, solve
 
-_COMMANDS = {"info": info}
+_COMMANDS = {"info": info, "solve": solve}
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -119,6 +119,9 @@ def write_text_atomic(path: Path, lines: Iterable[str]) -> Path:
             for line in lines:
                 fh.write(line)
                 fh.write("\n")
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(tmp, 0o666 & ~mask)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
