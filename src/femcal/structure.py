@@ -26,6 +26,9 @@ from .materials import MaterialTables, mat1_moduli
 from .model.coords import displacement_frames
 from .model.model import ElementBlock, Model
 
+#: Elements per kernel call (bounds the kernels' temporary arrays).
+KERNEL_CHUNK = 8192
+
 
 @dataclass(frozen=True)
 class Matrices:
@@ -499,20 +502,32 @@ def _shells(ctx: _Context, block: ElementBlock, Ka: Assembler, Ma: Assembler) ->
     kernel = quad4_matrices if k == 4 else tria3_matrices
     total = 0.0
     for rigid in (False, True):
-        sel = np.flatnonzero(sec.shear_rigid == rigid)
-        if not len(sel):
-            continue
-        B = sec.B[sel] if sec.B[sel].any() else None
-        K, M = kernel(
-            xyz[sel], sec.A[sel], sec.D[sel], None if rigid else sec.S[sel], B,
-            rho_area=sec.rho_area[sel], nsm=sec.nsm[sel], zoffs=zoffs[sel], k6rot=ctx.k6rot,
-            coupled_mass=ctx.coupled,
-        )  # fmt: skip
-        Ka.add_blocks(block.nodes[sel], 6, K)
-        Ma.add_blocks(block.nodes[sel], 6, M)
-        area = _polygon_area(xyz[sel])
-        total += float(((sec.rho_area[sel] + sec.nsm[sel]) * area).sum())
+        group = np.flatnonzero(sec.shear_rigid == rigid)
+        for start in range(0, len(group), KERNEL_CHUNK):  # bounds the kernels' temporaries
+            sel = group[start : start + KERNEL_CHUNK]
+            B = sec.B[sel] if sec.B[sel].any() else None
+            K, M = kernel(
+                xyz[sel], sec.A[sel], sec.D[sel], None if rigid else sec.S[sel], B,
+                rho_area=sec.rho_area[sel], nsm=sec.nsm[sel], zoffs=zoffs[sel],
+                k6rot=ctx.k6rot, coupled_mass=ctx.coupled,
+            )  # fmt: skip
+            Ka.add_blocks(block.nodes[sel], 6, K)
+            Ma.add_blocks(block.nodes[sel], 6, M)
+        area = _polygon_area(xyz[group])
+        total += float(((sec.rho_area[group] + sec.nsm[group]) * area).sum())
     return total
+
+
+def _name_positions(message: str, ids: np.ndarray) -> str:
+    """Replace 'positions [i, j]' of a kernel's message by the element ids they stand for."""
+    import re
+
+    m = re.search(r"\[([\d, ]+)\]", message)
+    if not m:
+        return message
+    pos = [int(x) for x in m.group(1).split(",") if x.strip()]
+    named = [int(ids[p]) for p in pos if 0 <= p < len(ids)]
+    return message[: m.start()] + f"(element ids {named})" + message[m.end() :]
 
 
 def _polygon_area(xyz: np.ndarray) -> np.ndarray:
@@ -575,15 +590,19 @@ def _solids(ctx: _Context, block: ElementBlock, Ka: Assembler, Ma: Assembler) ->
         if not len(sel):
             continue
         matched[sel] = True
-        nodes = block.nodes[sel, :nn]
-        xyz = m.xyz[nodes]
-        try:
-            K, M = solid_matrices(kind, xyz, C[sel], rho[sel], coupled_mass=ctx.coupled)
-        except ValueError as e:
-            raise ModelError(f"{block.type} ({kind}): {e}", block.ids[sel][:20]) from None
-        Ka.add_blocks(nodes, 3, K)
-        Ma.add_blocks(nodes, 3, M)
-        total += float((rho[sel] * solid_volume(kind, xyz)).sum())
+        for start in range(0, len(sel), KERNEL_CHUNK):
+            part = sel[start : start + KERNEL_CHUNK]
+            nodes = block.nodes[part, :nn]
+            xyz = m.xyz[nodes]
+            try:
+                K, M = solid_matrices(kind, xyz, C[part], rho[part], coupled_mass=ctx.coupled)
+            except ValueError as e:
+                ids = block.ids[part]
+                raise ModelError(f"{block.type} ({kind}): {_name_positions(str(e), ids)}",
+                                 ids[:20]) from None  # fmt: skip
+            Ka.add_blocks(nodes, 3, K)
+            Ma.add_blocks(nodes, 3, M)
+            total += float((rho[part] * solid_volume(kind, xyz)).sum())
     if not matched.all():
         bad = block.ids[~matched][:20]
         raise ModelError(

@@ -1,0 +1,675 @@
+"""Shell element kernels: NASTRAN CQUAD4 and CTRIA3, all elements of a type at once.
+
+Element frame (:func:`shell_frame`)
+-----------------------------------
+* CQUAD4: ``z`` is the unit normal along ``(G3 - G1) x (G4 - G2)``; the diagonals
+  ``d1 = G3 - G1`` and ``d2 = G4 - G2`` are both perpendicular to it, so they already lie in
+  the mean plane. ``x = unit(d1/|d1| - d2/|d2|)``: the bisector of the angle between ``d1``
+  and ``-d2``, which for a rectangle is the ``G1 -> G2`` direction (the bisector of NASTRAN's
+  ``2 alpha`` diagonal angle that lies closest to ``G1 -> G2``); ``y = z x x``. The origin is
+  the mean of the four nodes.
+* CTRIA3: ``x`` from G1 to G2, ``z`` along ``(G2 - G1) x (G3 - G1)``, ``y = z x x``; origin at
+  the centroid.
+
+Kinematics and sign conventions (element frame)
+-----------------------------------------------
+Node DOFs are ``[u v w Rx Ry Rz]`` (T1..R3 in the element frame). The Reissner-Mindlin
+director rotations are ``beta_x = Ry`` and ``beta_y = -Rx``, so the in-plane displacement of
+a fibre at height ``z`` above the reference plane is ``u + z Ry``, ``v - z Rx`` and
+
+* membrane strain ``eps = [u,x, v,y, u,y + v,x]`` (engineering shear),
+* curvature ``kappa = [Ry,x, -Rx,y, Ry,y - Rx,x]``, so the in-plane strain at height ``z`` is
+  ``eps + z kappa`` and ``M = integral(sigma z dz)``: a positive ``M_x`` stretches the ``+z``
+  (Z2) fibre,
+* transverse shear ``gamma = [w,x + Ry, w,y - Rx]`` (order ``xz, yz``),
+* resultants ``N = A eps + B kappa``, ``M = B^T eps + D kappa``, ``Q = S gamma``, i.e.
+  ``B = integral(Q(z) z dz)`` about the reference plane.
+
+A plate in pure bending (``w`` quadratic, ``Rx = w,y``, ``Ry = -w,x``) has zero transverse
+shear and constant curvature ``kappa = -[w,xx, w,yy, 2 w,xy]``.
+
+CQUAD4 formulation
+------------------
+* Bending and transverse shear: MITC4 (Bathe & Dvorkin 1985). The covariant transverse shear
+  strains ``e_xi`` and ``e_eta`` are sampled at the edge midpoints ``(0, +-1)`` and
+  ``(+-1, 0)`` and interpolated linearly across the element, then mapped to Cartesian
+  ``gamma = J^-1 e`` at each Gauss point; 2x2 Gauss integration. This removes shear locking
+  and passes the constant-curvature patch test on distorted meshes.
+* Membrane: Allman-type quadrilateral with drilling rotations (Ibrahimbegovic, Taylor &
+  Wilson 1990): bilinear displacements plus, on each edge ``ij``, a serendipity midside
+  function carrying the normal displacement ``l (Rz_j - Rz_i) / 8`` along the outward normal;
+  2x2 Gauss. The quadratic edge terms are what relieves the bilinear element's in-plane shear
+  locking (a 10x1 in-plane cantilever of square elements is within 0.5 % of beam theory), but
+  elongated or distorted elements remain stiff in in-plane bending (MacNeal-Harder straight
+  beam, aspect ratio 5: 0.90 rectangular, 0.78 trapezoidal / parallelogram).
+  Wilson's incompatible modes (QM6) were tried on top and rejected: their ``1 - xi^2``,
+  ``1 - eta^2`` fields can cancel the strain of the Allman alternating-rotation mode, which
+  left a near-spurious membrane mode (eigenvalue down to 1e-13 of the largest on random
+  distorted shapes, 1e-6 typical).
+* Warped quadrilaterals: the element is flat, lying in the mean plane of the frame above. The
+  nodes' distances ``+-h`` from that plane are bridged by rigid links along the element normal
+  (the same device as ZOFFS below), which keeps the six rigid-body modes exact for a warped
+  element. No other warping correction is made.
+
+CTRIA3 formulation
+------------------
+* Membrane: Allman (1984) triangle: linear displacements plus the quadratic edge terms
+  ``4 L_i L_j l (Rz_j - Rz_i) / 8`` along each edge's outward normal (the same device as the
+  quadrilateral), integrated by the 3-point rule; with equal drilling rotations it is the
+  constant-strain triangle.
+* Bending: linear rotations, constant curvature. Transverse shear: MITC3 (Lee & Bathe 2004):
+  ``e_r = e_r(1) + c s``, ``e_s = e_s(2) - c r`` with ``c = e_s(2) - e_r(1) - e_s(3) + e_r(3)``
+  and tying points (1) ``(1/2, 0)``, (2) ``(0, 1/2)``, (3) ``(1/2, 1/2)``: the tangential shear
+  is constant along each edge. MITC3 is isotropic (independent of node numbering), has no
+  spurious zero-energy modes and passes the constant-curvature patch test; integrated by the
+  3-point rule (exact here).
+
+Drilling rotation (K6ROT)
+-------------------------
+The drilling rotation ``Rz`` enters the membrane through the Allman edge terms above, and the
+Hughes-Brezzi penalty ties it to the in-plane rotation ``omega = (v,x - u,y) / 2`` of the
+membrane field (including the Allman terms):
+``U_drill = 1/2 alpha integral((Rz - omega)^2 dA)`` with
+``alpha = (DRILL_GAMMA + k6rot * 1e-6) * A[2, 2]`` and ``DRILL_GAMMA = 1``, i.e. the
+``gamma = G`` recommended by Ibrahimbegovic, Taylor & Wilson, plus NASTRAN's K6ROT term
+``1e-6 K6ROT G t`` on top. ``Rz`` is the physical in-plane rotation (as in NASTRAN's CQUADR /
+CTRIAR, which ignore K6ROT); K6ROT changes results by about ``k6rot * 1e-6`` relative and
+``k6rot = 0`` does not make the drilling DOFs singular.
+
+Why not a small (MSC K6ROT-sized) penalty alone: a weak ``Rz``-``omega`` coupling lets the
+rotation about the normal at a node act as a partial hinge between non-coplanar neighbours
+(their out-of-plane rotations are different projections of the same nodal rotation). Measured
+on the MacNeal-Harder twisted beam (2x12 CQUAD4): ``gamma = 1e-4 G`` (K6ROT = 100 alone) is
+4.9 % / 11 % too flexible (in-plane / out-of-plane load), ``1e-2 G`` 0.9 % / 1.6 %, and
+``0.1 G`` to ``G`` within 0.4 %; with a bilinear + incompatible-modes membrane instead of
+Allman's and ``alpha = 1e-4 G t`` it was 3.9 times too flexible. The penalty is integrated
+with the element's full rule (2x2 Gauss, or the 3-point triangle rule), so a free element has
+exactly six zero-energy modes, the rigid-body motions (the Allman terms alone would leave an
+equal-``Rz`` mode).
+
+Shear-rigid plates (``S=None``)
+-------------------------------
+NASTRAN omits transverse shear flexibility when MID3 is blank. ``S=None`` emulates this with a
+stiff penalty ``S = 1e4 * trace(D) / area * I``, a shear-to-bending stiffness ratio of about
+``1e4`` on the scale of one element: far stiffer than the plate's bending, and well
+conditioned because MITC4/MITC3 do not lock.
+
+Offsets (ZOFFS)
+---------------
+The reference plane lies at ``zoffs`` along the element ``z`` axis from the grid plane. Each
+element node is connected to its grid by a rigid link of length ``d = zoffs - h_a`` along ``z``
+(``h_a`` the node's warping distance, 0 for a flat element): ``u_ref = u + d Ry``,
+``v_ref = v - d Rx``, ``w``, ``R`` unchanged. ``K`` and ``M`` are both transformed. For a flat
+element this is exactly the laminate ``B -> B + d A``, ``D -> D + d (B + B^T) + d^2 A`` about
+the grid plane, except for the drilling penalty, whose ``omega`` is that of the reference
+plane.
+
+Mass
+----
+Translational only, no rotary inertia in the reference plane; ``m = rho_area + nsm`` per unit
+area. Lumped (default): node ``a`` gets ``m integral(N_a dA)`` (the row sum of the consistent
+mass; ``area/4`` for a parallelogram, ``area/3`` for a triangle) on T1, T2 and T3. Coupled:
+``m integral(N_a N_b dA)`` on each translation with the node shape functions of the
+membrane (bilinear / linear; the Allman drilling terms carry no mass). The rigid
+offsets carry the mass to the grids (which then shows rotational terms at the grid), and the
+total translational mass stays ``m * area`` (projected area for warped quads).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+__all__ = ["quad4_matrices", "shell_frame", "tria3_matrices"]
+
+#: Ratio of the penalty transverse shear stiffness to ``trace(D) / area`` for ``S=None``.
+SHEAR_RIGID_PENALTY = 1.0e4
+#: Drilling penalty: ``alpha = (DRILL_GAMMA + k6rot * DRILL_SCALE) * A[2, 2]``.
+DRILL_GAMMA = 1.0
+DRILL_SCALE = 1.0e-6
+
+_G = 1.0 / np.sqrt(3.0)
+_GAUSS_2X2 = ((-_G, -_G), (_G, -_G), (_G, _G), (-_G, _G))
+_XI = np.array([-1.0, 1.0, 1.0, -1.0])
+_ETA = np.array([-1.0, -1.0, 1.0, 1.0])
+# 3-point triangle rule (degree 2) in area coordinates (r, s); weights sum to 1/2.
+_TRI_POINTS = ((1.0 / 6.0, 1.0 / 6.0), (2.0 / 3.0, 1.0 / 6.0), (1.0 / 6.0, 2.0 / 3.0))
+_TRI_WEIGHT = 1.0 / 6.0
+
+
+def _unit(v: np.ndarray, what: str) -> np.ndarray:
+    """Normalise the rows of ``v`` (n, 3); raise on zero-length rows."""
+    nrm = np.linalg.norm(v, axis=-1)
+    bad = ~(nrm > 0.0)
+    if np.any(bad):
+        raise ValueError(
+            f"degenerate shell geometry ({what}) for element index(es) "
+            f"{np.flatnonzero(bad)[:10].tolist()}"
+        )
+    return v / nrm[:, None]
+
+
+def shell_frame(xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Element frame of CQUAD4 / CTRIA3 elements (see the module docstring).
+
+    Parameters
+    ----------
+    xyz : ndarray, shape (n, 4, 3) or (n, 3, 3)
+        Node coordinates in basic, NASTRAN order G1..G4 (or G1..G3), length units.
+
+    Returns
+    -------
+    T : ndarray, shape (n, 3, 3)
+        Rows are the element x, y, z unit axes in basic, so ``T @ v_basic`` gives the
+        element-frame components of a vector.
+    centre : ndarray, shape (n, 3)
+        Frame origin in basic (mean of the nodes), length units.
+    """
+    xyz = np.asarray(xyz, dtype=float)
+    if xyz.ndim != 3 or xyz.shape[2] != 3 or xyz.shape[1] not in (3, 4):
+        raise ValueError(f"xyz must have shape (n, 3 or 4, 3), got {xyz.shape}")
+    centre = xyz.mean(axis=1)
+    if xyz.shape[1] == 4:
+        d1 = xyz[:, 2] - xyz[:, 0]
+        d2 = xyz[:, 3] - xyz[:, 1]
+        z = _unit(np.cross(d1, d2), "normal")
+        x = _unit(d1, "diagonal G1-G3") - _unit(d2, "diagonal G2-G4")
+    else:
+        x = xyz[:, 1] - xyz[:, 0]
+        z = _unit(np.cross(x, xyz[:, 2] - xyz[:, 0]), "normal")
+    x = x - np.einsum("ei,ei->e", x, z)[:, None] * z
+    x = _unit(x, "x axis")
+    y = np.cross(z, x)
+    return np.stack([x, y, z], axis=1), centre
+
+
+# ----------------------------------------------------------------------------------------
+# Input handling
+# ----------------------------------------------------------------------------------------
+
+
+def _per_elem(a: ArrayLike | None, n: int, shape: tuple[int, ...], name: str) -> np.ndarray:
+    """Broadcast ``a`` to (n, *shape) as a float array (a copy)."""
+    arr = np.asarray(0.0 if a is None else a, dtype=float)
+    try:
+        return np.array(np.broadcast_to(arr, (n, *shape)), dtype=float)
+    except ValueError as exc:
+        raise ValueError(
+            f"{name} of shape {arr.shape} does not broadcast to {(n, *shape)}"
+        ) from exc
+
+
+def _constitutive(A: np.ndarray, D: np.ndarray, S: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """Generalised constitutive matrix (n, 8, 8) for [eps(3), kappa(3), gamma(2)]."""
+    n = A.shape[0]
+    C = np.zeros((n, 8, 8))
+    C[:, 0:3, 0:3] = A
+    C[:, 0:3, 3:6] = B
+    C[:, 3:6, 0:3] = np.swapaxes(B, 1, 2)
+    C[:, 3:6, 3:6] = D
+    C[:, 6:8, 6:8] = S
+    return C
+
+
+def _prepare(
+    xyz: ArrayLike,
+    n_nodes: int,
+    A: ArrayLike,
+    D: ArrayLike,
+    S: ArrayLike | None,
+    B: ArrayLike | None,
+    rho_area: ArrayLike,
+    nsm: ArrayLike,
+    zoffs: ArrayLike,
+    k6rot: ArrayLike,
+) -> tuple[np.ndarray, ...]:
+    """Validate and broadcast the kernel inputs; compute frame and local node coordinates.
+
+    Returns ``T, xl, h, A, D, S (or None), B, m, zoffs, alpha`` with ``xl`` (n, nn, 2) the
+    in-plane local coordinates, ``h`` (n, nn) the warping distances, ``m`` the mass per area
+    and ``alpha`` the drilling penalty modulus.
+    """
+    xyz = np.asarray(xyz, dtype=float)
+    if xyz.ndim != 3 or xyz.shape[1:] != (n_nodes, 3):
+        raise ValueError(f"xyz must have shape (n, {n_nodes}, 3), got {xyz.shape}")
+    n = xyz.shape[0]
+    T, centre = shell_frame(xyz)
+    p = np.einsum("eij,eaj->eai", T, xyz - centre[:, None, :])
+    A = _per_elem(A, n, (3, 3), "A")
+    D = _per_elem(D, n, (3, 3), "D")
+    B = _per_elem(B, n, (3, 3), "B")
+    S_arr = None if S is None else _per_elem(S, n, (2, 2), "S")
+    m = _per_elem(rho_area, n, (), "rho_area") + _per_elem(nsm, n, (), "nsm")
+    zoffs = _per_elem(zoffs, n, (), "zoffs")
+    alpha = (DRILL_GAMMA + _per_elem(k6rot, n, (), "k6rot") * DRILL_SCALE) * A[:, 2, 2]
+    return T, p[..., :2], p[..., 2], A, D, S_arr, B, m, zoffs, alpha
+
+
+def _shear_penalty(D: np.ndarray, area: np.ndarray) -> np.ndarray:
+    """Shear-rigid penalty S (n, 2, 2) = 1e4 * trace(D) / area * I."""
+    s = SHEAR_RIGID_PENALTY * np.trace(D, axis1=1, axis2=2) / area
+    return s[:, None, None] * np.eye(2)
+
+
+# ----------------------------------------------------------------------------------------
+# Strain-displacement rows (element frame, 6 DOFs per node: u v w Rx Ry Rz)
+# ----------------------------------------------------------------------------------------
+
+
+def _allman_coefficients(xl: np.ndarray, edges: tuple[tuple[int, int], ...]) -> np.ndarray:
+    """Allman edge coefficients (n, 2, n_edges, nn): bubble k's (u, v) amplitude per Rz_a.
+
+    Edge ``k`` from node ``i`` to ``j`` (counter-clockwise) has midside normal displacement
+    ``l (Rz_j - Rz_i) / 8`` along its outward normal, i.e. ``(du, dv) = (y_j - y_i,
+    x_i - x_j) (Rz_j - Rz_i) / 8``.
+    """
+    n, nn, _ = xl.shape
+    G = np.zeros((n, 2, len(edges), nn))
+    for k, (i, j) in enumerate(edges):
+        du = (xl[:, j, 1] - xl[:, i, 1]) / 8.0
+        dv = (xl[:, i, 0] - xl[:, j, 0]) / 8.0
+        for comp, dd in ((0, du), (1, dv)):
+            G[:, comp, k, j] += dd
+            G[:, comp, k, i] -= dd
+    return G
+
+
+def _membrane_bending_rows(dNxy: np.ndarray, dNbxy: np.ndarray, Gal: np.ndarray) -> np.ndarray:
+    """Rows (n, 6, 6 nn) of [eps, kappa].
+
+    ``dNxy`` (n, 2, nn) Cartesian derivatives of the node shape functions, ``dNbxy``
+    (n, 2, n_edges) of the Allman edge bubbles, ``Gal`` (n, 2, n_edges, nn) from
+    :func:`_allman_coefficients`.
+    """
+    n, _, nn = dNxy.shape
+    # d(u, v)/d(x, y) per Rz_a: (n, comp, deriv, nn)
+    dR = np.einsum("edk,ecka->ecda", dNbxy, Gal)
+    Bm = np.zeros((n, 6, 6 * nn))
+    for a in range(nn):
+        dx, dy = dNxy[:, 0, a], dNxy[:, 1, a]
+        c = 6 * a
+        Bm[:, 0, c] = dx
+        Bm[:, 1, c + 1] = dy
+        Bm[:, 2, c] = dy
+        Bm[:, 2, c + 1] = dx
+        Bm[:, 0, c + 5] = dR[:, 0, 0, a]
+        Bm[:, 1, c + 5] = dR[:, 1, 1, a]
+        Bm[:, 2, c + 5] = dR[:, 0, 1, a] + dR[:, 1, 0, a]
+        # beta_x = Ry, beta_y = -Rx
+        Bm[:, 3, c + 4] = dx
+        Bm[:, 4, c + 3] = -dy
+        Bm[:, 5, c + 4] = dy
+        Bm[:, 5, c + 3] = -dx
+    return Bm
+
+
+def _covariant_shear_rows(N: np.ndarray, dN: np.ndarray, xl: np.ndarray) -> np.ndarray:
+    """Rows (n, 2, 6 nn) of the covariant transverse shear strains at one natural point.
+
+    ``e_r = w,r + beta . x,r`` for r in (xi, eta); ``N`` (nn,), ``dN`` (2, nn) natural
+    derivatives, ``xl`` (n, nn, 2) local node coordinates.
+    """
+    n, nn, _ = xl.shape
+    J = np.einsum("ra,eai->eri", dN, xl)  # rows: d(x, y)/d(r)
+    rows = np.zeros((n, 2, 6 * nn))
+    for a in range(nn):
+        c = 6 * a
+        rows[:, :, c + 2] = dN[:, a]
+        rows[:, :, c + 4] = N[a] * J[:, :, 0]  # beta_x = Ry
+        rows[:, :, c + 3] = -N[a] * J[:, :, 1]  # beta_y = -Rx
+    return rows
+
+
+def _drill_row(
+    N: np.ndarray,
+    dNxy: np.ndarray,
+    dNbxy: np.ndarray,
+    Gal: np.ndarray,
+) -> np.ndarray:
+    """Row (n, 6 nn) of ``Rz - (v,x - u,y) / 2`` (membrane field including Allman terms)."""
+    n, _, nn = dNxy.shape
+    dR = np.einsum("edk,ecka->ecda", dNbxy, Gal)
+    r = np.zeros((n, 6 * nn))
+    for a in range(nn):
+        c = 6 * a
+        r[:, c] = 0.5 * dNxy[:, 1, a]
+        r[:, c + 1] = -0.5 * dNxy[:, 0, a]
+        r[:, c + 5] = N[a] - 0.5 * (dR[:, 1, 0, a] - dR[:, 0, 1, a])
+    return r
+
+
+def _quad_shape(xi: float, eta: float) -> tuple[np.ndarray, np.ndarray]:
+    """Bilinear shape functions (4,) and natural derivatives (2, 4) at (xi, eta)."""
+    N = 0.25 * (1.0 + xi * _XI) * (1.0 + eta * _ETA)
+    dN = np.stack([0.25 * _XI * (1.0 + eta * _ETA), 0.25 * _ETA * (1.0 + xi * _XI)])
+    return N, dN
+
+
+def _quad_bubbles(xi: float, eta: float) -> np.ndarray:
+    """Natural derivatives (2, 4) of the serendipity midside functions of edges 12 23 34 41."""
+    return np.array(
+        [
+            [-xi * (1 - eta), 0.5 * (1 - eta * eta), -xi * (1 + eta), -0.5 * (1 - eta * eta)],
+            [-0.5 * (1 - xi * xi), -(1 + xi) * eta, 0.5 * (1 - xi * xi), -(1 - xi) * eta],
+        ]
+    )
+
+
+def _tri_shape(r: float, s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Linear triangle shape functions (3,) and natural derivatives (2, 3) at (r, s)."""
+    N = np.array([1.0 - r - s, r, s])
+    dN = np.array([[-1.0, 1.0, 0.0], [-1.0, 0.0, 1.0]])
+    return N, dN
+
+
+def _tri_bubbles(r: float, s: float) -> np.ndarray:
+    """Natural derivatives (2, 3) of the midside functions 4 L_i L_j of edges 12 23 31."""
+    t = 1.0 - r - s
+    return 4.0 * np.array([[t - r, s, -s], [-r, r, t - s]])
+
+
+_QUAD_EDGES = ((0, 1), (1, 2), (2, 3), (3, 0))
+_TRI_EDGES = ((0, 1), (1, 2), (2, 0))
+
+
+# ----------------------------------------------------------------------------------------
+# Element-frame matrices
+# ----------------------------------------------------------------------------------------
+
+
+def _quad4_local(
+    xl: np.ndarray,
+    A: np.ndarray,
+    D: np.ndarray,
+    S: np.ndarray | None,
+    B: np.ndarray,
+    alpha: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Element-frame stiffness (n, 24, 24), int(N_a) (n, 4) and int(N_a N_b) (n, 4, 4)."""
+    n = xl.shape[0]
+    jac = [np.einsum("ra,eai->eri", _quad_shape(xi, eta)[1], xl) for xi, eta in _GAUSS_2X2]
+    detJ = [np.linalg.det(J) for J in jac]
+    if np.any(np.stack(detJ) <= 0.0):
+        bad = np.flatnonzero(np.any(np.stack(detJ) <= 0.0, axis=0))
+        raise ValueError(
+            f"CQUAD4 with non-positive Jacobian (concave or twisted) at element "
+            f"index(es) {bad[:10].tolist()}"
+        )
+    area = np.sum(detJ, axis=0)
+    if S is None:
+        S = _shear_penalty(D, area)
+    C = _constitutive(A, D, S, B)
+
+    # Covariant transverse shear strains at the MITC4 tying points (edge midpoints).
+    tie = {
+        pt: _covariant_shear_rows(*_quad_shape(*pt), xl)
+        for pt in ((0.0, -1.0), (0.0, 1.0), (-1.0, 0.0), (1.0, 0.0))
+    }
+
+    Gal = _allman_coefficients(xl, _QUAD_EDGES)
+    # Per Gauss point q: weighted rows sqrt(w det J) B_q (8 generalised strains + 1 drilling
+    # residual), stacked so that K is one batched product over all points.
+    rows = np.zeros((n, 4, 9, 24))
+    Nint = np.zeros((n, 4))
+    Mcons = np.zeros((n, 4, 4))
+    for q, ((xi, eta), J, dJ) in enumerate(zip(_GAUSS_2X2, jac, detJ, strict=True)):
+        N, dN = _quad_shape(xi, eta)
+        Jinv = np.linalg.inv(J)
+        dNxy = np.einsum("eir,ra->eia", Jinv, dN)
+        dNbxy = np.einsum("eir,rk->eik", Jinv, _quad_bubbles(xi, eta))
+        Bg = np.zeros((n, 8, 24))
+        Bg[:, 0:6] = _membrane_bending_rows(dNxy, dNbxy, Gal)
+        e_xi = 0.5 * (1.0 - eta) * tie[0.0, -1.0][:, 0] + 0.5 * (1.0 + eta) * tie[0.0, 1.0][:, 0]
+        e_eta = 0.5 * (1.0 - xi) * tie[-1.0, 0.0][:, 1] + 0.5 * (1.0 + xi) * tie[1.0, 0.0][:, 1]
+        Bg[:, 6:8] = Jinv @ np.stack([e_xi, e_eta], axis=1)
+
+        rows[:, q, :8] = np.sqrt(dJ)[:, None, None] * Bg
+        rows[:, q, 8] = np.sqrt(alpha * dJ)[:, None] * _drill_row(N, dNxy, dNbxy, Gal)
+        Nint += dJ[:, None] * N
+        Mcons += dJ[:, None, None] * np.outer(N, N)
+
+    # sum_q rows_q^T diag(C, 1) rows_q as one product over the stacked points.
+    C9 = np.zeros((n, 9, 9))
+    C9[:, :8, :8] = C
+    C9[:, 8, 8] = 1.0
+    CR = (C9[:, None] @ rows).reshape(n, 36, 24)
+    K = np.swapaxes(rows.reshape(n, 36, 24), 1, 2) @ CR
+    return K, Nint, Mcons
+
+
+def _tria3_local(
+    xl: np.ndarray,
+    A: np.ndarray,
+    D: np.ndarray,
+    S: np.ndarray | None,
+    B: np.ndarray,
+    alpha: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Element-frame stiffness (n, 18, 18), int(N_a) (n, 3) and int(N_a N_b) (n, 3, 3)."""
+    n = xl.shape[0]
+    _, dN = _tri_shape(0.0, 0.0)
+    J = np.einsum("ra,eai->eri", dN, xl)
+    detJ = np.linalg.det(J)
+    if np.any(detJ <= 0.0):
+        raise ValueError(
+            f"CTRIA3 with zero area at element index(es) "
+            f"{np.flatnonzero(detJ <= 0.0)[:10].tolist()}"
+        )
+    area = 0.5 * detJ
+    if S is None:
+        S = _shear_penalty(D, area)
+    C = _constitutive(A, D, S, B)
+    Jinv = np.linalg.inv(J)
+    dNxy = np.einsum("eir,ra->eia", Jinv, dN)
+    Gal = _allman_coefficients(xl, _TRI_EDGES)
+
+    # MITC3 tying: e_r at (1/2, 0), e_s at (0, 1/2), both at (1/2, 1/2).
+    t1 = _covariant_shear_rows(*_tri_shape(0.5, 0.0), xl)[:, 0]
+    t2 = _covariant_shear_rows(*_tri_shape(0.0, 0.5), xl)[:, 1]
+    t3 = _covariant_shear_rows(*_tri_shape(0.5, 0.5), xl)
+    c = t2 - t1 - t3[:, 1] + t3[:, 0]
+
+    K = np.zeros((n, 18, 18))
+    Nint = np.zeros((n, 3))
+    Mcons = np.zeros((n, 3, 3))
+    for r, s in _TRI_POINTS:
+        N, _ = _tri_shape(r, s)
+        dNbxy = np.einsum("eir,rk->eik", Jinv, _tri_bubbles(r, s))
+        Bg = np.zeros((n, 8, 18))
+        Bg[:, 0:6] = _membrane_bending_rows(dNxy, dNbxy, Gal)
+        e = np.stack([t1 + s * c, t2 - r * c], axis=1)
+        Bg[:, 6:8] = Jinv @ e
+        w = _TRI_WEIGHT * detJ
+        K += w[:, None, None] * (np.swapaxes(Bg, 1, 2) @ (C @ Bg))
+        rd = _drill_row(N, dNxy, dNbxy, Gal)
+        K += (alpha * w)[:, None, None] * rd[:, :, None] * rd[:, None, :]
+        Nint += w[:, None] * N
+        Mcons += w[:, None, None] * np.outer(N, N)
+    return K, Nint, Mcons
+
+
+def _offset(X: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """``R^T X R`` (element frame) for the rigid links ``u_ref = u + d Ry``, ``v_ref = v - d Rx``.
+
+    ``X`` (n, k, k) acts on reference-plane DOFs, ``d`` (n, nn) link lengths; returns a new
+    array acting on the grid DOFs. ``R = I + E`` is applied as column, then row operations.
+    """
+    n, k, _ = X.shape
+    nn = k // 6
+    X = X.copy()
+    X6 = X.reshape(n, k, nn, 6)  # columns split per node
+    X6[..., 4] += d[:, None, :] * X6[..., 0]
+    X6[..., 3] -= d[:, None, :] * X6[..., 1]
+    X6 = X.reshape(n, nn, 6, k)  # rows split per node
+    X6[:, :, 4] += d[:, :, None] * X6[:, :, 0]
+    X6[:, :, 3] -= d[:, :, None] * X6[:, :, 1]
+    return X
+
+
+def _rotate(X: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """``L^T X L`` with ``L = blockdiag(T, T, ...)``: element-frame (n, k, k) -> basic."""
+    n, k, _ = X.shape
+    nb = k // 3
+    Y = (X.reshape(n, k, nb, 3) @ T[:, None, :, :]).reshape(n, nb, 3, k)
+    return (np.swapaxes(T, 1, 2)[:, None, :, :] @ Y).reshape(n, k, k)
+
+
+def _to_basic(
+    K: np.ndarray,
+    Nint: np.ndarray,
+    Mcons: np.ndarray,
+    m: np.ndarray,
+    T: np.ndarray,
+    d: np.ndarray,
+    coupled_mass: bool,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Element-frame K and translational mass -> basic-frame K, M through the rigid offsets.
+
+    ``d`` (n, nn) is each node's link length along the element z axis (grid -> reference).
+    """
+    n, nn = Nint.shape
+    k = 6 * nn
+    M = np.zeros((n, k, k))
+    idx = 6 * np.arange(nn)
+    if coupled_mass:
+        Mt = m[:, None, None] * Mcons
+        for i in range(3):
+            M[:, (idx + i)[:, None], (idx + i)[None, :]] = Mt
+    else:
+        mt = m[:, None] * Nint
+        for i in range(3):
+            M[:, idx + i, idx + i] = mt
+
+    Kb = _rotate(_offset(K, d), T)
+    Mb = _rotate(_offset(M, d), T)
+    Kb = 0.5 * (Kb + np.swapaxes(Kb, 1, 2))
+    Mb = 0.5 * (Mb + np.swapaxes(Mb, 1, 2))
+    return Kb, Mb
+
+
+def quad4_matrices(
+    xyz: np.ndarray,
+    A: ArrayLike,
+    D: ArrayLike,
+    S: ArrayLike | None,
+    B: ArrayLike | None = None,
+    *,
+    rho_area: ArrayLike,
+    nsm: ArrayLike = 0.0,
+    zoffs: ArrayLike = 0.0,
+    k6rot: ArrayLike = 100.0,
+    coupled_mass: bool = False,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Stiffness and mass of CQUAD4 elements: MITC4 bending/shear, Allman (ITW) membrane.
+
+    Formulation, sign conventions, drilling, offsets and mass: see the module docstring.
+
+    Parameters
+    ----------
+    xyz : ndarray, shape (n, 4, 3)
+        Node coordinates in basic, NASTRAN order (counter-clockwise about the normal), length.
+    A : array_like, shape (n, 3, 3) or (3, 3)
+        Membrane stiffness, ``N = A eps`` (force/length), element frame, order xx, yy, xy
+        (engineering shear). Isotropic: ``t E / (1 - nu^2) [[1, nu, 0], [nu, 1, 0],
+        [0, 0, (1 - nu) / 2]]``.
+    D : array_like, shape (n, 3, 3) or (3, 3)
+        Bending stiffness, ``M = D kappa`` (force length / length); curvature convention in
+        the module docstring. Isotropic: ``t^3 / 12`` times the matrix above.
+    S : array_like, shape (n, 2, 2) or (2, 2), or None
+        Transverse shear stiffness, ``Q = S gamma`` (force/length), order xz, yz; isotropic
+        ``5/6 t G I``. None: shear-rigid (Kirchhoff) behaviour by the penalty
+        ``1e4 trace(D) / area I``.
+    B : array_like, shape (n, 3, 3) or (3, 3), optional
+        Membrane-bending coupling, ``N = A eps + B kappa``, ``M = B^T eps + D kappa``
+        (force); None is zero.
+    rho_area : array_like, shape (n,) or scalar
+        Structural mass per unit area (``rho t``), mass/length^2.
+    nsm : array_like, shape (n,) or scalar
+        Non-structural mass per unit area, mass/length^2.
+    zoffs : array_like, shape (n,) or scalar
+        Offset of the reference plane from the grid plane along the element z axis
+        (NASTRAN ZOFFS), length. Rigid links, applied to K and M.
+    k6rot : array_like, shape (n,) or scalar
+        NASTRAN PARAM K6ROT: adds ``k6rot * 1e-6 * A[2, 2]`` to the drilling penalty modulus
+        ``A[2, 2]`` (see the module docstring; the drilling DOFs are never singular).
+    coupled_mass : bool
+        False: lumped translational mass (row sums of the consistent mass). True: consistent
+        translational mass. No rotary inertia either way.
+
+    Returns
+    -------
+    K : ndarray, shape (n, 24, 24)
+        Stiffness in basic, DOFs ``[T1 T2 T3 R1 R2 R3]`` node by node (force/length,
+        force, force*length blocks). Symmetric.
+    M : ndarray, shape (n, 24, 24)
+        Mass in basic, same DOF order (mass, mass*length, mass*length^2 blocks). Symmetric.
+    """
+    T, xl, h, A_, D_, S_, B_, m, zo, alpha = _prepare(
+        xyz, 4, A, D, S, B, rho_area, nsm, zoffs, k6rot
+    )
+    K, Nint, Mcons = _quad4_local(xl, A_, D_, S_, B_, alpha)
+    return _to_basic(K, Nint, Mcons, m, T, zo[:, None] - h, coupled_mass)
+
+
+def tria3_matrices(
+    xyz: np.ndarray,
+    A: ArrayLike,
+    D: ArrayLike,
+    S: ArrayLike | None,
+    B: ArrayLike | None = None,
+    *,
+    rho_area: ArrayLike,
+    nsm: ArrayLike = 0.0,
+    zoffs: ArrayLike = 0.0,
+    k6rot: ArrayLike = 100.0,
+    coupled_mass: bool = False,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Stiffness and mass of CTRIA3 elements: Allman membrane, MITC3 bending/shear.
+
+    Formulation, sign conventions, drilling, offsets and mass: see the module docstring.
+
+    Parameters
+    ----------
+    xyz : ndarray, shape (n, 3, 3)
+        Node coordinates in basic, NASTRAN order (counter-clockwise about the normal), length.
+    A : array_like, shape (n, 3, 3) or (3, 3)
+        Membrane stiffness, ``N = A eps`` (force/length), element frame, order xx, yy, xy
+        (engineering shear). Isotropic: ``t E / (1 - nu^2) [[1, nu, 0], [nu, 1, 0],
+        [0, 0, (1 - nu) / 2]]``.
+    D : array_like, shape (n, 3, 3) or (3, 3)
+        Bending stiffness, ``M = D kappa`` (force length / length); curvature convention in
+        the module docstring. Isotropic: ``t^3 / 12`` times the matrix above.
+    S : array_like, shape (n, 2, 2) or (2, 2), or None
+        Transverse shear stiffness, ``Q = S gamma`` (force/length), order xz, yz; isotropic
+        ``5/6 t G I``. None: shear-rigid (Kirchhoff) behaviour by the penalty
+        ``1e4 trace(D) / area I``.
+    B : array_like, shape (n, 3, 3) or (3, 3), optional
+        Membrane-bending coupling, ``N = A eps + B kappa``, ``M = B^T eps + D kappa``
+        (force); None is zero.
+    rho_area : array_like, shape (n,) or scalar
+        Structural mass per unit area (``rho t``), mass/length^2.
+    nsm : array_like, shape (n,) or scalar
+        Non-structural mass per unit area, mass/length^2.
+    zoffs : array_like, shape (n,) or scalar
+        Offset of the reference plane from the grid plane along the element z axis
+        (NASTRAN ZOFFS), length. Rigid links, applied to K and M.
+    k6rot : array_like, shape (n,) or scalar
+        NASTRAN PARAM K6ROT: adds ``k6rot * 1e-6 * A[2, 2]`` to the drilling penalty modulus
+        ``A[2, 2]`` (see the module docstring; the drilling DOFs are never singular).
+    coupled_mass : bool
+        False: lumped translational mass (row sums of the consistent mass). True: consistent
+        translational mass. No rotary inertia either way.
+
+    Returns
+    -------
+    K : ndarray, shape (n, 18, 18)
+        Stiffness in basic, DOFs ``[T1 T2 T3 R1 R2 R3]`` node by node (force/length,
+        force, force*length blocks). Symmetric.
+    M : ndarray, shape (n, 18, 18)
+        Mass in basic, same DOF order (mass, mass*length, mass*length^2 blocks). Symmetric.
+    """
+    T, xl, h, A_, D_, S_, B_, m, zo, alpha = _prepare(
+        xyz, 3, A, D, S, B, rho_area, nsm, zoffs, k6rot
+    )
+    K, Nint, Mcons = _tria3_local(xl, A_, D_, S_, B_, alpha)
+    return _to_basic(K, Nint, Mcons, m, T, zo[:, None] - h, coupled_mass)
