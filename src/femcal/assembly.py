@@ -90,6 +90,32 @@ class Pattern:
         indices = expanded[gather].astype(itype)
         return cls(n, n_dof, dof_start, ndof, dof_node, indptr, indices, keys, prefix)
 
+    def pair_index(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """Index into ``keys``/``prefix`` of node pairs (a, b), any shape; ValueError if absent."""
+        key = a * self.n_nodes + b
+        q = np.minimum(np.searchsorted(self.keys, key), len(self.keys) - 1)
+        if not np.array_equal(self.keys[q], key):
+            bad = np.flatnonzero((self.keys[q] != key).ravel())[0]
+            raise ValueError(
+                f"node pair ({a.ravel()[bad]}, {b.ravel()[bad]}) is not in the sparsity "
+                "pattern (an element was left out when the pattern was built)"
+            )
+        return q
+
+    def block_positions(self, nodes: np.ndarray, d: int) -> np.ndarray:
+        """CSR data positions (n, k*d, k*d) of element matrices on nodes (n, k), all present,
+        with d DOF per node in node-major order."""
+        n, k = nodes.shape
+        q = self.pair_index(nodes[:, :, None], nodes[:, None, :])  # (n, k, k)
+        comp = np.arange(d)
+        rowstart = self.indptr[self.dof_start[nodes][:, :, None] + comp]  # (n, k, d)
+        pos = (
+            rowstart[:, :, :, None, None]
+            + self.prefix[q][:, :, None, :, None]
+            + comp[None, None, None, None, :]
+        )
+        return pos.reshape(n, k * d, k * d)
+
     def positions(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
         """Places in the CSR data array of entries (row DOF, column DOF), any shape."""
         nr = self.dof_node[rows]
@@ -106,20 +132,24 @@ class Pattern:
 
 
 class Assembler:
-    """Accumulates element matrices into one g-set matrix with a fixed :class:`Pattern`."""
+    """Accumulates element matrices into g-set matrices sharing one :class:`Pattern`.
 
-    def __init__(self, pattern: Pattern, frames: np.ndarray | None = None):
+    ``n_matrices`` matrices (e.g. K and M) are accumulated together, so the scatter positions
+    of an element block are computed once for all of them.
+    """
+
+    def __init__(self, pattern: Pattern, frames: np.ndarray | None = None, n_matrices: int = 1):
         """``frames``: (n_nodes, 3, 3) displacement frames (columns = axes in basic); element
         matrices given in basic are rotated into them. None: every frame is basic."""
         self.pattern = pattern
-        self.data = np.zeros(pattern.nnz)
+        self.data = [np.zeros(pattern.nnz) for _ in range(n_matrices)]
         self.frames = frames
         self._basic = (
             None if frames is None else np.all(np.abs(frames - np.eye(3)) < 1e-15, axis=(1, 2))
         )
 
-    def add_blocks(self, nodes: np.ndarray, dof_per_node: int, mats: np.ndarray) -> None:
-        """Add element matrices.
+    def add_blocks(self, nodes: np.ndarray, dof_per_node: int, *mats: np.ndarray | None) -> None:
+        """Add element matrices, one array per accumulated matrix (None to skip one).
 
         Parameters
         ----------
@@ -132,20 +162,25 @@ class Assembler:
         d = dof_per_node
         for s in range(0, n, CHUNK_ELEMENTS):
             nd = nodes[s : s + CHUNK_ELEMENTS]
-            m = mats[s : s + CHUNK_ELEMENTS]
-            m = self._rotate(nd, d, m)
+            chunk = [None if m is None else self._rotate(nd, d, m[s : s + CHUNK_ELEMENTS])
+                     for m in mats]  # fmt: skip
+            if (nd >= 0).all():
+                pos = self.pattern.block_positions(nd, d).ravel()
+                for target, m in zip(self.data, chunk, strict=False):
+                    if m is not None:
+                        np.add.at(target, pos, m.ravel())
+                continue
             safe = np.where(nd < 0, 0, nd)
             dofs = (self.pattern.dof_start[safe][:, :, None] + np.arange(d)).reshape(len(nd), -1)
             present = np.repeat(nd >= 0, d, axis=1)
-            rows = np.broadcast_to(dofs[:, :, None], m.shape)
-            cols = np.broadcast_to(dofs[:, None, :], m.shape)
             keep = present[:, :, None] & present[:, None, :]
-            if keep.all():
-                pos = self.pattern.positions(rows, cols)
-                np.add.at(self.data, pos.ravel(), m.ravel())
-            else:
-                pos = self.pattern.positions(rows[keep], cols[keep])
-                np.add.at(self.data, pos, m[keep])
+            shape = (len(nd), dofs.shape[1], dofs.shape[1])
+            rows = np.broadcast_to(dofs[:, :, None], shape)[keep]
+            cols = np.broadcast_to(dofs[:, None, :], shape)[keep]
+            pos = self.pattern.positions(rows, cols)
+            for target, m in zip(self.data, chunk, strict=False):
+                if m is not None:
+                    np.add.at(target, pos, m[keep])
 
     def _rotate(self, nodes: np.ndarray, d: int, m: np.ndarray) -> np.ndarray:
         if self.frames is None:
@@ -160,12 +195,16 @@ class Assembler:
         out = np.einsum("nami,napmbql,nblj->napibqj", F, m5, F, optimize=True)
         return out.reshape(m.shape)
 
-    def add_entries(self, rows: np.ndarray, cols: np.ndarray, vals: np.ndarray) -> None:
-        """Add single entries (g-set DOF, already in the nodes' displacement frames)."""
+    def add_entries(self, rows: np.ndarray, cols: np.ndarray, vals: np.ndarray,
+                    which: int = 0) -> None:  # fmt: skip
+        """Add single entries (g-set DOF, already in the nodes' displacement frames) to matrix
+        number ``which``."""
         if len(rows):
-            np.add.at(self.data, self.pattern.positions(rows, cols), vals)
+            np.add.at(self.data[which], self.pattern.positions(rows, cols), vals)
 
-    def matrix(self) -> sp.csr_matrix:
-        """The assembled matrix (a copy of the accumulated data)."""
+    def matrix(self, which: int = 0) -> sp.csr_matrix:
+        """Assembled matrix number ``which`` (a copy of the accumulated data)."""
         p = self.pattern
-        return sp.csr_matrix((self.data.copy(), p.indices, p.indptr), shape=(p.n_dof, p.n_dof))
+        return sp.csr_matrix(
+            (self.data[which].copy(), p.indices, p.indptr), shape=(p.n_dof, p.n_dof)
+        )

@@ -82,19 +82,18 @@ def assemble(model: Model, options: Options | None = None) -> Matrices:
     ndof = np.where(model.is_grid, 6, 1)
     pairs = [_pairs(b) for b in model.elements.values()]
     pattern = Pattern.build(model.dof_start, ndof, pairs)
-    Ka = Assembler(pattern, model.cd_frames)
-    Ma = Assembler(pattern, model.cd_frames)
+    asm = Assembler(pattern, model.cd_frames, n_matrices=2)  # K and M
     ctx = _Context(model, coupled, k6rot)
     masses: dict[str, float] = {}
     for etype, block in model.elements.items():
         handler = _HANDLERS.get(etype)
         if handler is None:
             raise ModelError(f"{etype} stiffness and mass are not implemented yet", block.ids[:20])
-        masses[etype] = handler(ctx, block, Ka, Ma)
-    M = Ma.matrix()
+        masses[etype] = handler(ctx, block, asm)
+    M = asm.matrix(1)
     if wtmass != 1.0:
         M = M * wtmass
-    return Matrices(Ka.matrix(), M, masses)
+    return Matrices(asm.matrix(0), M, masses)
 
 
 def _pairs(block: ElementBlock) -> np.ndarray:
@@ -156,7 +155,7 @@ def _property(model: Model, card: str, block: ElementBlock, rows_of: str = "pid"
 # ----------------------------------------------------------------------------- rods
 
 
-def _rods(ctx: _Context, block: ElementBlock, Ka: Assembler, Ma: Assembler) -> float:
+def _rods(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
     m = ctx.model
     xyz = m.xyz[block.nodes]
     if block.type == "CONROD":
@@ -177,8 +176,7 @@ def _rods(ctx: _Context, block: ElementBlock, Ka: Assembler, Ma: Assembler) -> f
         mids = t["mid"][rows]
     mat = ctx.mat1(mids, block.type, block.ids)
     K, M = rod_matrices(xyz, mat["E"], mat["G"], A, J, mat["rho"], nsm, coupled_mass=ctx.coupled)
-    Ka.add_blocks(block.nodes, 6, K)
-    Ma.add_blocks(block.nodes, 6, M)
+    asm.add_blocks(block.nodes, 6, K, M)
     L = np.linalg.norm(xyz[:, 1] - xyz[:, 0], axis=1)
     return float(((mat["rho"] * A + nsm) * L).sum())
 
@@ -236,7 +234,7 @@ def _offsets(ctx: _Context, block: ElementBlock, offt: np.ndarray, v: np.ndarray
     return wa, wb
 
 
-def _bars(ctx: _Context, block: ElementBlock, Ka: Assembler, Ma: Assembler) -> float:
+def _bars(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
     m = ctx.model
     n = len(block)
     xyz = m.xyz[block.nodes]
@@ -273,13 +271,12 @@ def _bars(ctx: _Context, block: ElementBlock, Ka: Assembler, Ma: Assembler) -> f
         xyz, v, wa, wb, mat["E"], mat["G"], section, k1, k2, mpl,
         pa=_pins(block.data["pa"]), pb=_pins(block.data["pb"]), coupled_mass=ctx.coupled,
     )  # fmt: skip
-    Ka.add_blocks(block.nodes, 6, K)
-    Ma.add_blocks(block.nodes, 6, M)
+    asm.add_blocks(block.nodes, 6, K, M)
     L = np.linalg.norm((xyz[:, 1] + wb) - (xyz[:, 0] + wa), axis=1)
     return float((mpl * L).sum())
 
 
-def _beams(ctx: _Context, block: ElementBlock, Ka: Assembler, Ma: Assembler) -> float:
+def _beams(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
     from .elements.line import _GAUSS_W, _GAUSS_X
 
     m = ctx.model
@@ -339,8 +336,7 @@ def _beams(ctx: _Context, block: ElementBlock, Ka: Assembler, Ma: Assembler) -> 
         pa=_pins(block.data["pa"]), pb=_pins(block.data["pb"]), coupled_mass=ctx.coupled,
         torsion_inertia=polar,
     )  # fmt: skip
-    Ka.add_blocks(block.nodes, 6, K)
-    Ma.add_blocks(block.nodes, 6, M)
+    asm.add_blocks(block.nodes, 6, K, M)
     L = np.linalg.norm((xyz[:, 1] + wb) - (xyz[:, 0] + wa), axis=1)
     return float((mpl * L).sum())
 
@@ -366,7 +362,7 @@ def _all_done(done: np.ndarray, block: ElementBlock, what: str) -> None:
 # ----------------------------------------------------------------------------- bushes
 
 
-def _bushes(ctx: _Context, block: ElementBlock, Ka: Assembler, Ma: Assembler) -> float:
+def _bushes(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
     m = ctx.model
     n = len(block)
     d = block.data
@@ -407,14 +403,14 @@ def _bushes(ctx: _Context, block: ElementBlock, Ka: Assembler, Ma: Assembler) ->
         R[other], _ = line_frame(xyz[other, 0], xyz[other, 1], v)
     s = np.where(np.isnan(d["s"]), 0.5, d["s"])
     K = bush_matrices(xyz, R, k, s, grounded)
-    Ka.add_blocks(block.nodes, 6, K)
+    asm.add_blocks(block.nodes, 6, K, None)
     return 0.0
 
 
 # ----------------------------------------------------------------------------- scalar, masses
 
 
-def _scalar(ctx: _Context, block: ElementBlock, Ka: Assembler, Ma: Assembler) -> float:
+def _scalar(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
     m = ctx.model
     etype = block.type
     if etype in ("CELAS2", "CELAS4"):
@@ -436,8 +432,10 @@ def _scalar(ctx: _Context, block: ElementBlock, Ka: Assembler, Ma: Assembler) ->
             rows_.append(dof[sel, i])
             cols_.append(dof[sel, j])
             vals.append(value[sel] * (1.0 if i == j else -1.0))
-    target = Ka if etype.startswith("CELAS") else Ma
-    target.add_entries(np.concatenate(rows_), np.concatenate(cols_), np.concatenate(vals))
+    asm.add_entries(
+        np.concatenate(rows_), np.concatenate(cols_), np.concatenate(vals),
+        which=0 if etype.startswith("CELAS") else 1,
+    )  # fmt: skip
     return float(value.sum()) if etype.startswith("CMASS") else 0.0
 
 
@@ -457,7 +455,7 @@ def _frames_of(ctx: _Context, cids: np.ndarray, at: np.ndarray, block: ElementBl
     return T
 
 
-def _conm2(ctx: _Context, block: ElementBlock, Ka: Assembler, Ma: Assembler) -> float:
+def _conm2(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
     m = ctx.model
     d = block.data
     g = block.nodes[:, 0]
@@ -467,24 +465,24 @@ def _conm2(ctx: _Context, block: ElementBlock, Ka: Assembler, Ma: Assembler) -> 
     offset = np.where((cid == -1)[:, None], x - m.xyz[g], np.einsum("nij,nj->ni", T, x))
     inertia = np.column_stack([d[k] for k in ("i11", "i21", "i22", "i31", "i32", "i33")])
     M = conm2_matrix(d["m"], offset, inertia, T)
-    Ma.add_blocks(block.nodes, 6, M)
+    asm.add_blocks(block.nodes, 6, None, M)
     return float(d["m"].sum())
 
 
-def _conm1(ctx: _Context, block: ElementBlock, Ka: Assembler, Ma: Assembler) -> float:
+def _conm1(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
     m = ctx.model
     d = block.data
     g = block.nodes[:, 0]
     T = _frames_of(ctx, d["cid"], m.xyz[g], block)
     lower = np.column_stack([d[f"m{i}{j}"] for i in range(1, 7) for j in range(1, i + 1)])
-    Ma.add_blocks(block.nodes, 6, conm1_matrix(lower, T))
+    asm.add_blocks(block.nodes, 6, None, conm1_matrix(lower, T))
     return float(d["m11"].sum())
 
 
 # ----------------------------------------------------------------------------- shells, solids
 
 
-def _shells(ctx: _Context, block: ElementBlock, Ka: Assembler, Ma: Assembler) -> float:
+def _shells(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
     from .elements.shell import quad4_matrices, shell_frame, tria3_matrices
     from .shellsections import shell_sections
 
@@ -511,8 +509,7 @@ def _shells(ctx: _Context, block: ElementBlock, Ka: Assembler, Ma: Assembler) ->
                 rho_area=sec.rho_area[sel], nsm=sec.nsm[sel], zoffs=zoffs[sel],
                 k6rot=ctx.k6rot, coupled_mass=ctx.coupled,
             )  # fmt: skip
-            Ka.add_blocks(block.nodes[sel], 6, K)
-            Ma.add_blocks(block.nodes[sel], 6, M)
+            asm.add_blocks(block.nodes[sel], 6, K, M)
         area = _polygon_area(xyz[group])
         total += float(((sec.rho_area[group] + sec.nsm[group]) * area).sum())
     return total
@@ -571,7 +568,7 @@ _SOLID_KINDS = {
 }
 
 
-def _solids(ctx: _Context, block: ElementBlock, Ka: Assembler, Ma: Assembler) -> float:
+def _solids(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
     from .elements.solid import solid_matrices, solid_volume
 
     m = ctx.model
@@ -600,8 +597,7 @@ def _solids(ctx: _Context, block: ElementBlock, Ka: Assembler, Ma: Assembler) ->
                 ids = block.ids[part]
                 raise ModelError(f"{block.type} ({kind}): {_name_positions(str(e), ids)}",
                                  ids[:20]) from None  # fmt: skip
-            Ka.add_blocks(nodes, 3, K)
-            Ma.add_blocks(nodes, 3, M)
+            asm.add_blocks(nodes, 3, K, M)
             total += float((rho[part] * solid_volume(kind, xyz)).sum())
     if not matched.all():
         bad = block.ids[~matched][:20]
@@ -613,7 +609,7 @@ def _solids(ctx: _Context, block: ElementBlock, Ka: Assembler, Ma: Assembler) ->
     return total
 
 
-_Handler = Callable[[_Context, ElementBlock, Assembler, Assembler], float]
+_Handler = Callable[[_Context, ElementBlock, Assembler], float]
 _HANDLERS: dict[str, _Handler] = {
     "CROD": _rods,
     "CONROD": _rods,

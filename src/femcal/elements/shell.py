@@ -494,6 +494,8 @@ def _offset(X: np.ndarray, d: np.ndarray) -> np.ndarray:
     ``X`` (n, k, k) acts on reference-plane DOFs, ``d`` (n, nn) link lengths; returns a new
     array acting on the grid DOFs. ``R = I + E`` is applied as column, then row operations.
     """
+    if not d.any():  # no offset and no warping: the links are the identity
+        return X
     n, k, _ = X.shape
     nn = k // 6
     X = X.copy()
@@ -541,8 +543,10 @@ def _to_basic(
             M[:, idx + i, idx + i] = mt
 
     Kb = _rotate(_offset(K, d), T)
-    Mb = _rotate(_offset(M, d), T)
     Kb = 0.5 * (Kb + np.swapaxes(Kb, 1, 2))
+    if not coupled_mass and not d.any():
+        return Kb, M  # lumped m I per node is the same in every frame
+    Mb = _rotate(_offset(M, d), T)
     Mb = 0.5 * (Mb + np.swapaxes(Mb, 1, 2))
     return Kb, Mb
 

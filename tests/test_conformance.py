@@ -1,0 +1,92 @@
+"""SOL 103 conformance: every tier A and B reference deck against its NASTRAN run.
+
+Modes marked valid are matched in order: within 0.1 % for decks of rods, bars, beams,
+springs, masses and rigid elements, within 1 % for decks with shells or solids; reference
+modes near zero (below 1e-3 of the highest) must come out below that too. Tier C decks must
+solve or fail with a message naming what is not supported.
+
+Decks that do not meet their tolerance yet are listed in KNOWN_GAPS with the error measured
+and what is missing; they are strict xfails, so fixing one makes the suite say so.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from femcal.deck import read_deck
+from femcal.errors import FemcalError
+from femcal.model import build_model
+from femcal.sol103 import solve_sol103
+
+from .conftest import refdeck_cases
+
+SHELL_SOLID = {"CQUAD4", "CTRIA3", "CQUAD8", "CTRIA6", "CQUADR", "CTRIAR", "CSHEAR", "CHEXA",
+               "CPENTA", "CTETRA", "CPYRAM"}  # fmt: skip
+
+#: deck -> why it does not meet its tolerance yet (measured worst error in the text).
+KNOWN_GAPS = {
+    "pyn_fmondsp": "1.08 % (mode 8): tapered PBEAML TUBE/BOX beams; NASTRAN's shear factors "
+    "and taper interpolation for these library sections are not yet matched",
+    "pyn_modes_elements": "CSHEAR shear panels are not implemented",
+    "pyn_trncomp12": "CQUAD8/CTRIA6 quadratic shells are not implemented",
+    "pyn_tet10_simple": "23 % (mode 5): two 10-node tetrahedra; NASTRAN lies between femcal's "
+    "HRZ-lumped (-10..-23 %) and consistent (+9..+40 %) mass, so its CTETRA(10) lumped mass "
+    "(or stiffness) formulation is not yet matched",
+    "pyn_nx_sine_solid": "modes 1, 4, 7 off by +2.9 %, +18 %, +122 % (modes 2, 3, 5, 6 within "
+    "0.01 %), and mode 8 (near V2) not found: a rotational path (CBUSH with CID, RBE2 on solid "
+    "grids, CPYRAM/CTETRA4) differs from NASTRAN; not yet diagnosed",
+    "pyn_mode_solid_shell_bar": "1.39 % (mode 1), -1.16 % (mode 2): mixed CHEXA/CPENTA/CTETRA "
+    "with PCOMP and PSHELL shells; PENTA6 in-plane bending is stiff (known) and the PCOMP "
+    "transverse shear is an approximation; not yet diagnosed",
+}
+
+CASES = [
+    pytest.param(*c, id=c[0], marks=[pytest.mark.xfail(strict=True, reason=KNOWN_GAPS[c[0]])]
+                 if c[0] in KNOWN_GAPS else [])
+    for c in refdeck_cases()
+    if c[2].get("tier") in ("A", "B")
+]  # fmt: skip
+TIER_C = [c for c in refdeck_cases() if c[2].get("tier") == "C"]
+
+
+def tolerance(ref: dict) -> float:
+    cards = set(ref["deck"]["card_count"])
+    return 1e-2 if cards & SHELL_SOLID else 1e-3
+
+
+def worst_error(name, main, ref) -> tuple[float, int]:
+    deck = read_deck(main)
+    modes, _ = solve_sol103(deck, build_model(deck))
+    f = modes.frequencies_hz
+    valid = [m for m in ref["modes"] if m["valid"]]
+    assert len(f) >= len(valid), f"{len(f)} modes computed, {len(valid)} in the reference"
+    fmax = max(m["cycles_hz"] for m in valid)
+    worst, at = 0.0, 0
+    for m in valid:
+        ours, theirs = f[m["mode"] - 1], m["cycles_hz"]
+        if theirs < 1e-3 * fmax:
+            assert abs(ours) < 1e-3 * fmax, f"mode {m['mode']}: {ours} Hz, NASTRAN {theirs} Hz"
+            continue
+        err = abs(ours / theirs - 1.0)
+        if err > worst:
+            worst, at = err, m["mode"]
+    return worst, at
+
+
+@pytest.mark.parametrize(("name", "main", "ref"), CASES)
+def test_tier_a_b_decks_match_nastran(name, main, ref):
+    worst, at = worst_error(name, main, ref)
+    print(f"{name}: worst {worst:.2e} at mode {at} (tolerance {tolerance(ref):.0e})")
+    assert worst <= tolerance(ref), f"mode {at}: relative error {worst:.3e}"
+
+
+@pytest.mark.parametrize(("name", "main", "ref"), TIER_C, ids=[c[0] for c in TIER_C])
+def test_tier_c_decks_solve_or_say_why(name, main, ref):
+    try:
+        deck = read_deck(main)
+        modes, _ = solve_sol103(deck, build_model(deck))
+    except FemcalError as e:
+        assert "not supported" in str(e) or "not implemented" in str(e), str(e)
+    else:
+        assert np.isfinite(modes.frequencies_hz).all()
