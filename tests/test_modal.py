@@ -1,0 +1,84 @@
+"""Eigensolver paths agree: dense, Lanczos on CHOLMOD, Lanczos on SuperLU; EIGRL semantics."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from femcal import modal
+from femcal.cli import main
+from femcal.errors import SolverError
+from femcal.linalg import HAVE_CHOLMOD
+from femcal.modal import EigenRequest, solve_modes
+
+from .conftest import REFDECKS
+
+
+def chain(n: int) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+    """Free-free spring-mass chain: exact eigenvalues 2k/m (1 - cos(j pi / n)), j = 0..n-1."""
+    main_diag = np.full(n, 2.0)
+    main_diag[[0, -1]] = 1.0
+    K = sp.diags([main_diag, -np.ones(n - 1), -np.ones(n - 1)], [0, 1, -1], format="csr")
+    return K * 1e4, sp.identity(n, format="csr") * 2.0
+
+
+def exact(n: int) -> np.ndarray:
+    return 1e4 / 2.0 * 2 * (1 - np.cos(np.arange(n) * np.pi / n))
+
+
+@pytest.mark.parametrize("backend", ["superlu", "cholmod"])
+def test_lanczos_matches_closed_form_with_rigid_mode(backend):
+    if backend == "cholmod" and not HAVE_CHOLMOD:
+        pytest.skip("scikit-sparse not installed")
+    K, M = chain(2000)
+    r = solve_modes(K, M, EigenRequest(nd=8), backend=backend)
+    assert r.backend == backend
+    assert r.eigenvalues[0] == pytest.approx(0.0, abs=1e-6)
+    assert r.eigenvalues[1:] == pytest.approx(exact(2000)[1:8], rel=1e-8)
+    assert np.allclose(r.generalized_mass, 1.0)
+
+
+def test_dense_path_and_v1_v2_window(monkeypatch):
+    K, M = chain(50)
+    lam = exact(50)
+    f = np.sqrt(lam) / (2 * np.pi)
+    r = solve_modes(K, M, EigenRequest(v1=f[3] * 0.999, v2=f[9] * 1.001, nd=None))
+    assert r.backend == "dense" and r.eigenvalues == pytest.approx(lam[3:10], rel=1e-10)
+    monkeypatch.setattr(modal, "DENSE_LIMIT", 10)  # same window through Lanczos
+    r2 = solve_modes(K, M, EigenRequest(v1=f[3] * 0.999, v2=f[9] * 1.001, nd=None))
+    assert r2.backend != "dense" and r2.eigenvalues == pytest.approx(lam[3:10], rel=1e-8)
+
+
+def test_max_normalisation():
+    K, M = chain(30)
+    r = solve_modes(K, M, EigenRequest(nd=3, norm="MAX"))
+    assert np.allclose(np.abs(r.vectors).max(axis=0), 1.0)
+
+
+def test_mechanism_is_reported():
+    K = sp.diags([1.0, 0.0, 1.0], format="csr")
+    M = sp.diags([1.0, 0.0, 1.0], format="csr")
+    with pytest.raises(SolverError, match="mechanism"):
+        solve_modes(K, M, EigenRequest(nd=2))
+
+
+def test_cli_solve_writes_table_json_results_and_pictures(tmp_path, capsys):
+    deck = REFDECKS / "pyn_bah_wing" / "BAH_Plane_cont_gust_LINE5000000_10FREQs.bdf"
+    out = tmp_path / "out"
+    args = ["solve", str(deck), "--json", str(tmp_path / "m.json"), "--out", str(out),
+            "--png", str(tmp_path / "png"), "--modes", "3"]  # fmt: skip
+    assert main(args) == 0
+    printed = capsys.readouterr().out
+    assert "R E A L   E I G E N V A L U E S" in printed
+    data = json.loads((tmp_path / "m.json").read_text())
+    assert [m["mode"] for m in data["modes"]] == [1, 2, 3]
+    assert data["modes"][2]["frequency_hz"] == pytest.approx(2.45402, rel=1e-4)  # NASTRAN 2014.1
+    npz = np.load(out / "modes.npz")
+    assert npz["shapes"].shape == (data["n_dof"], 3)
+    assert (out / "modes.vtu").stat().st_size > 0 and (out / "eigenvalues.txt").exists()
+    pngs = sorted((tmp_path / "png").glob("mode_*.png"))
+    assert [p.name for p in pngs] == ["mode_001.png", "mode_002.png", "mode_003.png"]
+    assert all(p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in pngs)

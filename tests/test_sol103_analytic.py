@@ -1,0 +1,167 @@
+"""SOL 103 against closed-form answers: rigid bodies on springs through RBE2 and RBE3, a
+cantilever beam, a simply supported plate, a solid cantilever. Each reference value's source
+is given next to it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from femcal.deck import read_deck
+from femcal.errors import ModelError
+from femcal.model import build_model
+from femcal.sol103 import solve_sol103
+
+HEAD = "SOL 103\nCEND\nMETHOD = 1\nSPC = 1\nBEGIN BULK\n"
+
+
+def modes_of(write, text):
+    deck = read_deck(write(HEAD + text + "ENDDATA\n"))
+    modes, red = solve_sol103(deck, build_model(deck))
+    return modes, red
+
+
+def rigid_body_deck(link: str) -> str:
+    """A 2 t mass with inertia at grid 100 linked to 4 corner grids (+-a, +-b, 0), each held
+    by springs k in x, y and z."""
+    a, b = 400.0, 250.0
+    lines = ["EIGRL   1                       6", "CONM2   1       100             2.0",
+             "        1.+5            2.+5                    3.+5",
+             "GRID    100             0.      0.      0."]  # fmt: skip
+    corners = [(1, a, b), (2, -a, b), (3, -a, -b), (4, a, -b)]
+    for gid, x, y in corners:
+        lines.append(f"GRID,{gid},,{x},{y},0.")
+        for c in (1, 2, 3):
+            lines.append(f"CELAS2,{10 * gid + c},1000.,{gid},{c}")
+    if link == "RBE2":
+        lines.append("RBE2,500,100,123456,1,2,3,4")
+    else:  # the reference grid follows the corners' translations, equal weights
+        lines.append("RBE3,500,,100,123456,1.,123,1,2,+\n+,3,4")
+        lines.append("SPC1,1,456,1,2,3,4")  # corner rotations carry nothing
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize("link", ["RBE2", "RBE3"])
+def test_rigid_body_on_springs(write, link):
+    # Rigid body on springs (e.g. Thomson, Theory of Vibration, ch. 6): with the springs at
+    # the corners symmetric about the mass centre, the six modes uncouple:
+    # translations 4k/m; rotation about z: k sum(x^2 + y^2) / Izz; about x: k sum(y^2) / Ixx;
+    # about y: k sum(x^2) / Iyy.
+    k, m, a, b = 1000.0, 2.0, 400.0, 250.0
+    ixx, iyy, izz = 1e5, 2e5, 3e5
+    expected = sorted(
+        [4 * k / m] * 3 + [4 * k * (a * a + b * b) / izz, 4 * k * b * b / ixx, 4 * k * a * a / iyy]
+    )
+    modes, _ = modes_of(write, rigid_body_deck(link))
+    assert modes.eigenvalues[:6] == pytest.approx(expected, rel=1e-9)
+
+
+def test_cantilever_beam_frequencies(write):
+    # Euler-Bernoulli cantilever: omega_n = (beta_n L)^2 sqrt(E I / (rho A L^4)),
+    # beta_n L = 1.8751041, 4.6940911 (Blevins, Formulas for Natural Frequency, table 8-1).
+    L, n = 1000.0, 40
+    E, rho, A, I = 2.1e5, 7.85e-9, 100.0, 833.333
+    grids = "\n".join(f"GRID,{i + 1},,{L * i / n},0.,0." for i in range(n + 1))
+    bars = "\n".join(f"CBAR,{i + 1},1,{i + 1},{i + 2},0.,1.,0." for i in range(n))
+    text = (f"EIGRL   1                       4\nPARAM,COUPMASS,1\n{grids}\n{bars}\n"
+            f"PBAR,1,1,{A},{I},{I},{2 * I}\nMAT1,1,{E},,.3,{rho}\nSPC1,1,123456,1\n")  # fmt: skip
+    modes, _ = modes_of(write, text)
+    base = np.sqrt(E * I / (rho * A * L**4)) / (2 * np.pi)
+    f = modes.frequencies_hz
+    bending = np.sort(f)[[0, 2]]  # two bending planes are equal (I1 = I2)
+    assert bending == pytest.approx([1.8751041**2 * base, 4.6940911**2 * base], rel=1e-3)
+
+
+def test_simply_supported_plate(write):
+    # Kirchhoff plate, simply supported on all edges: omega_mn = pi^2 (m^2/a^2 + n^2/b^2)
+    # sqrt(D / (rho h)), D = E h^3 / (12 (1 - nu^2)) (Leissa, Vibration of Plates, NASA SP-160).
+    a, b, h, n = 600.0, 400.0, 4.0, (24, 16)
+    E, nu, rho = 7.0e4, 0.33, 2.7e-9
+    nx, ny = n
+    lines = ["EIGRL   1                       3", "PSHELL,1,1,4.,1,,1", f"MAT1,1,{E},,{nu},{rho}"]
+    gid = lambda i, j: j * (nx + 1) + i + 1  # noqa: E731
+    for j in range(ny + 1):
+        for i in range(nx + 1):
+            lines.append(f"GRID,{gid(i, j)},,{a * i / nx},{b * j / ny},0.")
+            if i in (0, nx) or j in (0, ny):
+                lines.append(f"SPC1,1,3,{gid(i, j)}")
+    for j in range(ny):
+        for i in range(nx):
+            g = gid(i, j)
+            lines.append(f"CQUAD4,{j * nx + i + 1},1,{g},{g + 1},{g + nx + 2},{g + nx + 1}")
+    lines.append("SPC1,1,126,1")  # in-plane rigid motion
+    lines.append(f"SPC1,1,2,{gid(nx, 0)}")
+    modes, _ = modes_of(write, "\n".join(lines) + "\n")
+    D = E * h**3 / (12 * (1 - nu**2))
+    f = lambda m, k: np.pi / 2 * (m**2 / a**2 + k**2 / b**2) * np.sqrt(D / (rho * h))  # noqa: E731
+    assert modes.frequencies_hz[:3] == pytest.approx(
+        sorted([f(1, 1), f(2, 1), f(1, 2)])[:3], rel=1e-2
+    )
+
+
+def test_solid_cantilever_first_bending(write):
+    # Slender cantilever of CHEXA (20 x 2 x 2), nu = 0: first bending frequency of the
+    # Euler-Bernoulli beam, 1.8751^2 sqrt(EI / (rho A L^4)) / (2 pi) (Blevins), within 1.5 %
+    # (shear and the clamped root's 3D effects take a little).
+    L, w, nx, nw = 400.0, 20.0, 20, 2
+    E, rho = 2.1e5, 7.85e-9
+    lines = ["EIGRL   1                       1", "PSOLID,1,1", f"MAT1,1,{E},,0.,{rho}"]
+    m = nw + 1
+    gid = lambda i, j, k: (i * m + j) * m + k + 1  # noqa: E731
+    for i in range(nx + 1):
+        for j in range(m):
+            for k in range(m):
+                lines.append(f"GRID,{gid(i, j, k)},,{L * i / nx},{w * j / nw},{w * k / nw}")
+                if i == 0:
+                    lines.append(f"SPC1,1,123,{gid(i, j, k)}")
+    e = 0
+    for i in range(nx):
+        for j in range(nw):
+            for k in range(nw):
+                e += 1
+                g = [gid(i, j, k), gid(i, j + 1, k), gid(i, j + 1, k + 1), gid(i, j, k + 1)]
+                g2 = [
+                    gid(i + 1, j, k),
+                    gid(i + 1, j + 1, k),
+                    gid(i + 1, j + 1, k + 1),
+                    gid(i + 1, j, k + 1),
+                ]
+                lines.append(f"CHEXA,{e},1,{','.join(map(str, g + g2[:2]))}\n,{g2[2]},{g2[3]}")
+    modes, _ = modes_of(write, "\n".join(lines) + "\n")
+    I = w**4 / 12
+    f1 = 1.8751041**2 * np.sqrt(E * I / (rho * w * w * L**4)) / (2 * np.pi)
+    assert modes.frequencies_hz[0] == pytest.approx(f1, rel=1.5e-2)
+
+
+def test_dependent_twice_is_an_error_naming_both(write):
+    text = ("EIGRL   1                       1\nGRID,1\nGRID,2,,1.\nGRID,3,,2.\n"
+            "RBE2,7,1,123456,2\nRBE2,8,3,123,2\nCONM2,1,1,,1.\n")  # fmt: skip
+    with pytest.raises(ModelError, match=r"dependent twice, by RBE2 7 and by RBE2 8"):
+        modes_of(write, text)
+
+
+def test_spc_on_dependent_dof_is_an_error(write):
+    text = "EIGRL   1                       1\nGRID,1\nGRID,2,,1.\nRBE2,7,1,123456,2\nSPC1,1,1,2\n"
+    with pytest.raises(ModelError, match=r"both constrained .* and dependent \(RBE2 7\)"):
+        modes_of(write, text)
+
+
+def test_rigid_chain_is_resolved(write):
+    # Mass at the end of a chain RBE2 1 -> 2 -> 3: the mass follows grid 1 rigidly, so a single
+    # spring k at grid 1 gives omega^2 = k / m.
+    text = ("EIGRL   1                       1\nGRID,1\nGRID,2,,1.\nGRID,3,,2.\n"
+            "RBE2,7,1,123456,2\nRBE2,8,2,123456,3\nCONM2,1,3,,2.\nCELAS2,5,50.,1,1\n"
+            "SPC1,1,23456,1\n")  # fmt: skip
+    modes, red = modes_of(write, text)
+    assert modes.eigenvalues[0] == pytest.approx(25.0)
+    assert len(red.dependent) == 12
+
+
+def test_autospc_reports_singular_rotations(write):
+    # Rods give no rotational stiffness: AUTOSPC fixes the rotations and says which.
+    text = ("EIGRL   1                       2\nGRID,1\nGRID,2,,1000.\nCROD,1,1,1,2\n"
+            "PROD,1,1,10.\nMAT1,1,2.1+5,,.3,7.85-9\nSPC1,1,123456,1\nSPC1,1,23,2\n")  # fmt: skip
+    modes, _ = modes_of(write, text)
+    assert sorted(map(tuple, modes.autospc.tolist())) == [(2, 4), (2, 5), (2, 6)]
+    E, rho, L = 2.1e5, 7.85e-9, 1000.0  # rod with lumped mass m/2 at the free end
+    assert modes.eigenvalues[0] == pytest.approx((E * 10 / L) / (rho * 10 * L / 2))
