@@ -66,7 +66,8 @@ class Pattern:
             p = p[(p >= 0).all(axis=1)]
             chunks.append(p[:, 0] * n + p[:, 1])
             chunks.append(p[:, 1] * n + p[:, 0])
-        keys = np.unique(np.concatenate(chunks))
+        keys = np.sort(np.concatenate(chunks))
+        keys = keys[np.concatenate([[True], keys[1:] != keys[:-1]])]
         a = keys // n
         b = keys % n
         blk = ndof[b].astype(np.int64)
@@ -83,11 +84,16 @@ class Pattern:
         # Column DOF of each node row (once), then repeated for each DOF of that node.
         total = int(cum[-1]) if len(cum) else 0
         expanded = np.repeat(dof_start[b], blk) + (np.arange(total) - np.repeat(cum - blk, blk))
-        itype = np.int32 if max(nnz, n_dof) < 2**31 - 1 else np.int64
-        gather = np.repeat(start_of_row[dof_node], row_len) + (
-            np.arange(nnz) - np.repeat(indptr[:-1], row_len)
-        )
-        indices = expanded[gather].astype(itype)
+        itype = np.int32 if max(nnz, n_dof, total) < 2**31 - 1 else np.int64
+        # gather[indptr[r] + t] = seg[r] + t: a running sum that jumps at each row start
+        seg = start_of_row[dof_node]
+        step = np.ones(nnz, dtype=itype)
+        step[0] = seg[0]
+        step[indptr[1:-1]] = seg[1:] - (seg[:-1] + row_len[:-1] - 1)
+        gather = np.cumsum(step, dtype=itype)
+        indices = expanded.astype(itype)[gather]
+        del step, gather
+        indptr = indptr.astype(itype)  # scipy wants indptr and indices of one dtype
         return cls(n, n_dof, dof_start, ndof, dof_node, indptr, indices, keys, prefix)
 
     def pair_index(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -203,8 +209,9 @@ class Assembler:
             np.add.at(self.data[which], self.pattern.positions(rows, cols), vals)
 
     def matrix(self, which: int = 0) -> sp.csr_matrix:
-        """Assembled matrix number ``which`` (a copy of the accumulated data)."""
+        """Assembled matrix number ``which``. It shares the accumulated data and the pattern's
+        index arrays (no copy): add nothing more to this matrix after taking it."""
         p = self.pattern
-        return sp.csr_matrix(
-            (self.data[which].copy(), p.indices, p.indptr), shape=(p.n_dof, p.n_dof)
-        )
+        m = sp.csr_matrix((p.n_dof, p.n_dof))
+        m.data, m.indices, m.indptr = self.data[which], p.indices, p.indptr
+        return m
