@@ -165,3 +165,24 @@ def test_autospc_reports_singular_rotations(write):
     assert sorted(map(tuple, modes.autospc.tolist())) == [(2, 4), (2, 5), (2, 6)]
     E, rho, L = 2.1e5, 7.85e-9, 1000.0  # rod with lumped mass m/2 at the free end
     assert modes.eigenvalues[0] == pytest.approx((E * 10 / L) / (rho * 10 * L / 2))
+
+
+def test_grid_point_weight_generator(write):
+    # Two masses: 2 t at (100, 0, 0) with inertia, 1 t at (0, 300, 50): total 3 t, centre of
+    # gravity (200/3, 100, 50/3); inertia about the CG by the parallel-axis theorem.
+    from femcal.structure import assemble
+    from femcal.weight import weight_summary
+
+    text = ("EIGRL   1                       1\nGRID,1,,100.,0.,0.\nGRID,2,,0.,300.,50.\n"
+            "CONM2,1,1,,2.,,,,,+\n+,10.,,20.,,,30.\nCONM2,2,2,,1.\n")  # fmt: skip
+    model = build_model(read_deck(write(HEAD + text + "ENDDATA\n")))
+    ws = weight_summary(model, assemble(model).M)
+    assert ws.mass == pytest.approx([3.0, 3.0, 3.0])
+    cg = np.array([200 / 3, 100.0, 50 / 3])
+    assert ws.cg[0, 1:] == pytest.approx(cg[1:]) and ws.cg[1, 0] == pytest.approx(cg[0])
+    r = np.array([[100.0, 0, 0], [0, 300.0, 50.0]]) - cg
+    m = np.array([2.0, 1.0])
+    expected = np.diag([10.0, 20.0, 30.0]) + sum(
+        mi * (ri @ ri * np.eye(3) - np.outer(ri, ri)) for mi, ri in zip(m, r, strict=True)
+    )
+    assert np.allclose(ws.inertia_cg, expected)

@@ -13,6 +13,8 @@ from ..deck.writer import write_text_atomic
 from ..model import build_model
 from ..results import eigen_table, modes_json, write_json, write_npz, write_vtu
 from ..sol103 import eigen_request, solve_sol103
+from ..structure import Options, assemble
+from ..weight import weight_summary, weight_table
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -39,7 +41,8 @@ def run(args: argparse.Namespace) -> int:
     request = eigen_request(deck)
     if args.modes is not None:
         request = replace(request, nd=args.modes)
-    modes, _ = solve_sol103(deck, model, request=request, progress=progress)
+    mats = assemble(model, Options())
+    modes, _ = solve_sol103(deck, model, matrices=mats, request=request, progress=progress)
     progress(f"{len(modes.eigenvalues)} modes ({modes.backend})")
     table = list(eigen_table(modes))
     print("\n".join(table))
@@ -48,6 +51,17 @@ def run(args: argparse.Namespace) -> int:
         more = f" and {len(modes.autospc) - 12} more" if len(modes.autospc) > 12 else ""
         print(f"\nAUTOSPC fixed {len(modes.autospc)} DOF (grid:component): {shown}{more}")
     summary = modes_json(modes, model)
+    grdpnt = model.params.get("GRDPNT")
+    if grdpnt and isinstance(grdpnt[0], int) and grdpnt[0] >= 0:
+        ws = weight_summary(model, mats.M, int(grdpnt[0]))
+        print()
+        print("\n".join(weight_table(ws)))
+        summary["weight"] = {
+            "reference": ws.reference.tolist(),
+            "mass": ws.mass.tolist(),
+            "cg": ws.cg.tolist(),
+            "inertia_cg": ws.inertia_cg.tolist(),
+        }
     if args.json:
         write_json(args.json, summary)
         progress(f"wrote {args.json}")
