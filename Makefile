@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.femcal-setup
 
-.PHONY: setup demo test test-slow lint bench-parse clean
+.PHONY: setup demo test test-slow lint bench-parse bench-assembly bench-eigen clean
 
 setup: $(STAMP)
 
@@ -14,9 +14,13 @@ $(STAMP): pyproject.toml
 	@bash tools/setup.sh
 	@touch $(STAMP)
 
+# The most complete job so far: read the bundled example, solve its normal modes, write the
+# table, JSON, NPZ, VTU (ParaView) and a picture per mode to out/.
 demo: setup
 	@mkdir -p out
 	$(VENV)/bin/femcal info models/examples/ladder_frame.bdf --json out/ladder_frame_info.json
+	$(VENV)/bin/femcal solve models/examples/ladder_frame.bdf --json out/ladder_frame_modes.json \
+		--out out/ladder_frame --png out/ladder_frame/png
 
 test: setup
 	$(PY) -m pytest -m "not slow" -q
@@ -30,6 +34,13 @@ lint: setup
 # Deck reading against pyNastran 1.4.1, which lives in its own environment (it pins NumPy < 2).
 bench-parse: setup .venv-bench/.ok
 	$(PY) benchmarks/parse.py
+
+bench-assembly: setup
+	$(PY) benchmarks/assembly.py
+
+bench-eigen: setup
+	@command -v ccx >/dev/null || { [ "$$(id -u)" = 0 ] && apt-get install -y -qq calculix-ccx >/dev/null; }
+	$(PY) benchmarks/eigen_vs_calculix.py
 
 .venv-bench/.ok:
 	python3 -m venv .venv-bench
