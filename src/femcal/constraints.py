@@ -47,7 +47,10 @@ class Reduction:
     dependent: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
     def reduce(self, A: sp.spmatrix) -> sp.csr_matrix:
-        """T^T A T."""
+        """T^T A T (a plain selection of rows and columns when nothing is dependent)."""
+        if len(self.dependent) == 0:
+            A = sp.csr_matrix(A)
+            return A[self.a_dofs][:, self.a_dofs].tocsr()
         T = self.T
         return (T.T @ (A @ T)).tocsr()
 

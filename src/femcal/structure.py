@@ -90,7 +90,8 @@ def assemble(model: Model, options: Options | None = None) -> Matrices:
         if handler is None:
             raise ModelError(f"{etype} stiffness and mass are not implemented yet", block.ids[:20])
         masses[etype] = handler(ctx, block, asm)
-    M = asm.matrix(1)
+    M = asm.matrix(1).copy()  # its own index arrays: K keeps the shared ones
+    M.eliminate_zeros()  # a lumped mass is (block) diagonal: keep only what it holds
     if wtmass != 1.0:
         M = M * wtmass
     return Matrices(asm.matrix(0), M, masses)
