@@ -76,9 +76,7 @@ class MaterialTables:
             card, row = self.where.get(mid, ("", 0))
             t = self.tables.get(card)
             if card == "MAT1":
-                E, G, nu = mat1_moduli(t["e"][row : row + 1], t["g"][row : row + 1],
-                                       t["nu"][row : row + 1])  # fmt: skip
-                E, G, nu = float(E[0]), float(G[0]), float(nu[0])
+                E, G, nu = _mat1_row(t, row)
                 c = E / (1.0 - nu * nu)
                 Q[i] = [[c, nu * c, 0.0], [nu * c, c, 0.0], [0.0, 0.0, G]]
                 Gt[i] = G * np.eye(2)
@@ -122,9 +120,8 @@ class MaterialTables:
             card, row = self.where.get(mid, ("", 0))
             t = self.tables.get(card)
             if card == "MAT1":
-                E, G, nu = mat1_moduli(t["e"][row : row + 1], t["g"][row : row + 1],
-                                       t["nu"][row : row + 1])  # fmt: skip
-                C[i] = isotropic_3d(float(E[0]), float(nu[0]), float(G[0]))
+                E, G, nu = _mat1_row(t, row)
+                C[i] = isotropic_3d(E, nu, G)
                 iso[i] = True
             elif card == "MAT9":
                 names = ["g11", "g12", "g13", "g14", "g15", "g16", "g22", "g23", "g24", "g25",
@@ -142,6 +139,12 @@ class MaterialTables:
                 )
             rho[i] = float(t["rho"][row])
         return C, rho, iso
+
+
+def _mat1_row(t: dict[str, np.ndarray], row: int) -> tuple[float, float, float]:
+    """E, G, NU of one MAT1 row after the completion rules."""
+    E, G, nu = mat1_moduli(t["e"][row : row + 1], t["g"][row : row + 1], t["nu"][row : row + 1])
+    return float(E[0]), float(G[0]), float(nu[0])
 
 
 def isotropic_3d(E: float, nu: float, G: float) -> np.ndarray:

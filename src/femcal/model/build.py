@@ -477,36 +477,34 @@ def _bar_orientation_defaults(
     return c
 
 
-def _properties(deck: Deck, p: _Problems) -> dict[str, object]:
-    props: dict[str, object] = {}
+def _id_cards(
+    deck: Deck, p: _Problems, cards: tuple[str, ...], id_col: str, what: str
+) -> dict[str, object]:
+    """Tables (dict of columns) or record lists of ``cards``, with ids unique across them."""
+    out: dict[str, object] = {}
     ids, locs = [], []
-    for name in PROPERTY_CARDS:
+    for name in cards:
         if name in deck.tables:
             t = deck.tables[name]
-            props[name] = t.columns
-            ids.append(t.columns["pid"])
+            out[name] = t.columns
+            ids.append(t.columns[id_col])
             locs.extend(zip(t.file.tolist(), t.line.tolist(), strict=True))
         elif name in deck.records:
             rl = deck.records[name]
-            props[name] = list(rl.items)
-            ids.append(np.array([r.pid for r in rl], np.int64))
+            out[name] = list(rl.items)
+            ids.append(np.array([getattr(r, id_col) for r in rl], np.int64))
             locs.extend(zip(rl.file, rl.line, strict=True))
     if ids:
-        _duplicates(p, "property", np.concatenate(ids), None, locs)
-    return props
+        _duplicates(p, what, np.concatenate(ids), None, locs)
+    return out
+
+
+def _properties(deck: Deck, p: _Problems) -> dict[str, object]:
+    return _id_cards(deck, p, PROPERTY_CARDS, "pid", "property")
 
 
 def _materials(deck: Deck, p: _Problems) -> dict[str, object]:
-    mats: dict[str, object] = {}
-    ids, locs = [], []
-    for name in MATERIAL_CARDS:
-        if name in deck.tables:
-            t = deck.tables[name]
-            mats[name] = t.columns
-            ids.append(t.columns["mid"])
-            locs.extend(zip(t.file.tolist(), t.line.tolist(), strict=True))
-    if ids:
-        _duplicates(p, "material", np.concatenate(ids), None, locs)
+    mats = _id_cards(deck, p, MATERIAL_CARDS, "mid", "material")
     t = deck.tables.get("MAT1")
     if t is not None:
         c = t.columns
