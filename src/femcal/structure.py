@@ -317,11 +317,13 @@ def _beams(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
             ns = np.array([s.nsm for s in p.stations])
             if len(xs) == 1:
                 xs, dims, ns = np.array([0.0, 1.0]), np.vstack([dims, dims]), np.r_[ns, ns]
-            at = np.column_stack(
-                [np.interp(_GAUSS_X, xs, dims[:, c]) for c in range(dims.shape[1])]
+            # NASTRAN turns PBEAML into a PBEAM: section properties at the stations,
+            # interpolated linearly between them
+            props = _section(p.type, dims, block, i)
+            section[i] = np.column_stack(
+                [np.interp(_GAUSS_X, xs, props[:, c]) for c in range(5)]
             )
-            section[i] = _section(p.type, at, block, i)
-            k1[i], k2[i] = shear_factors(p.type, at).mean(axis=0)
+            k1[i], k2[i] = shear_factors(p.type, dims).mean(axis=0)
             nsm[i] = np.interp(_GAUSS_X, xs, ns)
             mids[i] = p.mid
         else:
