@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Install what femcal needs, and nothing that is already there.
-#  1. Debian packages (only as root with apt-get): libsuitesparse-dev for CHOLMOD.
+#  1. Debian packages (only as root with apt-get): libsuitesparse-dev for CHOLMOD, and
+#     libopenblas0-pthread so that CHOLMOD's supernodal factorisation runs on OpenBLAS
+#     rather than the reference BLAS (about 3x faster factorisations).
 #  2. A virtual environment in .venv/ with `pip install -e .[dev]`.
 #  3. scikit-sparse 0.4.16 (CHOLMOD) when SuiteSparse headers exist; otherwise femcal
 #     runs with SciPy's SuperLU and this script says so.
@@ -13,14 +15,22 @@ have_cholmod_headers() {
     [ -f /usr/include/suitesparse/cholmod.h ] || [ -f /usr/include/cholmod.h ]
 }
 
-if ! have_cholmod_headers; then
+missing=()
+if command -v dpkg >/dev/null 2>&1; then
+    for pkg in libsuitesparse-dev libopenblas0-pthread; do
+        dpkg -s "$pkg" >/dev/null 2>&1 || missing+=("$pkg")
+    done
+elif ! have_cholmod_headers; then
+    missing+=(libsuitesparse-dev)
+fi
+if [ ${#missing[@]} -gt 0 ]; then
     if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then
-        say "installing libsuitesparse-dev with apt-get"
+        say "installing ${missing[*]} with apt-get"
         export DEBIAN_FRONTEND=noninteractive
         apt-get update -qq >/dev/null
-        apt-get install -y -qq libsuitesparse-dev >/dev/null
+        apt-get install -y -qq "${missing[@]}" >/dev/null
     else
-        say "no SuiteSparse headers and no root/apt-get: CHOLMOD skipped, SuperLU fallback in use"
+        say "missing ${missing[*]} and no root/apt-get: CHOLMOD may be skipped (SuperLU fallback)"
     fi
 fi
 
