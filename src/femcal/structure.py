@@ -320,9 +320,7 @@ def _beams(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
             # NASTRAN turns PBEAML into a PBEAM: section properties at the stations,
             # interpolated linearly between them
             props = _section(p.type, dims, block, i)
-            section[i] = np.column_stack(
-                [np.interp(_GAUSS_X, xs, props[:, c]) for c in range(5)]
-            )
+            section[i] = np.column_stack([np.interp(_GAUSS_X, xs, props[:, c]) for c in range(5)])
             k1[i], k2[i] = shear_factors(p.type, dims).mean(axis=0)
             nsm[i] = np.interp(_GAUSS_X, xs, ns)
             mids[i] = p.mid
@@ -563,6 +561,29 @@ def _material_angle(
     return theta
 
 
+def _shear_panels(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
+    from .elements.shear import shear_panel_matrices
+
+    m = ctx.model
+    t, rows = _property(m, "PSHEAR", block)
+    f1, f2 = t["f1"][rows], t["f2"][rows]
+    if ((f1 > 0) | (f2 > 0)).any():
+        bad = block.ids[(f1 > 0) | (f2 > 0)][:20]
+        raise ModelError(
+            f"CSHEAR {bad.tolist()}: PSHEAR F1/F2 (extensional edge stiffness) is not supported",
+            bad,
+        )
+    mat = ctx.mat1(t["mid"][rows], "CSHEAR", block.ids)
+    thick, nsm = t["t"][rows], t["nsm"][rows]
+    xyz = m.xyz[block.nodes]
+    try:
+        K, M = shear_panel_matrices(xyz, mat["G"], thick, mat["rho"] * thick + nsm)
+    except ValueError as e:
+        raise ModelError(f"CSHEAR: {_name_positions(str(e), block.ids)}", block.ids[:20]) from None
+    asm.add_blocks(block.nodes, 6, K, M)
+    return float(((mat["rho"] * thick + nsm) * _polygon_area(xyz)).sum())
+
+
 _SOLID_KINDS = {
     "CHEXA": ((8, "HEXA8"), (20, "HEXA20")),
     "CPENTA": ((6, "PENTA6"), (15, "PENTA15")),
@@ -634,6 +655,7 @@ _HANDLERS: dict[str, _Handler] = {
     "CTRIA3": _shells,
     "CQUADR": _shells,
     "CTRIAR": _shells,
+    "CSHEAR": _shear_panels,
     "CHEXA": _solids,
     "CPENTA": _solids,
     "CTETRA": _solids,
