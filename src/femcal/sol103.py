@@ -92,6 +92,46 @@ def _hz(v: float) -> float | None:
     return None if v is None or np.isnan(v) else float(v)
 
 
+#: Cards that make NASTRAN solve a reduced or different problem femcal does not solve yet.
+REDUCTION_CARDS = {
+    "ASET": "static (Guyan) reduction to an a-set",
+    "ASET1": "static (Guyan) reduction to an a-set",
+    "OMIT": "static (Guyan) reduction (omitted DOF)",
+    "OMIT1": "static (Guyan) reduction (omitted DOF)",
+    "BSET": "component modes with a fixed boundary set",
+    "BSET1": "component modes with a fixed boundary set",
+    "CSET": "component modes with a free boundary set",
+    "CSET1": "component modes with a free boundary set",
+    "QSET": "component mode synthesis (generalised coordinates)",
+    "QSET1": "component mode synthesis (generalised coordinates)",
+}
+#: Case control commands that change the eigenproblem.
+_CASE_REFUSED = {
+    "K2GG": "direct matrix input (DMIG) added to K",
+    "M2GG": "direct matrix input (DMIG) added to M",
+    "EXTSEOUT": "external superelement creation",
+}
+
+
+def check_supported(deck: Deck) -> None:
+    """Refuse decks whose SOL 103 answer depends on features femcal does not model, rather than
+    silently solving a different problem."""
+    found = [f"{c} ({why})" for c, why in REDUCTION_CARDS.items() if c in deck.card_count]
+    for _sid, cmds in deck.case.effective():
+        found += [f"case control {k} ({why})" for k, why in _CASE_REFUSED.items() if k in cmds]
+    found += [
+        f"case control {line.split()[0].upper()} ({_CASE_REFUSED['EXTSEOUT']})"
+        for line in deck.case.lines
+        if line.strip().upper().startswith("EXTSEOUT")
+    ]
+    if found:
+        raise ModelError(
+            "the deck uses features that change the SOL 103 answer and are not supported: "
+            + "; ".join(sorted(set(found)))
+            + " (femcal solves the full model)"
+        )
+
+
 def solve_sol103(
     deck: Deck,
     model: Model,
@@ -106,6 +146,7 @@ def solve_sol103(
     removed. Returns the modes and the constraint reduction used.
     """
     say = progress or (lambda s: None)
+    check_supported(deck)
     mats = matrices or assemble(model, Options())
     say(f"assembled K and M: {model.n_dof} DOF, {mats.K.nnz} nonzeros in K")
     red = build_reduction(deck, model)
