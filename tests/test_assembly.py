@@ -73,3 +73,18 @@ def test_entry_outside_the_pattern_is_refused():
         assert "not in the sparsity pattern" in str(e)
     else:
         raise AssertionError("an entry outside the pattern was accepted")
+
+
+def test_compact_drops_stored_zeros_and_keeps_empty_rows():
+    import scipy.sparse as sp
+
+    from femcal.structure import _compact
+
+    A = sp.csr_matrix(np.array([[1.0, 0, 2], [0, 0, 0], [0, 0, 3.0]]))
+    A.data[0] = 0.0  # a stored zero in row 0; row 1 has no entries at all
+    B = _compact(A)
+    assert B.nnz == 2 and np.array_equal(B.toarray(), A.toarray())
+    R = sp.random(60, 60, density=0.2, format="csr", random_state=3)
+    R.data[::4] = 0.0
+    C = _compact(R)
+    assert C.nnz == int((R.data != 0).sum()) and abs(C - R).max() == 0.0

@@ -90,11 +90,21 @@ def assemble(model: Model, options: Options | None = None) -> Matrices:
         if handler is None:
             raise ModelError(f"{etype} stiffness and mass are not implemented yet", block.ids[:20])
         masses[etype] = handler(ctx, block, asm)
-    M = asm.matrix(1).copy()  # its own index arrays: K keeps the shared ones
-    M.eliminate_zeros()  # a lumped mass is (block) diagonal: keep only what it holds
+    M = _compact(asm.matrix(1))  # a lumped mass is (block) diagonal: keep only what it holds
     if wtmass != 1.0:
         M = M * wtmass
     return Matrices(asm.matrix(0), M, masses)
+
+
+def _compact(A: sp.csr_matrix) -> sp.csr_matrix:
+    """A copy of A without its stored zeros, built from the nonzeros only (A shares its
+    index arrays with another matrix, so it is not compacted in place)."""
+    keep = A.data != 0
+    running = np.concatenate([[0], np.cumsum(keep)])
+    indptr = running[A.indptr].astype(A.indptr.dtype)  # nonzeros before each row
+    out = sp.csr_matrix(A.shape)
+    out.data, out.indices, out.indptr = A.data[keep], A.indices[keep], indptr
+    return out
 
 
 def _pairs(block: ElementBlock) -> np.ndarray:
