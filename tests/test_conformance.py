@@ -35,8 +35,9 @@ KNOWN_GAPS = {
     "HRZ-lumped (-10..-23 %) and consistent (+9..+40 %) mass, so its CTETRA(10) lumped mass "
     "(or stiffness) formulation is not yet matched",
     "pyn_nx_sine_solid": "modes 1, 4, 7 off by +2.9 %, +18 %, +122 % (modes 2, 3, 5, 6 within "
-    "0.01 %), and mode 8 (near V2) not found: a rotational path (CBUSH with CID, RBE2 on solid "
-    "grids, CPYRAM/CTETRA4) differs from NASTRAN; not yet diagnosed",
+    "0.01 %), and mode 8 (near V2) not found. Mode 7 keeps 92 % of its strain energy in the "
+    "thin CQUAD4 skins (PCOMP 40: 65 %, PSHELL 30: 28 %), which are too stiff here; the shell "
+    "drilling stiffness is ruled out (no change with 1e-4 of it); not yet found",
     "pyn_mode_solid_shell_bar": "1.39 % (mode 1), -1.16 % (mode 2): mixed CHEXA/CPENTA/CTETRA "
     "with PCOMP and PSHELL shells; PENTA6 in-plane bending is stiff (known) and the PCOMP "
     "transverse shear is an approximation; not yet diagnosed",
