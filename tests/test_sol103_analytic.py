@@ -186,3 +186,61 @@ def test_grid_point_weight_generator(write):
         mi * (ri @ ri * np.eye(3) - np.outer(ri, ri)) for mi, ri in zip(m, r, strict=True)
     )
     assert np.allclose(ws.inertia_cg, expected)
+
+
+def cquad8_plate(omit: bool, mpc: bool) -> str:
+    """A simply supported 6 x 4 CQUAD8 plate (the Leissa plate above). The first element's
+    midside node on the plate edge y = 0 is either omitted (omit) or kept and tied by MPCs to
+    the mean of its corners (mpc); both must give the same answer."""
+    a, b, nx, ny = 600.0, 400.0, 6, 4
+    E, nu, rho = 7.0e4, 0.33, 2.7e-9
+    lines = ["EIGRL   1                       3", "PSHELL,1,1,4.,1,,1", f"MAT1,1,{E},,{nu},{rho}"]
+    mx, my = 2 * nx + 1, 2 * ny + 1
+    gid = lambda i, j: j * mx + i + 1  # noqa: E731
+    for j in range(my):
+        for i in range(mx):
+            if (i % 2 and j % 2) or (omit and (i, j) == (1, 0)):
+                continue
+            lines.append(f"GRID,{gid(i, j)},,{a * i / (mx - 1)},{b * j / (my - 1)},0.")
+            if i in (0, mx - 1) or j in (0, my - 1):
+                lines.append(f"SPC1,1,3,{gid(i, j)}")
+    e = 0
+    for j in range(0, my - 1, 2):
+        for i in range(0, mx - 1, 2):
+            e += 1
+            c = [gid(i, j), gid(i + 2, j), gid(i + 2, j + 2), gid(i, j + 2)]
+            mid = [gid(i + 1, j), gid(i + 2, j + 1), gid(i + 1, j + 2), gid(i, j + 1)]
+            if omit and e == 1:
+                mid[0] = ""
+            lines.append(f"CQUAD8,{e},1,{','.join(map(str, c + mid[:2]))}\n,{mid[2]},{mid[3]}")
+    if mpc:
+        for comp in range(1, 7):
+            if comp != 3:  # w of the edge node is already simply supported
+                lines.append(
+                    f"MPC,1,{gid(1, 0)},{comp},1.,{gid(0, 0)},{comp},-.5,\n,,{gid(2, 0)},{comp},-.5"
+                )
+    lines.append("SPC1,1,126,1")
+    lines.append(f"SPC1,1,2,{gid(mx - 1, 0)}")
+    return "\n".join(lines) + "\n"
+
+
+def test_simply_supported_plate_of_cquad8(write):
+    # Leissa, as above: first mode within 1 % on 6 x 4 CQUAD8.
+    a, b, h = 600.0, 400.0, 4.0
+    E, nu, rho = 7.0e4, 0.33, 2.7e-9
+    modes, _ = modes_of(write, cquad8_plate(omit=False, mpc=False))
+    D = E * h**3 / (12 * (1 - nu**2))
+    f11 = np.pi / 2 * (1 / a**2 + 1 / b**2) * np.sqrt(D / (rho * h))
+    assert modes.frequencies_hz[0] == pytest.approx(f11, rel=1e-2)
+
+
+def test_omitted_midside_node_is_a_straight_edge(write):
+    # NASTRAN: an omitted midside node means the edge's motion is the mean of its corners.
+    # The same plate with the node present and tied to its corners by MPCs is the same model
+    # (stiffness and the node's share of the mass both follow the tie), so the modes agree.
+    omitted, _ = modes_of(write, cquad8_plate(omit=True, mpc=False))
+    deck_text = cquad8_plate(omit=False, mpc=True)
+    deck = read_deck(write(HEAD.replace("SPC = 1\n", "SPC = 1\nMPC = 1\n") + deck_text
+                           + "ENDDATA\n", "tied.bdf"))  # fmt: skip
+    tied, _ = solve_sol103(deck, build_model(deck))
+    assert omitted.frequencies_hz[:3] == pytest.approx(tied.frequencies_hz[:3], rel=1e-9)

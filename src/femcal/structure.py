@@ -495,20 +495,26 @@ def _conm1(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
 
 def _shells(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
     from .elements.shell import quad4_matrices, shell_frame, tria3_matrices
+    from .elements.shell_quadratic import quad8_matrices, tria6_matrices
     from .shellsections import shell_sections
 
     m = ctx.model
     k = block.nodes.shape[1]
-    xyz = m.xyz[block.nodes]
-    R, centre = shell_frame(xyz)
+    corners = 4 if block.type.startswith("CQUAD") else 3
+    edges = _MIDSIDE_EDGES.get(k, ())
+    xyz = m.xyz[np.where(block.nodes < 0, 0, block.nodes)]
+    for j, (a, b) in enumerate(edges, start=corners):  # omitted midside: straight edge
+        gone = block.nodes[:, j] < 0
+        xyz[gone, j] = 0.5 * (xyz[gone, a] + xyz[gone, b])
+    R, centre = shell_frame(xyz[:, :corners])
     theta = _material_angle(ctx, block, xyz, R, centre)
     d = block.data
-    et = np.column_stack([d[f"t{i}"] for i in range(1, k + 1)])
+    et = np.column_stack([d[f"t{i}"] for i in range(1, corners + 1)])
     sec = shell_sections(
         m.properties, ctx.materials, block.pids, block.ids, theta, et, d["tflag"], block.type
     )
     zoffs = np.where(np.isnan(d["zoffs"]), 0.0, d["zoffs"])
-    kernel = quad4_matrices if k == 4 else tria3_matrices
+    kernel = {4: quad4_matrices, 3: tria3_matrices, 8: quad8_matrices, 6: tria6_matrices}[k]
     total = 0.0
     for rigid in (False, True):
         group = np.flatnonzero(sec.shear_rigid == rigid)
@@ -520,8 +526,13 @@ def _shells(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
                 rho_area=sec.rho_area[sel], nsm=sec.nsm[sel], zoffs=zoffs[sel],
                 k6rot=ctx.k6rot, coupled_mass=ctx.coupled,
             )  # fmt: skip
+            for j, (a, b) in enumerate(edges, start=corners):
+                gone = block.nodes[sel, j] < 0
+                if gone.any():
+                    K[gone] = _tie_midside(K[gone], j, a, b)
+                    M[gone] = _tie_midside(M[gone], j, a, b)
             asm.add_blocks(block.nodes[sel], 6, K, M)
-        area = _polygon_area(xyz[group])
+        area = _polygon_area(xyz[group][:, :corners])
         total += float(((sec.rho_area[group] + sec.nsm[group]) * area).sum())
     return total
 
@@ -536,6 +547,24 @@ def _name_positions(message: str, ids: np.ndarray) -> str:
     pos = [int(x) for x in m.group(1).split(",") if x.strip()]
     named = [int(ids[p]) for p in pos if 0 <= p < len(ids)]
     return message[: m.start()] + f"(element ids {named})" + message[m.end() :]
+
+
+#: Corner pairs of the midside nodes of 8- and 6-node shells (NASTRAN order).
+_MIDSIDE_EDGES = {8: ((0, 1), (1, 2), (2, 3), (3, 0)), 6: ((0, 1), (1, 2), (2, 0))}
+
+
+def _tie_midside(X: np.ndarray, j: int, a: int, b: int) -> np.ndarray:
+    """Element matrices (n, 6k, 6k) with node j's motion tied to the mean of corners a and b
+    (NASTRAN's omitted midside node: a straight edge); node j's rows and columns become zero."""
+    X = X.copy()
+    J, A, B = (slice(6 * i, 6 * i + 6) for i in (j, a, b))
+    X[:, :, A] += 0.5 * X[:, :, J]
+    X[:, :, B] += 0.5 * X[:, :, J]
+    X[:, A, :] += 0.5 * X[:, J, :]
+    X[:, B, :] += 0.5 * X[:, J, :]
+    X[:, J, :] = 0.0
+    X[:, :, J] = 0.0
+    return X
 
 
 def _polygon_area(xyz: np.ndarray) -> np.ndarray:
@@ -665,6 +694,8 @@ _HANDLERS: dict[str, _Handler] = {
     "CTRIA3": _shells,
     "CQUADR": _shells,
     "CTRIAR": _shells,
+    "CQUAD8": _shells,
+    "CTRIA6": _shells,
     "CSHEAR": _shear_panels,
     "CHEXA": _solids,
     "CPENTA": _solids,
