@@ -9,7 +9,8 @@ element (TFLAG 0: values, 1: fractions of T), else T; their mean over the nodes 
 
 PCOMP (classical lamination theory): plies from Z0 (default -total/2) upwards; SYM mirrors the
 plies; A, B, D summed over plies rotated to the element frame; S = 5/6 sum Gt t (an
-approximation of NASTRAN's transverse shear for laminates, to be confirmed on NASTRAN runs).
+approximation of NASTRAN's transverse shear for laminates, to be confirmed on NASTRAN runs);
+plies without transverse shear moduli leave the laminate shear-rigid.
 """
 
 from __future__ import annotations
@@ -86,6 +87,9 @@ def shell_sections(
             if p is None:
                 continue
             A[i], B[i], D[i], S[i], rho_area[i] = _laminate(p, mats, theta[i], etype, eids[i])
+            # plies without transverse shear moduli (MAT8 G1Z/G2Z blank): NASTRAN leaves the
+            # laminate shear-rigid, as a PSHELL without MID3
+            rigid[i] = not S[i].any()
             nsm[i] = p.nsm
             done[i] = True
     if not done.all():
