@@ -61,7 +61,8 @@ def calculix_input(n: int) -> Path:
         return path
     nodes, quads, clamped = grid(n)
     lines = ["*NODE, NSET=NALL"] + [f"{g}, {x!r}, {y!r}, 0." for g, x, y in nodes]
-    lines += ["*ELEMENT, TYPE=S4, ELSET=EALL"] + [f"{e}, {a}, {b}, {c}, {d}" for e, a, b, c, d in quads]
+    lines += ["*ELEMENT, TYPE=S4, ELSET=EALL"]
+    lines += [f"{e}, {a}, {b}, {c}, {d}" for e, a, b, c, d in quads]
     lines += ["*NSET, NSET=FIX"] + [f"{g}," for g in clamped]
     lines += ["*MATERIAL, NAME=STEEL", "*ELASTIC", f"{E}, {NU}", "*DENSITY", f"{RHO}",
               "*SHELL SECTION, ELSET=EALL, MATERIAL=STEEL", f"{T}",
