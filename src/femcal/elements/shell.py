@@ -117,6 +117,8 @@ total translational mass stays ``m * area`` (projected area for warped quads).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -222,18 +224,20 @@ def _prepare(
     nsm: ArrayLike,
     zoffs: ArrayLike,
     k6rot: ArrayLike,
+    frame: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> tuple[np.ndarray, ...]:
     """Validate and broadcast the kernel inputs; compute frame and local node coordinates.
 
     Returns ``T, xl, h, A, D, S (or None), B, m, zoffs, alpha`` with ``xl`` (n, nn, 2) the
     in-plane local coordinates, ``h`` (n, nn) the warping distances, ``m`` the mass per area
-    and ``alpha`` the drilling penalty modulus.
+    and ``alpha`` the drilling penalty modulus. ``frame`` gives (T, centre) of the elements
+    (default :func:`shell_frame`).
     """
     xyz = np.asarray(xyz, dtype=float)
     if xyz.ndim != 3 or xyz.shape[1:] != (n_nodes, 3):
         raise ValueError(f"xyz must have shape (n, {n_nodes}, 3), got {xyz.shape}")
     n = xyz.shape[0]
-    T, centre = shell_frame(xyz)
+    T, centre = (frame or shell_frame)(xyz)
     p = np.einsum("eij,eaj->eai", T, xyz - centre[:, None, :])
     A = _per_elem(A, n, (3, 3), "A")
     D = _per_elem(D, n, (3, 3), "D")

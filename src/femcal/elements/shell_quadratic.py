@@ -89,7 +89,6 @@ from femcal.elements import shell
 from femcal.elements.shell import (
     _constitutive,
     _covariant_shear_rows,
-    _per_elem,
     _shear_penalty,
     _to_basic,
     shell_frame,
@@ -286,21 +285,11 @@ def _prepare(
     zoffs: ArrayLike,
     k6rot: ArrayLike,
 ) -> tuple[np.ndarray, ...]:
-    """Validate and broadcast inputs: ``T, xl, h, A, D, S (or None), B, m, zoffs, alpha``."""
-    xyz = np.asarray(xyz, dtype=float)
-    if xyz.ndim != 3 or xyz.shape[1:] != (n_nodes, 3):
-        raise ValueError(f"xyz must have shape (n, {n_nodes}, 3), got {xyz.shape}")
-    n = xyz.shape[0]
-    T, centre = quadratic_shell_frame(xyz)
-    p = np.einsum("eij,eaj->eai", T, xyz - centre[:, None, :])
-    A = _per_elem(A, n, (3, 3), "A")
-    D = _per_elem(D, n, (3, 3), "D")
-    B = _per_elem(B, n, (3, 3), "B")
-    S_arr = None if S is None else _per_elem(S, n, (2, 2), "S")
-    m = _per_elem(rho_area, n, (), "rho_area") + _per_elem(nsm, n, (), "nsm")
-    zoffs = _per_elem(zoffs, n, (), "zoffs")
-    alpha = (DRILL_GAMMA + _per_elem(k6rot, n, (), "k6rot") * DRILL_SCALE) * A[:, 2, 2]
-    return T, p[..., :2], p[..., 2], A, D, S_arr, B, m, zoffs, alpha
+    """Validate and broadcast inputs: ``T, xl, h, A, D, S (or None), B, m, zoffs, alpha``
+    (shell.py's preparation, with the frame of the corner nodes)."""
+    return shell._prepare(
+        xyz, n_nodes, A, D, S, B, rho_area, nsm, zoffs, k6rot, frame=quadratic_shell_frame
+    )
 
 
 # ----------------------------------------------------------------------------------------
