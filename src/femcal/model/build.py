@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from ..deck.deck import Deck
@@ -186,22 +188,9 @@ def build_model(deck: Deck) -> Model:
     n_dof = int(ndof_per.sum())
 
     model_stub = Model(
-        node_ids,
-        is_grid,
-        xyz,
-        cp_all,
-        cd_all,
-        ps_all,
-        frames,
-        dof_start,
-        n_dof,
-        coords,
-        {},
-        {},
-        {},
-        {},
-        list(deck.files),
-    )
+        node_ids, is_grid, xyz, cp_all, cd_all, ps_all, frames, dof_start, n_dof, coords,
+        {}, {}, {}, {}, list(deck.files),
+    )  # fmt: skip
     elements = _elements(deck, p, model_stub)
     properties = _properties(deck, p)
     materials = _materials(deck, p)
@@ -211,22 +200,8 @@ def build_model(deck: Deck) -> Model:
     _check_constraint_refs(deck, p, model_stub)
     p.raise_if_any()
     params = {r.name: r.values for r in deck.records_of("PARAM")}
-    return Model(
-        node_ids,
-        is_grid,
-        xyz,
-        cp_all,
-        cd_all,
-        ps_all,
-        frames,
-        dof_start,
-        n_dof,
-        coords,
-        elements,
-        properties,
-        materials,
-        params,
-        list(deck.files),
+    return dataclasses.replace(
+        model_stub, elements=elements, properties=properties, materials=materials, params=params
     )
 
 
