@@ -14,6 +14,7 @@ import numpy as np
 import scipy.linalg as sl
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from threadpoolctl import threadpool_limits
 
 from .errors import SolverError
 from .linalg import NotPositiveDefinite, factorize
@@ -161,9 +162,13 @@ def _lanczos(K, M, sigma, request, lam_lo, lam_hi, backend, progress):
         if progress:
             progress(f"Lanczos: {k} roots of {n} DOF ({name})")
         try:
-            lam, vec = spla.eigsh(
-                K, k=k, M=M, sigma=sigma, OPinv=op, which="LM", mode="normal", tol=1e-10
-            )
+            # One BLAS thread per pool during the iteration: ARPACK's and CHOLMOD's OpenBLAS
+            # pools otherwise compete for the cores (measured: 0.16 s per solve instead of
+            # 0.08 s on a 241k-DOF plate with 2 cores).
+            with threadpool_limits(limits=1, user_api="blas"):
+                lam, vec = spla.eigsh(
+                    K, k=k, M=M, sigma=sigma, OPinv=op, which="LM", mode="normal", tol=1e-10
+                )
         except spla.ArpackNoConvergence as e:
             raise SolverError(
                 f"Lanczos did not converge for {k} roots ({len(e.eigenvalues)} converged)",
