@@ -31,7 +31,7 @@ KNOWN_GAPS = {
     "wall-area fractions are used)",
     "pyn_modes_elements": "CSHEAR shear panels are not implemented",
     "pyn_trncomp12": "NASTRAN finds 9 near-zero modes, femcal 4, and the elastic modes come "
-    "out 3-150 % high: this deck's PCOMP/MAT8 laminates (blank G1Z/G2Z, FT=STRN) on CQUAD8, "
+    "out 3-150 % high: this deck's PCOMP/MAT8 laminates (LAM blank, FT=STRN) on CQUAD8, "
     "CTRIA6 (with omitted midside nodes), CQUADR and CTRIAR differ from NASTRAN; the shell "
     "drilling stiffness is ruled out (1e-6 of it gives the same zeros); not yet found",
     "pyn_tet10_simple": "23 % (mode 5): two 10-node tetrahedra; NASTRAN lies between femcal's "
