@@ -40,6 +40,10 @@ def run(args: argparse.Namespace) -> int:
              f"{model.n_dof} DOF")  # fmt: skip
     request = eigen_request(deck)
     if args.modes is not None:
+        if args.modes < 1:
+            print(f"femcal solve: --modes {args.modes}: expected a number of modes >= 1",
+                  file=sys.stderr)  # fmt: skip
+            return 2
         request = replace(request, nd=args.modes)
     mats = assemble(model, Options())
     modes, _ = solve_sol103(deck, model, matrices=mats, request=request, progress=progress)
