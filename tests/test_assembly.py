@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from femcal.assembly import Assembler, Pattern
 
@@ -88,3 +89,78 @@ def test_compact_drops_stored_zeros_and_keeps_empty_rows():
     R.data[::4] = 0.0
     C = _compact(R)
     assert C.nnz == int((R.data != 0).sum()) and abs(C - R).max() == 0.0
+
+
+def reference_pattern(dof_start, ndof, pairs):
+    """CSR pattern by brute force: a dense boolean node graph expanded to DOF."""
+    n = len(ndof)
+    graph = np.eye(n, dtype=bool)
+    for a, b in pairs:
+        graph[a, b] = graph[b, a] = True
+    n_dof = int(ndof.sum())
+    dense = np.zeros((n_dof, n_dof), bool)
+    for a, b in zip(*np.nonzero(graph), strict=True):
+        dense[dof_start[a] : dof_start[a] + ndof[a], dof_start[b] : dof_start[b] + ndof[b]] = True
+    import scipy.sparse as sp
+
+    return sp.csr_matrix(dense)
+
+
+@pytest.mark.parametrize("nodes_per_pass", [1, 2, 3, 5, 4096])
+def test_pattern_is_the_same_whatever_the_expansion_pass_size(monkeypatch, nodes_per_pass):
+    import femcal.assembly
+
+    monkeypatch.setattr(femcal.assembly, "_EXPAND_NODES", nodes_per_pass)
+    rng = np.random.default_rng(7)
+    ndof = rng.choice([1, 6], size=23, p=[0.3, 0.7])
+    dof_start = np.concatenate([[0], np.cumsum(ndof)[:-1]])
+    pairs = rng.integers(0, 23, size=(40, 2))
+    pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+    pattern = Pattern.build(dof_start, ndof, [pairs])
+    ref = reference_pattern(dof_start, ndof, pairs)
+    assert np.array_equal(pattern.indptr, ref.indptr)
+    assert np.array_equal(pattern.indices, ref.indices)
+
+
+def test_threaded_assembly_gives_bitwise_the_same_matrices(monkeypatch):
+    """Kernels on worker threads, scatter in order: the sums do not depend on the thread
+    count (shells and solids in small chunks, so that many run at once)."""
+    import femcal.structure as structure
+    from femcal.deck import read_deck
+    from femcal.model import build_model
+
+    from .conftest import REFDECKS
+
+    deck = REFDECKS / "pyn_mode_solid_shell_bar" / "mode_solid_shell_bar.bdf"
+    model = build_model(read_deck(deck))
+    assert {"CQUAD4", "CHEXA"} <= set(model.elements)
+    monkeypatch.setattr(structure, "KERNEL_CHUNK", 1)
+    one = structure.assemble(model, structure.Options(threads=1))
+    three = structure.assemble(model, structure.Options(threads=3))
+    for a, b in ((one.K, three.K), (one.M, three.M)):
+        assert np.array_equal(a.indptr, b.indptr) and np.array_equal(a.indices, b.indices)
+        assert np.array_equal(a.data, b.data)
+    assert one.element_mass == three.element_mass
+
+
+@pytest.mark.parametrize(
+    ("corner", "what"),
+    [((2.05, 0.05), "Jacobian"), ((1.5, 0.5), "degenerate")],  # concave; diagonals parallel
+)
+def test_bad_shell_is_reported_by_element_id_with_threads(monkeypatch, write, corner, what):
+    import femcal.structure as structure
+    from femcal.deck import read_deck
+    from femcal.errors import ModelError
+    from femcal.model import build_model
+
+    xy = [(0, 0), (1, 0), (1, 1), (0, 1), (2, 0), (2, 1), (3, 0), corner]
+    grids = "".join(f"GRID,{i + 1},,{x:.2f},{y:.2f},0.\n" for i, (x, y) in enumerate(xy))
+    deck = write(
+        "BEGIN BULK\nPSHELL,1,1,0.1,1\nMAT1,1,2.1e5,,0.3,7.85e-9\n" + grids
+        + "CQUAD4,11,1,1,2,3,4\nCQUAD4,12,1,2,5,6,3\nCQUAD4,13,1,5,7,8,6\n"
+        + "ENDDATA\n"
+    )  # fmt: skip
+    model = build_model(read_deck(deck))
+    monkeypatch.setattr(structure, "KERNEL_CHUNK", 1)
+    with pytest.raises(ModelError, match=rf"CQUAD4: .*{what}.*element ids \[13\]"):
+        structure.assemble(model, structure.Options(threads=2))

@@ -77,22 +77,14 @@ class Pattern:
         seg_start = np.repeat(start_of_row, np.diff(node_ptr))
         prefix = cum - blk - seg_start
         row_len_node = np.concatenate([[0], cum])[node_ptr[1:]] - start_of_row
-        dof_node = np.repeat(np.arange(n), ndof)
+        dof_node = np.repeat(np.arange(n), ndof)  # DOF are numbered node by node
         row_len = row_len_node[dof_node]
         indptr = np.concatenate([[0], np.cumsum(row_len)]).astype(np.int64)
         nnz = int(indptr[-1])
-        # Column DOF of each node row (once), then repeated for each DOF of that node.
-        total = int(cum[-1]) if len(cum) else 0
-        expanded = np.repeat(dof_start[b], blk) + (np.arange(total) - np.repeat(cum - blk, blk))
-        itype = np.int32 if max(nnz, n_dof, total) < 2**31 - 1 else np.int64
-        # gather[indptr[r] + t] = seg[r] + t: a running sum that jumps at each row start
-        seg = start_of_row[dof_node]
-        step = np.ones(nnz, dtype=itype)
-        step[0] = seg[0]
-        step[indptr[1:-1]] = seg[1:] - (seg[:-1] + row_len[:-1] - 1)
-        gather = np.cumsum(step, dtype=itype)
-        indices = expanded.astype(itype)[gather]
-        del step, gather
+        itype = np.int32 if max(nnz, n_dof) < 2**31 - 1 else np.int64
+        indices = _expand_columns(
+            dof_start, ndof, b, blk, node_ptr, start_of_row, row_len_node, nnz, itype
+        )
         indptr = indptr.astype(itype)  # scipy wants indptr and indices of one dtype
         return cls(n, n_dof, dof_start, ndof, dof_node, indptr, indices, keys, prefix)
 
@@ -137,6 +129,42 @@ class Pattern:
         return self.indptr[rows] + self.prefix[q] + (cols - self.dof_start[nc])
 
 
+#: Nodes whose rows are expanded together (bounds the temporaries to a few MB, which is far
+#: faster than one pass over the whole matrix: big fresh arrays cost page faults).
+_EXPAND_NODES = 4096
+
+
+def _expand_columns(dof_start: np.ndarray, ndof: np.ndarray, b: np.ndarray, blk: np.ndarray,
+                    node_ptr: np.ndarray, start_of_row: np.ndarray, row_len_node: np.ndarray,
+                    nnz: int, itype: type) -> np.ndarray:  # fmt: skip
+    """CSR column indices (nnz,) of the pattern, rows in node order.
+
+    Node a couples to the nodes ``b[node_ptr[a]:node_ptr[a+1]]`` (sorted), each with ``blk``
+    DOF; its column segment (their DOF in order, ``row_len_node[a]`` of them) starts at
+    ``start_of_row[a]`` in the concatenation of all segments. Each of node a's ``ndof[a]``
+    DOF rows holds that same segment.
+    """
+    n = len(ndof)
+    indices = np.empty(nnz, dtype=itype)
+    out = 0
+    for lo in range(0, n, _EXPAND_NODES):
+        hi = min(lo + _EXPAND_NODES, n)
+        p0, p1 = node_ptr[lo], node_ptr[hi]
+        nb = blk[p0:p1]
+        cum = np.cumsum(nb)
+        seg = (np.repeat(dof_start[b[p0:p1]] - (cum - nb), nb) + np.arange(cum[-1])).astype(itype)
+        rows = np.repeat(np.arange(lo, hi), ndof[lo:hi])  # node of each DOF row of the range
+        r_len = row_len_node[rows]
+        r_start = start_of_row[rows] - start_of_row[lo]
+        total = int(r_len.sum())
+        # where in seg each entry comes from: a running sum restarting at every row
+        step = np.ones(total, dtype=itype)
+        step[np.cumsum(r_len) - r_len] = r_start - np.concatenate([[0], (r_start + r_len - 1)[:-1]])
+        indices[out : out + total] = seg[np.cumsum(step, dtype=itype)]
+        out += total
+    return indices
+
+
 class Assembler:
     """Accumulates element matrices into g-set matrices sharing one :class:`Pattern`.
 
@@ -164,17 +192,26 @@ class Assembler:
             element matrices' node-major DOF order.
         mats : (n, k*d, k*d) element matrices in basic.
         """
+        self.scatter(self.prepare(nodes, dof_per_node, *mats))
+
+    def prepare(self, nodes: np.ndarray, dof_per_node: int,
+                *mats: np.ndarray | None) -> list[tuple[np.ndarray, list]]:  # fmt: skip
+        """The work of :meth:`add_blocks` that does not touch the accumulated matrices
+        (rotation into the displacement frames, CSR positions), so that it may run in
+        worker threads; :meth:`scatter` adds the result. Arguments as for ``add_blocks``.
+
+        Returns a list of (positions (m,), [values (m,) or None per matrix]).
+        """
         n = len(nodes)
         d = dof_per_node
+        out = []
         for s in range(0, n, CHUNK_ELEMENTS):
             nd = nodes[s : s + CHUNK_ELEMENTS]
             chunk = [None if m is None else self._rotate(nd, d, m[s : s + CHUNK_ELEMENTS])
                      for m in mats]  # fmt: skip
             if (nd >= 0).all():
                 pos = self.pattern.block_positions(nd, d).ravel()
-                for target, m in zip(self.data, chunk, strict=False):
-                    if m is not None:
-                        np.add.at(target, pos, m.ravel())
+                out.append((pos, [None if m is None else m.ravel() for m in chunk]))
                 continue
             safe = np.where(nd < 0, 0, nd)
             dofs = (self.pattern.dof_start[safe][:, :, None] + np.arange(d)).reshape(len(nd), -1)
@@ -184,9 +221,16 @@ class Assembler:
             rows = np.broadcast_to(dofs[:, :, None], shape)[keep]
             cols = np.broadcast_to(dofs[:, None, :], shape)[keep]
             pos = self.pattern.positions(rows, cols)
-            for target, m in zip(self.data, chunk, strict=False):
-                if m is not None:
-                    np.add.at(target, pos, m[keep])
+            out.append((pos, [None if m is None else m[keep] for m in chunk]))
+        return out
+
+    def scatter(self, prepared: list[tuple[np.ndarray, list]]) -> None:
+        """Add what :meth:`prepare` returned to the accumulated matrices (not thread-safe:
+        call from one thread, in a fixed order for reproducible sums)."""
+        for pos, values in prepared:
+            for target, v in zip(self.data, values, strict=False):
+                if v is not None:
+                    np.add.at(target, pos, v)
 
     def _rotate(self, nodes: np.ndarray, d: int, m: np.ndarray) -> np.ndarray:
         if self.frames is None:

@@ -10,7 +10,10 @@ whole mass matrix), K6ROT (shell drilling stiffness).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import os
+from collections import deque
+from collections.abc import Callable, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -26,8 +29,10 @@ from .materials import MaterialTables, mat1_moduli
 from .model.coords import displacement_frames
 from .model.model import ElementBlock, Model
 
-#: Elements per kernel call (bounds the kernels' temporary arrays).
-KERNEL_CHUNK = 8192
+#: Elements per kernel call. It bounds the kernels' temporaries to about 10 MB each, small
+#: enough for the C library to reuse freed memory rather than map fresh pages per call (which
+#: costs more than the arithmetic), large enough to amortise NumPy's per-call overhead.
+KERNEL_CHUNK = 2048
 
 
 @dataclass(frozen=True)
@@ -52,6 +57,9 @@ class Options:
     coupled_mass: bool | None = None
     wtmass: float | None = None
     k6rot: float | None = None
+    #: Threads computing element matrices (NumPy releases the GIL in its array work);
+    #: None: the cores this process may use, at most 4. The sums are the same for any count.
+    threads: int | None = None
 
 
 def _param(model: Model, name: str, default: float) -> float:
@@ -83,7 +91,8 @@ def assemble(model: Model, options: Options | None = None) -> Matrices:
     pairs = [_pairs(b) for b in model.elements.values()]
     pattern = Pattern.build(model.dof_start, ndof, pairs)
     asm = Assembler(pattern, model.cd_frames, n_matrices=2)  # K and M
-    ctx = _Context(model, coupled, k6rot)
+    threads = opt.threads if opt.threads is not None else min(4, len(os.sched_getaffinity(0)))
+    ctx = _Context(model, coupled, k6rot, max(1, threads))
     masses: dict[str, float] = {}
     for etype, block in model.elements.items():
         handler = _HANDLERS.get(etype)
@@ -99,11 +108,11 @@ def assemble(model: Model, options: Options | None = None) -> Matrices:
 def _compact(A: sp.csr_matrix) -> sp.csr_matrix:
     """A copy of A without its stored zeros, built from the nonzeros only (A shares its
     index arrays with another matrix, so it is not compacted in place)."""
-    keep = A.data != 0
-    running = np.concatenate([[0], np.cumsum(keep)])
-    indptr = running[A.indptr].astype(A.indptr.dtype)  # nonzeros before each row
+    keep = np.flatnonzero(A.data)  # far faster than a running count over every entry
+    nonzeros_before = np.searchsorted(keep, A.indptr)  # per row boundary
     out = sp.csr_matrix(A.shape)
-    out.data, out.indices, out.indptr = A.data[keep], A.indices[keep], indptr
+    out.data, out.indices = A.data[keep], A.indices[keep]
+    out.indptr = nonzeros_before.astype(A.indptr.dtype)
     return out
 
 
@@ -133,11 +142,52 @@ class _Lookup:
 
 
 class _Context:
-    def __init__(self, model: Model, coupled: bool, k6rot: float):
+    def __init__(self, model: Model, coupled: bool, k6rot: float, threads: int = 1):
         self.model = model
         self.coupled = coupled
         self.k6rot = k6rot
+        self.threads = threads
         self.materials = MaterialTables(model.materials)
+
+    def run_chunks(
+        self,
+        asm: Assembler,
+        parts: Sequence[np.ndarray],
+        compute: Callable[[np.ndarray], tuple[np.ndarray, int, np.ndarray, np.ndarray]],
+    ) -> None:
+        """Element matrices of each part (element indices) by ``compute(part) -> (nodes, dof
+        per node, K, M)``, added to ``asm``.
+
+        The kernels and the assembler's preparation run on ``threads`` worker threads, at most
+        one part ahead of each; the scatter runs here, in part order, so the sums are the same
+        whatever the thread count, and the first failing part (in order) raises.
+        """
+
+        def task(part: np.ndarray) -> list:
+            nodes, d, K, M = compute(part)
+            return asm.prepare(nodes, d, K, M)
+
+        if self.threads <= 1 or len(parts) <= 1:
+            for part in parts:
+                asm.scatter(task(part))
+            return
+        todo = iter(parts)
+        with ThreadPoolExecutor(self.threads, thread_name_prefix="femcal-kernel") as pool:
+            pending: deque[Future] = deque()
+            try:
+                for part in todo:
+                    pending.append(pool.submit(task, part))
+                    if len(pending) > self.threads:
+                        break
+                while pending:
+                    prepared = pending.popleft().result()
+                    nxt = next(todo, None)
+                    if nxt is not None:
+                        pending.append(pool.submit(task, nxt))
+                    asm.scatter(prepared)
+            finally:
+                for f in pending:
+                    f.cancel()
 
     def mat1(self, mids: np.ndarray, who: str, eids: np.ndarray) -> dict[str, np.ndarray]:
         """E, G, NU, RHO of MAT1 materials, with NASTRAN's rules for blank E, G or NU."""
@@ -506,7 +556,11 @@ def _shells(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
     for j, (a, b) in enumerate(edges, start=corners):  # omitted midside: straight edge
         gone = block.nodes[:, j] < 0
         xyz[gone, j] = 0.5 * (xyz[gone, a] + xyz[gone, b])
-    R, centre = shell_frame(xyz[:, :corners])
+    try:
+        R, centre = shell_frame(xyz[:, :corners])
+    except ValueError as e:
+        raise ModelError(f"{block.type}: {_name_positions(str(e), block.ids)}",
+                         block.ids[:20]) from None  # fmt: skip
     theta = _material_angle(ctx, block, xyz, R, centre)
     d = block.data
     et = np.column_stack([d[f"t{i}"] for i in range(1, corners + 1)])
@@ -515,38 +569,46 @@ def _shells(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
     )
     zoffs = np.where(np.isnan(d["zoffs"]), 0.0, d["zoffs"])
     kernel = {4: quad4_matrices, 3: tria3_matrices, 8: quad8_matrices, 6: tria6_matrices}[k]
-    total = 0.0
-    for rigid in (False, True):
-        group = np.flatnonzero(sec.shear_rigid == rigid)
-        for start in range(0, len(group), KERNEL_CHUNK):  # bounds the kernels' temporaries
-            sel = group[start : start + KERNEL_CHUNK]
-            B = sec.B[sel] if sec.B[sel].any() else None
+
+    def compute(sel: np.ndarray) -> tuple[np.ndarray, int, np.ndarray, np.ndarray]:
+        rigid = bool(sec.shear_rigid[sel[0]])
+        B = sec.B[sel] if sec.B[sel].any() else None
+        try:
             K, M = kernel(
                 xyz[sel], sec.A[sel], sec.D[sel], None if rigid else sec.S[sel], B,
                 rho_area=sec.rho_area[sel], nsm=sec.nsm[sel], zoffs=zoffs[sel],
                 k6rot=ctx.k6rot, coupled_mass=ctx.coupled,
             )  # fmt: skip
-            for j, (a, b) in enumerate(edges, start=corners):
-                gone = block.nodes[sel, j] < 0
-                if gone.any():
-                    K[gone] = _tie_midside(K[gone], j, a, b)
-                    M[gone] = _tie_midside(M[gone], j, a, b)
-            asm.add_blocks(block.nodes[sel], 6, K, M)
-        area = _polygon_area(xyz[group][:, :corners])
-        total += float(((sec.rho_area[group] + sec.nsm[group]) * area).sum())
-    return total
+        except ValueError as e:
+            ids = block.ids[sel]
+            raise ModelError(f"{block.type}: {_name_positions(str(e), ids)}", ids[:20]) from None
+        for j, (a, b) in enumerate(edges, start=corners):
+            gone = block.nodes[sel, j] < 0
+            if gone.any():
+                K[gone] = _tie_midside(K[gone], j, a, b)
+                M[gone] = _tie_midside(M[gone], j, a, b)
+        return block.nodes[sel], 6, K, M
+
+    parts = []
+    for rigid in (False, True):  # one kernel call takes one kind of transverse shear
+        group = np.flatnonzero(sec.shear_rigid == rigid)
+        parts += [group[s : s + KERNEL_CHUNK] for s in range(0, len(group), KERNEL_CHUNK)]
+    ctx.run_chunks(asm, parts, compute)
+    area = _polygon_area(xyz[:, :corners])
+    return float(((sec.rho_area + sec.nsm) * area).sum())
 
 
 def _name_positions(message: str, ids: np.ndarray) -> str:
-    """Replace 'positions [i, j]' of a kernel's message by the element ids they stand for."""
+    """Replace the element positions ``[i, j]`` of a kernel's message (``element index(es)
+    [i, j]`` or a bare list) by the element ids they stand for."""
     import re
 
-    m = re.search(r"\[([\d, ]+)\]", message)
+    m = re.search(r"(?:element )?(?:index\(es\) )?\[([\d, ]+)\]", message)
     if not m:
         return message
     pos = [int(x) for x in m.group(1).split(",") if x.strip()]
     named = [int(ids[p]) for p in pos if 0 <= p < len(ids)]
-    return message[: m.start()] + f"(element ids {named})" + message[m.end() :]
+    return message[: m.start()] + f"element ids {named}" + message[m.end() :]
 
 
 #: Corner pairs of the midside nodes of 8- and 6-node shells (NASTRAN order).
@@ -650,18 +712,21 @@ def _solids(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
         if not len(sel):
             continue
         matched[sel] = True
-        for start in range(0, len(sel), KERNEL_CHUNK):
-            part = sel[start : start + KERNEL_CHUNK]
+
+        def compute(part: np.ndarray, nn=nn, kind=kind):
             nodes = block.nodes[part, :nn]
-            xyz = m.xyz[nodes]
             try:
-                K, M = solid_matrices(kind, xyz, C[part], rho[part], coupled_mass=ctx.coupled)
+                K, M = solid_matrices(kind, m.xyz[nodes], C[part], rho[part],
+                                      coupled_mass=ctx.coupled)  # fmt: skip
             except ValueError as e:
                 ids = block.ids[part]
                 raise ModelError(f"{block.type} ({kind}): {_name_positions(str(e), ids)}",
                                  ids[:20]) from None  # fmt: skip
-            asm.add_blocks(nodes, 3, K, M)
-            total += float((rho[part] * solid_volume(kind, xyz)).sum())
+            return nodes, 3, K, M
+
+        parts = [sel[s : s + KERNEL_CHUNK] for s in range(0, len(sel), KERNEL_CHUNK)]
+        ctx.run_chunks(asm, parts, compute)
+        total += float((rho[sel] * solid_volume(kind, m.xyz[block.nodes[sel, :nn]])).sum())
     if not matched.all():
         bad = block.ids[~matched][:20]
         raise ModelError(
