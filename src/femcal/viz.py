@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -40,6 +41,7 @@ def render_modes(
     scale: float = 0.08,
     window: tuple[int, int] = (1280, 800),
     max_modes: int | None = None,
+    which: Sequence[int] | None = None,
 ) -> list[Path]:
     """Render each mode: deformed shape coloured by displacement magnitude over the
     undeformed edges, with the mode number and frequency in the title.
@@ -48,6 +50,7 @@ def render_modes(
     ----------
     scale : largest displacement drawn as this fraction of the model's size.
     max_modes : render at most this many (all if None).
+    which : 0-based mode indices to render instead (overrides ``max_modes``).
 
     Returns
     -------
@@ -64,7 +67,7 @@ def render_modes(
     disp = basic_translations(modes, model)
     paths: list[Path] = []
     count = len(modes.eigenvalues) if max_modes is None else min(max_modes, len(modes.eigenvalues))
-    for i in range(count):
+    for i in range(count) if which is None else which:
         u = disp[:, :, i]
         umax = float(np.linalg.norm(u, axis=1).max()) or 1.0
         grid = base.copy()
@@ -84,3 +87,29 @@ def render_modes(
         os.replace(tmp, path)
         paths.append(path)
     return paths
+
+
+def render_mesh(
+    model: Model, path: Path, *, title: str = "", window: tuple[int, int] = (1600, 900)
+) -> Path:
+    """Render the undeformed mesh (element faces with their edges, coloured by element type)
+    to the PNG ``path`` (written atomically)."""
+    import pyvista as pv
+    from vtkmodules.vtkCommonCore import vtkObject
+
+    vtkObject.GlobalWarningDisplayOff()
+    pv.OFF_SCREEN = True
+    grid = _grid(model)
+    grid.cell_data["cell type"] = grid.celltypes.astype(float)
+    pl = pv.Plotter(off_screen=True, window_size=list(window))
+    pl.add_mesh(grid, scalars="cell type", cmap="tab10", show_edges=True, edge_color="black",
+                line_width=0.5, show_scalar_bar=False)  # fmt: skip
+    if title:
+        pl.add_text(title, font_size=12)
+    pl.view_isometric()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.tmp.png")
+    pl.screenshot(str(tmp))
+    pl.close()
+    os.replace(tmp, path)
+    return path

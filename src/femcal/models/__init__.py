@@ -1,0 +1,1 @@
+"""Bundled models: generators of NASTRAN decks and their data files."""

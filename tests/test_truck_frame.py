@@ -1,0 +1,123 @@
+"""The bundled truck frame: the committed files are what the generator writes, and the nominal
+hammer frame has the reference study's pre-calibration modes (METHOD.md)."""
+
+from __future__ import annotations
+
+import csv
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from femcal.deck import read_deck
+from femcal.model import build_model
+from femcal.models.truck_frame import FrameDimensions, write_hammer_frame
+from femcal.sol103 import solve_sol103
+
+from .conftest import ROOT
+
+FRAME_DIR = ROOT / "models" / "truck_frame"
+DECK = FRAME_DIR / "hammer_frame.bdf"
+FILES = ("hammer_frame.bdf", "hammer_frame.params.toml", "hammer_frame.sensors.csv",
+         "hammer_frame.inputs.csv")  # fmt: skip
+
+
+def test_committed_files_regenerate_byte_identically(tmp_path: Path):
+    write_hammer_frame(tmp_path)
+    for name in FILES:
+        assert (tmp_path / name).read_bytes() == (FRAME_DIR / name).read_bytes(), name
+
+
+@pytest.fixture(scope="module")
+def solved():
+    deck = read_deck(DECK)
+    model = build_model(deck)
+    modes, _ = solve_sol103(deck, model)
+    return deck, model, modes
+
+
+def _shape_measures(model, modes, k: int) -> dict[str, float]:
+    """How mode k moves the rails: the tops of the two webs, sampled along X."""
+    d = FrameDimensions()
+    X = model.xyz
+    u = modes.grid_displacements(k)[:, :3]
+
+    def rail(side: float) -> np.ndarray:
+        sel = np.flatnonzero((np.abs(X[:, 1] - side * d.half_width) < 0.01)
+                             & (np.abs(X[:, 2] - d.web / 2) < 0.01))  # fmt: skip
+        return sel[np.argsort(X[sel, 0])]
+
+    left, right = rail(1.0), rail(-1.0)
+    assert len(left) == len(right) > 100
+    zl, zr, yl, yr = u[left, 2], u[right, 2], u[left, 1], u[right, 1]
+    rails = (u[left] ** 2).sum() + (u[right] ** 2).sum()
+    rear = np.abs(np.abs(X[:, 1]) - (d.half_width + 9.0)) < 0.01  # rear bracket plates
+    rear |= np.abs(X[:, 2] + d.web / 2 + d.rear_bracket_drop) < 0.01  # and their feet
+    return {
+        # rails opposite in Z: (zl - zr) dominates
+        "z_opposite": ((zl - zr) ** 2).sum() / (((zl - zr) ** 2).sum() + ((zl + zr) ** 2).sum()),
+        "z_share": ((zl**2).sum() + (zr**2).sum()) / rails,
+        # rails together in Y
+        "y_together": ((yl + yr) ** 2).sum() / (((yl + yr) ** 2).sum() + ((yl - yr) ** 2).sum()),
+        "y_share": ((yl**2).sum() + (yr**2).sum()) / rails,
+        "rear_share": (u[rear] ** 2).sum() / (u**2).sum(),
+    }
+
+
+def test_hammer_frame_has_the_studys_modes(solved):
+    _, model, modes = solved
+    f = modes.frequencies_hz
+    assert model.n_dof > 50_000 and model.n_dof < 150_000
+    assert np.all(f[:6] < 5.0) and f[6] > 10.0  # six bellows modes, then the flexible ones
+    m = [_shape_measures(model, modes, k) for k in range(len(f))]
+    flexible = range(6, len(f))
+
+    torsion = [k for k in flexible if m[k]["z_opposite"] > 0.95 and m[k]["z_share"] > 0.8]
+    assert torsion and abs(f[torsion[0]] / 13.19 - 1) < 0.10, f[torsion[:1]]
+    assert torsion[0] == 6  # the first flexible mode
+
+    lateral = [k for k in flexible if m[k]["y_together"] > 0.95 and m[k]["y_share"] > 0.8]
+    first, rear = lateral[0], lateral[1]
+    assert abs(f[first] / 46.70 - 1) < 0.10 and m[first]["rear_share"] < 0.3
+    assert abs(f[rear] / 54.46 - 1) < 0.10 and m[rear]["rear_share"] > 0.5
+
+    bracket = [k for k in flexible if 60.0 < f[k] < 100.0 and m[k]["rear_share"] > 0.5]
+    assert bracket and abs(f[bracket[0]] / 95.04 - 1) < 0.10
+    assert ((f > 100.0) & (f < 120.0)).sum() >= 2
+
+
+def test_parameters_resolve_to_deck_entries(solved):
+    _, model, _ = solved
+    params = tomllib.loads((FRAME_DIR / "hammer_frame.params.toml").read_text())["parameter"]
+    assert [p["name"] for p in params] == [f"p{i}" for i in range(1, 31)]
+    kinds = [(p["card"], p["field"]) for p in params]
+    assert kinds.count(("PSHELL", "T")) == 8 and kinds.count(("PBAR", "A")) == 9
+    assert kinds.count(("MAT1", "E")) == 13
+    tables = {"PSHELL": (model.properties, "pid", "t"), "PBAR": (model.properties, "pid", "a"),
+              "MAT1": (model.materials, "mid", "e")}  # fmt: skip
+    seen = set()
+    for p in params:
+        source, key, column = tables[p["card"]]
+        table = source[p["card"]]
+        rows = np.flatnonzero(table[key] == p["id"])
+        assert len(rows) == 1, p
+        assert table[column][rows[0]] == pytest.approx(p["nominal"], rel=1e-6), p
+        assert p["lower"] < p["nominal"] < p["upper"]
+        seen.add((p["card"], p["id"]))
+    assert len(seen) == 30  # each parameter its own entry
+
+
+def test_sensors_and_inputs_are_grids(solved):
+    _, model, _ = solved
+    for name, expected in (("hammer_frame.sensors.csv", 24), ("hammer_frame.inputs.csv", 2)):
+        with open(FRAME_DIR / name, newline="") as fh:
+            rows = list(csv.DictReader(fh))
+        assert len(rows) == expected
+        for r in rows:
+            idx = np.searchsorted(model.node_ids, int(r["grid"]))
+            assert model.node_ids[idx] == int(r["grid"])
+            xyz = [float(r[c]) for c in "xyz"]
+            assert np.allclose(model.xyz[idx], xyz, atol=0.01)
+    with open(FRAME_DIR / "hammer_frame.inputs.csv", newline="") as fh:
+        assert sorted(r["direction"] for r in csv.DictReader(fh)) == ["2", "3"]
