@@ -12,21 +12,21 @@ import pytest
 
 from femcal.deck import read_deck
 from femcal.model import build_model
-from femcal.models.truck_frame import FrameDimensions, write_hammer_frame
+from femcal.models.truck_frame import FrameDimensions, write_frame
 from femcal.sol103 import solve_sol103
 
 from .conftest import ROOT
 
 FRAME_DIR = ROOT / "models" / "truck_frame"
 DECK = FRAME_DIR / "hammer_frame.bdf"
-FILES = ("hammer_frame.bdf", "hammer_frame.params.toml", "hammer_frame.sensors.csv",
-         "hammer_frame.inputs.csv")  # fmt: skip
 
 
-def test_committed_files_regenerate_byte_identically(tmp_path: Path):
-    write_hammer_frame(tmp_path)
-    for name in FILES:
-        assert (tmp_path / name).read_bytes() == (FRAME_DIR / name).read_bytes(), name
+@pytest.mark.parametrize("variant", ["hammer", "rig", "rig-battery"])
+def test_committed_files_regenerate_byte_identically(tmp_path: Path, variant: str):
+    paths = write_frame(variant, tmp_path)
+    assert len(paths) == (4 if variant == "hammer" else 3)
+    for path in paths:
+        assert path.read_bytes() == (FRAME_DIR / path.name).read_bytes(), path.name
 
 
 @pytest.fixture(scope="module")
@@ -65,26 +65,57 @@ def _shape_measures(model, modes, k: int) -> dict[str, float]:
     }
 
 
-def test_hammer_frame_has_the_studys_modes(solved):
+@pytest.fixture(scope="module")
+def shapes(solved):
     _, model, modes = solved
     f = modes.frequencies_hz
-    assert model.n_dof > 50_000 and model.n_dof < 150_000
-    assert np.all(f[:6] < 5.0) and f[6] > 10.0  # six bellows modes, then the flexible ones
-    m = [_shape_measures(model, modes, k) for k in range(len(f))]
-    flexible = range(6, len(f))
+    return f, [_shape_measures(model, modes, k) for k in range(len(f))]
 
-    torsion = [k for k in flexible if m[k]["z_opposite"] > 0.95 and m[k]["z_share"] > 0.8]
-    assert torsion and abs(f[torsion[0]] / 13.19 - 1) < 0.10, f[torsion[:1]]
-    assert torsion[0] == 6  # the first flexible mode
 
-    lateral = [k for k in flexible if m[k]["y_together"] > 0.95 and m[k]["y_share"] > 0.8]
-    first, rear = lateral[0], lateral[1]
-    assert abs(f[first] / 46.70 - 1) < 0.10 and m[first]["rear_share"] < 0.3
-    assert abs(f[rear] / 54.46 - 1) < 0.10 and m[rear]["rear_share"] > 0.5
+def test_hammer_frame_size_and_bellows_modes(solved):
+    _, model, modes = solved
+    f = modes.frequencies_hz
+    assert 50_000 < model.n_dof < 150_000
+    assert np.all(f[:6] < 5.0) and f[6] > 10.0  # six modes on the bellows, then flexible
 
-    bracket = [k for k in flexible if 60.0 < f[k] < 100.0 and m[k]["rear_share"] > 0.5]
-    assert bracket and abs(f[bracket[0]] / 95.04 - 1) < 0.10
+
+def _lateral(f, m):
+    return [k for k in range(6, len(f)) if m[k]["y_together"] > 0.95 and m[k]["y_share"] > 0.8]
+
+
+def test_first_flexible_mode_is_torsion_near_the_studys(shapes):
+    f, m = shapes
+    assert m[6]["z_opposite"] > 0.95 and m[6]["z_share"] > 0.8  # rails opposite in Z
+    assert abs(f[6] / 13.19 - 1) < 0.10, f[6]
+
+
+def test_lateral_bending_near_the_studys(shapes):
+    f, m = shapes
+    first = _lateral(f, m)[0]
+    assert m[first]["rear_share"] < 0.3
+    assert abs(f[first] / 46.70 - 1) < 0.10, f[first]
+
+
+def test_local_bending_of_the_rear_brackets_near_the_studys(shapes):
+    f, m = shapes
+    local = [k for k in range(6, len(f)) if m[k]["rear_share"] > 0.8]
+    assert local and abs(f[local[0]] / 95.04 - 1) < 0.10, f[local[:1]]
+
+
+def test_two_more_modes_between_100_and_120_hz(shapes):
+    f, _ = shapes
     assert ((f > 100.0) & (f < 120.0)).sum() >= 2
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "no mode of the rails together in Y near the rear between 49 and 60 Hz: the rear brackets' "
+    "in-phase and anti-phase swings stay close together (111 and 94 Hz here, 70 and 64 Hz "
+    "with brackets reaching 282 mm instead of 200 mm below the rail), so no reach gives both the study's 54.46 Hz lateral mode and its 95.04 Hz local "
+    "mode; see the closing note of issue 5"))  # fmt: skip
+def test_lateral_bending_near_the_rear_near_the_studys(shapes):
+    f, m = shapes
+    rear = [k for k in _lateral(f, m) if m[k]["rear_share"] > 0.3]
+    assert rear and abs(f[rear[0]] / 54.46 - 1) < 0.10, f[rear[:1]]
 
 
 def test_parameters_resolve_to_deck_entries(solved):
@@ -121,3 +152,27 @@ def test_sensors_and_inputs_are_grids(solved):
             assert np.allclose(model.xyz[idx], xyz, atol=0.01)
     with open(FRAME_DIR / "hammer_frame.inputs.csv", newline="") as fh:
         assert sorted(r["direction"] for r in csv.DictReader(fh)) == ["2", "3"]
+
+
+@pytest.mark.parametrize("stem", ["rig_frame", "rig_frame_battery"])
+def test_rig_frames_stand_on_seven_actuators_with_sensors_near_them(stem: str):
+    deck = read_deck(FRAME_DIR / f"{stem}.bdf")
+    model = build_model(deck)
+    with open(FRAME_DIR / f"{stem}.inputs.csv", newline="") as fh:
+        inputs = list(csv.DictReader(fh))
+    assert sorted(int(r["direction"]) for r in inputs) == [-1, 2, 2, 3, 3, 3, 3]
+    with open(FRAME_DIR / f"{stem}.sensors.csv", newline="") as fh:
+        sensors = list(csv.DictReader(fh))
+    assert len(sensors) == (8 if stem.endswith("battery") else 7)
+    for r in inputs:
+        a = np.array([float(r[c]) for c in "xyz"])
+        near = [np.linalg.norm(a - [float(s[c]) for c in "xyz"]) for s in sensors]
+        assert min(near) < 400.0, r["label"]
+    for r in inputs + sensors:
+        idx = np.searchsorted(model.node_ids, int(r["grid"]))
+        assert model.node_ids[idx] == int(r["grid"])
+    assert model.elements["CBUSH"].ids.size == 7
+    if stem.endswith("battery"):
+        assert "CONM2" in model.elements
+    modes, _ = solve_sol103(deck, model)
+    assert modes.frequencies_hz[0] > 5.0  # held by the actuators: no rigid-body modes

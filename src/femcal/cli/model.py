@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 VARIANTS = ("hammer", "rig", "rig-battery")
@@ -28,13 +27,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..models.truck_frame import write_hammer_frame
+    from ..models.truck_frame import write_frame
 
-    if args.variant != "hammer":
-        print(f"femcal model: the {args.variant} variant is not built yet (only hammer)",
-              file=sys.stderr)  # fmt: skip
-        return 2
-    paths = write_hammer_frame(args.out)
+    paths = write_frame(args.variant, args.out)
     for path in paths:
         print(f"wrote {path}")
     if args.pictures:

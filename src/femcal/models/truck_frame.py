@@ -50,11 +50,30 @@ class FrameDimensions:
     liner_gap: float = 6.5  # rail web to liner web, mid-surfaces: (8 + 5) / 2
     liner_flange: float = 75.0
     liner_x: tuple[float, float] = (150.0, 3350.0)
-    cross_x: tuple[float, float, float, float] = (270.0, 1150.0, 2475.0, 3250.0)
-    rear_bracket_drop: float = 282.0  # how far the rear brackets reach below the rail
-    cross_height: tuple[float, float, float, float] = (150.0, 90.0, 200.0, 120.0)
+    cross_x: tuple[float, ...] = (270.0, 1150.0, 2475.0, 3250.0)
+    cross_kinds: tuple[int, ...] = (0, 1, 2, 3)  # X1-X4 kinds (see _CROSS) of each member
+    rear_bracket_drop: float = 200.0  # how far the rig-connection brackets reach below
+    cross_height: tuple[float, ...] = (150.0, 90.0, 120.0, 120.0)
     tube_half_width: float = 50.0  # X2, along X
-    bellows_x: tuple[float, float] = (500.0, 3050.0)
+    bellows_x: tuple[float, ...] = (500.0, 3050.0)
+    bracket_x0: tuple[float, ...] = (3360.0,)  # rig-connection brackets, 140 mm long each
+    actuators: bool = False  # the 7-post rig's actuators instead of bellows
+    battery_x: tuple[float, ...] = ()  # battery box brackets on the left rail (empty: none)
+
+
+#: The 7-post rig frame: 3526 mm, five cross members, rig brackets at both ends.
+RIG = FrameDimensions(
+    length=3526.0,
+    liner_x=(150.0, 3376.0),
+    cross_x=(270.0, 1000.0, 1750.0, 2475.0, 3276.0),
+    cross_kinds=(0, 1, 2, 0, 3),
+    cross_height=(150.0, 90.0, 120.0, 150.0, 120.0),
+    bellows_x=(),
+    bracket_x0=(0.0, 3386.0),
+    actuators=True,
+)
+#: The rig frame with the battery box hung from the left rail.
+RIG_BATTERY = replace(RIG, battery_x=(1250.0, 1500.0))
 
 
 #: PSHELL id -> (name, thickness mm, MAT1 id). Ids 1-8 are the study's thickness parameters.
@@ -68,7 +87,8 @@ SHELLS = {
     7: ("cross member 3", 7.0, 7),
     8: ("cross member 2", 5.0, 5),
     9: ("cross member 4 attachment", 8.0, 9),
-    10: ("rear rig-connection bracket", 10.0, 10),
+    10: ("rig-connection brackets", 10.0, 10),
+    11: ("battery box brackets", 6.0, 10),
 }
 #: PSOLID id of the cast brackets, and its material.
 CAST_PID, CAST_MID = 20, 6
@@ -116,7 +136,9 @@ class _Frame:
     mesh: Mesh = field(default_factory=Mesh)
     rbe2: list[tuple[int, list[int]]] = field(default_factory=list)
     cbar: list[tuple[int, int, int, tuple[float, float, float]]] = field(default_factory=list)
-    bush: list[tuple[int, int]] = field(default_factory=list)  # (grid, ground grid)
+    bush: list[tuple[int, int, int]] = field(default_factory=list)  # (pid, grid, ground)
+    conm2: list[tuple[int, float, tuple[float, ...]]] = field(default_factory=list)
+    inputs: list[tuple[str, int, int, int]] = field(default_factory=list)  # label, grid, dir, sign
     ground: list[int] = field(default_factory=list)
     labels: dict[str, int] = field(default_factory=dict)
 
@@ -147,13 +169,18 @@ def _bolt(f: _Frame, pid: int, a, na, b, nb, *more, radius: float = 32.0) -> Non
 def _x_required(d: FrameDimensions) -> list[float]:
     req = [*d.liner_x, *_web_bolt_x(d), *_flange_bolt_x(d), *d.bellows_x]
     for i, xc in enumerate(d.cross_x):
-        req += [xc + o for o in _CROSS[i].bolt_dx] + [xc]
-    req += [_REAR_X0, *_REAR_BOLT_X]
+        req += [xc + o for o in _CROSS[d.cross_kinds[i]].bolt_dx] + [xc]
+    for x0 in d.bracket_x0:
+        req += [x0, x0 + _BRACKET_LEN, *(x0 + b for b in _BRACKET_BOLT_DX)]
+        if d.actuators:  # they hold the brackets at their middle
+            req.append(x0 + _BRACKET_LEN / 2)
+    for xb in d.battery_x:
+        req += [xb - 50.0, xb, xb + 25.0, xb + 50.0]
     return req
 
 
-_REAR_X0 = 3360.0
-_REAR_BOLT_X = (3395.0, 3465.0)
+_BRACKET_LEN = 140.0
+_BRACKET_BOLT_DX = (35.0, 105.0)
 _REAR_BOLT_Z = (-50.0, -120.0)
 _BOLT_Z = 70.0  # web bolts at Z = +-70
 
@@ -166,7 +193,7 @@ def _web_bolt_x(d: FrameDimensions) -> list[float]:
 
 def _flange_bolt_x(d: FrameDimensions) -> list[float]:
     xs = [800.0, 1650.0, 2050.0, 2850.0]
-    return [x for x in xs if min(abs(x - b) for b in d.bellows_x) > 100.0]
+    return [x for x in xs if min((abs(x - b) for b in d.bellows_x), default=1e9) > 100.0]
 
 
 @dataclass(frozen=True)
@@ -225,13 +252,12 @@ def _rails(f: _Frame, xs: np.ndarray) -> None:
 def _cross_members(f: _Frame) -> None:
     d, m = f.dims, f.mesh
     yl = d.half_width - d.liner_gap
-    for i, (kind, xc) in enumerate(zip(_CROSS, d.cross_x, strict=True)):
+    for i, xc in enumerate(d.cross_x):
         name = f"X{i + 1}"
-        kind = replace(kind, height=d.cross_height[i])
-        if i == 1:
-            kind = replace(kind, flange=d.tube_half_width)
+        kind = replace(_CROSS[d.cross_kinds[i]], height=d.cross_height[i])
         if kind.plate_pid is None:
-            _tube_on_cast_brackets(f, kind, xc, yl)
+            kind = replace(kind, flange=d.tube_half_width)
+            _tube_on_cast_brackets(f, kind, xc, yl, name)
             continue
         t_plate = SHELLS[kind.plate_pid][1]
         y_ep = yl - (5.0 + t_plate) / 2
@@ -263,7 +289,7 @@ def _cross_members(f: _Frame) -> None:
         f.labels[name] = m.find(xc, 0.0, h2)
 
 
-def _tube_on_cast_brackets(f: _Frame, kind: _CrossKind, xc: float, yl: float) -> None:
+def _tube_on_cast_brackets(f: _Frame, kind: _CrossKind, xc: float, yl: float, name: str) -> None:
     m = f.mesh
     hx, h2 = kind.flange, kind.height / 2
     face = yl - 2.5  # cast bracket against the liner web
@@ -286,24 +312,27 @@ def _tube_on_cast_brackets(f: _Frame, kind: _CrossKind, xc: float, yl: float) ->
                 a = (xc + dx, s * face, z)
                 _bolt(f, kind.bolt_pid, a, (0, 1, 0), (xc + dx, s * yl, z), (0, 1, 0),
                       (xc + dx, s * f.dims.half_width, z), (0, 1, 0))  # fmt: skip
-    f.labels["X2"] = m.find(xc, 0.0, h2)
+    f.labels[name] = m.find(xc, 0.0, h2)
 
 
-def _rear_brackets(f: _Frame, xs: np.ndarray) -> None:
+def _rig_brackets(f: _Frame, xs: np.ndarray) -> None:
+    """Rig-connection brackets outside the rail webs: a plate reaching below the rail with a
+    foot flange, bolted to the web with four bolts."""
     d, m = f.dims, f.mesh
     hz = d.web / 2
     t = SHELLS[10][1]
-    bx = xs[xs >= _REAR_X0 - 0.01]
     bottom = -hz - d.rear_bracket_drop
     bz = stations(bottom, -20.0, H, (*_REAR_BOLT_Z, -hz))
-    for s in (1.0, -1.0):
-        yb = d.half_width + (8.0 + t) / 2
-        m.patch(10, (0, s * yb, 0), (1, 0, 0), (0, 0, s), bx, bz * s)
-        foot = stations(yb, yb + 80.0, H)
-        m.patch(10, (0, 0, bottom), (1, 0, 0), (0, s, 0), bx, foot * s)
-        for x in _REAR_BOLT_X:
-            for z in _REAR_BOLT_Z:
-                _bolt(f, 37, (x, s * yb, z), (0, 1, 0), (x, s * d.half_width, z), (0, 1, 0))
+    yb = d.half_width + (8.0 + t) / 2
+    foot = stations(yb, yb + 80.0, H)
+    for x0 in d.bracket_x0:
+        bx = xs[(xs >= x0 - 0.01) & (xs <= x0 + _BRACKET_LEN + 0.01)]
+        for s in (1.0, -1.0):
+            m.patch(10, (0, s * yb, 0), (1, 0, 0), (0, 0, s), bx, bz * s)
+            m.patch(10, (0, 0, bottom), (1, 0, 0), (0, s, 0), bx, foot)
+            for x in (x0 + dx for dx in _BRACKET_BOLT_DX):
+                for z in _REAR_BOLT_Z:
+                    _bolt(f, 37, (x, s * yb, z), (0, 1, 0), (x, s * d.half_width, z), (0, 1, 0))
 
 
 def _bellows(f: _Frame) -> None:
@@ -318,20 +347,115 @@ def _bellows(f: _Frame) -> None:
             mount = m.node(top[0], top[1], z0 - 40.0)
             f.cbar.append((39, centre, mount, (1.0, 0.0, 0.0)))
             ground = m.node(top[0], top[1], z0 - 240.0)
-            f.bush.append((mount, ground))
+            f.bush.append((BELLOWS_PID, mount, ground))
             f.ground.append(ground)
 
 
-def build_hammer_frame(dims: FrameDimensions | None = None) -> _Frame:
-    """The hammer-test frame on air bellows."""
-    d = dims or FrameDimensions()
+#: PBUSH ids of the actuators by direction (1 = X, 2 = Y, 3 = Z), and their axial rate: the
+#: oil column of a displacement-controlled actuator (N/mm); swivels at both ends carry nothing
+#: else.
+ACTUATOR_PIDS = {1: 51, 2: 52, 3: 53}
+ACTUATOR_K = 5.0e4
+ACTUATOR_LENGTH = 500.0
+
+
+def _actuator(f: _Frame, label: str, centre, normal, radius: float, comp: int, sign: int) -> None:
+    """An actuator pushing the frame along ``sign`` times basic axis ``comp`` at ``centre``:
+    an RBE2 from an attachment node 50 mm out to the frame nodes within ``radius`` in the
+    plane normal to ``normal`` (the centre node too), and a grounded CBUSH along the axis."""
+    m = f.mesh
+    ring = sorted([m.find(*centre), *m.near(centre, radius, normal)])
+    if len(ring) < 4:
+        raise RuntimeError(f"actuator {label} at {centre} found only {len(ring)} frame nodes")
+    axis = np.zeros(3)
+    axis[comp - 1] = float(sign)
+    attach = m.node(*(np.asarray(centre) - 50.0 * axis))
+    ground = m.node(*(np.asarray(centre) - (50.0 + ACTUATOR_LENGTH) * axis))
+    f.rbe2.append((attach, ring))
+    f.bush.append((ACTUATOR_PIDS[comp], attach, ground))
+    f.ground.append(ground)
+    f.inputs.append((label, attach, comp, sign))
+
+
+def _actuators(f: _Frame) -> None:
+    """The 7 actuators: 4 vertical (+Z) under the rig brackets' feet, 2 lateral (+Y) on the
+    right-hand brackets, 1 longitudinal (-X) at the rear end of the left rail."""
+    d = f.dims
+    yb = d.half_width + (8.0 + SHELLS[10][1]) / 2
+    bottom = -d.web / 2 - d.rear_bracket_drop
+    ends = ((d.bracket_x0[0], "front"), (d.bracket_x0[-1], "rear"))
+    mid = _BRACKET_LEN / 2
+    foot = stations(yb, yb + 80.0, H)
+    yf = float(foot[len(foot) // 2])
+    for x0, end in ends:
+        for s, side in ((1.0, "left"), (-1.0, "right")):
+            _actuator(f, f"V_{end}_{side}", (x0 + mid, s * yf, bottom), (0, 0, 1), 45.0, 3, 1)
+    bz = stations(bottom, -20.0, H, (*_REAR_BOLT_Z, -d.web / 2))
+    zl = float(bz[np.argmin(np.abs(bz - (bottom - 20.0) / 2))])
+    for x0, end in ends:
+        _actuator(f, f"L_{end}", (x0 + mid, -yb, zl), (0, 1, 0), 45.0, 2, 1)
+    _actuator(f, "X_rear", (d.length, d.half_width, 0.0), (1, 0, 0), 60.0, 1, -1)
+
+
+#: Battery box: mass (t), its centre of gravity from the left rail web (Y, mm) and height
+#: (Z, mm), size (mm) for its inertia, and the PSHELL of its two L brackets.
+BATTERY_MASS = 0.12
+BATTERY_CG = (330.0, -180.0)
+BATTERY_SIZE = (600.0, 500.0, 350.0)
+BATTERY_PID = 11
+
+
+def _battery(f: _Frame, xs: np.ndarray) -> None:
+    """Battery box hung outside the left rail: two brackets bolted to the web (a plate on the
+    web, a bottom arm and an upright web plate reaching 400 mm out), the box a rigid body (an
+    RBE2 from its centre of gravity to the brackets' outer edges) with a CONM2."""
+    d, m = f.dims, f.mesh
+    hz = d.web / 2
+    yb = d.half_width + (8.0 + SHELLS[BATTERY_PID][1]) / 2
+    low = -hz - 150.0
+    arm = stations(yb, yb + 400.0, H)
+    bz = stations(low, -20.0, H, (*_REAR_BOLT_Z, -hz))
+    ends = []
+    for xb in d.battery_x:
+        bx = xs[(xs >= xb - 50.01) & (xs <= xb + 50.01)]
+        m.patch(BATTERY_PID, (0, yb, 0), (1, 0, 0), (0, 0, 1), bx, bz)  # on the rail web
+        m.patch(BATTERY_PID, (0, 0, low), (1, 0, 0), (0, 1, 0), bx, arm)  # bottom arm
+        m.patch(BATTERY_PID, (xb, 0, 0), (0, 1, 0), (0, 0, 1), arm, bz)  # upright web
+        for z in _REAR_BOLT_Z:
+            _bolt(f, 37, (xb + 25.0, yb, z), (0, 1, 0), (xb + 25.0, d.half_width, z), (0, 1, 0))
+        ends += [m.find(x, arm[-1], low) for x in bx if abs(x - xb) > 0.01]
+        ends += [m.find(xb, arm[-1], z) for z in bz]
+    cg = m.node(float(np.mean(d.battery_x)), d.half_width + BATTERY_CG[0], BATTERY_CG[1])
+    f.rbe2.append((cg, sorted(ends)))
+    a, b, c = BATTERY_SIZE
+    mb = BATTERY_MASS
+    inertia = (mb * (b * b + c * c) / 12, 0.0, mb * (a * a + c * c) / 12, 0.0, 0.0,
+               mb * (a * a + b * b) / 12)  # fmt: skip
+    f.conm2.append((cg, mb, tuple(round(v, 1) for v in inertia)))
+    f.labels["battery"] = cg
+
+
+def build_frame(dims: FrameDimensions) -> _Frame:
+    """A frame of the given dimensions: on air bellows (hammer test) or on the rig's
+    actuators, with the battery box if ``dims.battery_x`` places it."""
+    d = dims
     f = _Frame(d)
     xs = stations(0.0, d.length, H, tuple(_x_required(d)))
     _rails(f, xs)
     _cross_members(f)
-    _rear_brackets(f, xs)
-    _bellows(f)
+    _rig_brackets(f, xs)
+    if d.battery_x:
+        _battery(f, xs)
+    if d.bellows_x:
+        _bellows(f)
+    if d.actuators:
+        _actuators(f)
     return f
+
+
+def build_hammer_frame(dims: FrameDimensions | None = None) -> _Frame:
+    """The hammer-test frame on air bellows."""
+    return build_frame(dims or FrameDimensions())
 
 
 # ----------------------------------------------------------------------------- deck text
@@ -364,7 +488,10 @@ def deck_lines(f: _Frame, title: str) -> list[str]:
         out.append(f"$ MAT1 {mid}: {name}")
         card("MAT1", mid, E, None, NU, RHO)
     out.append("$ shell properties")
+    used = {e[0] for e in f.mesh.quads} | {e[0] for e in f.mesh.trias}
     for pid, (name, t, mid) in SHELLS.items():
+        if pid not in used:
+            continue
         out.append(f"$ PSHELL {pid}: {name}, {t:g} mm")
         card("PSHELL", pid, mid, t, mid, None, mid)
     card("PSOLID", CAST_PID, CAST_MID)
@@ -375,8 +502,16 @@ def deck_lines(f: _Frame, title: str) -> list[str]:
         inertia = round(np.pi * r**4 / 4, 1)
         out.append(f"$ PBAR {pid}: {name}, M{dia:g}")
         card("PBAR", pid, mid, area, inertia, inertia, 2.0 * inertia)
-    out.append("$ air bellows")
-    card("PBUSH", BELLOWS_PID, "K", *BELLOWS_K, 0.0, 0.0, 0.0)
+    bush_pids = {b[0] for b in f.bush}
+    if BELLOWS_PID in bush_pids:
+        out.append("$ air bellows")
+        card("PBUSH", BELLOWS_PID, "K", *BELLOWS_K, 0.0, 0.0, 0.0)
+    for comp, pid in ACTUATOR_PIDS.items():
+        if pid in bush_pids:
+            out.append(f"$ actuators along {'XYZ'[comp - 1]}: oil column only (swivel ends)")
+            k = [0.0] * 6
+            k[comp - 1] = ACTUATOR_K
+            card("PBUSH", pid, "K", *k)
     out.append("$ grids")
     for gid, (x, y, z) in enumerate(f.mesh.xyz, start=1):
         card("GRID", gid, None, x, y, z)
@@ -396,14 +531,17 @@ def deck_lines(f: _Frame, title: str) -> list[str]:
     for pid, ga, gb, v in f.cbar:
         eid += 1
         card("CBAR", eid, pid, ga, gb, *v)
-    for ga, gg in f.bush:
+    for pid, ga, gg in f.bush:
         eid += 1
-        card("CBUSH", eid, BELLOWS_PID, ga, gg, None, None, None, 0)
+        card("CBUSH", eid, pid, ga, gg, None, None, None, 0)
+    for g, mass, inertia in f.conm2:
+        eid += 1
+        card("CONM2", eid, g, 0, mass, 0.0, 0.0, 0.0, None, *inertia)
     out.append("$ bolt spiders")
     for g, ring in f.rbe2:
         eid += 1
         card("RBE2", eid, g, 123456, *ring)
-    out.append("$ air bellows grounds")
+    out.append("$ grounds of the springs")
     for g in f.ground:
         card("SPC1", 1, 123456, g)
     out.append("ENDDATA")
@@ -475,28 +613,75 @@ def hammer_inputs(f: _Frame) -> list[tuple[str, int, int]]:
     return [("hammer_Y", g_y, 2), ("hammer_Z", g_z, 3)]
 
 
-def write_hammer_frame(out_dir) -> list:
-    """Write ``hammer_frame.bdf``, ``.params.toml``, ``.sensors.csv`` and ``.inputs.csv``
-    into ``out_dir`` (atomically, each). Returns the paths."""
+def rig_sensors(f: _Frame) -> list[tuple[str, int]]:
+    """One triaxial accelerometer near each actuator (label, GRID): on the rig bracket's
+    plate about 100 mm from the attachment, or on the rail web 100 mm ahead of the
+    longitudinal one; with the battery box, one more at its centre of gravity."""
+    d = f.dims
+    yb = d.half_width + (8.0 + SHELLS[10][1]) / 2
+    X = np.asarray(f.mesh.xyz)
+    out = []
+    for label, g, comp, _sign in f.inputs:
+        p = X[g - 1]
+        if comp == 3:
+            target = (p[0], np.sign(p[1]) * yb, p[2] + 150.0)
+        elif comp == 2:
+            target = (p[0], -yb, p[2] + 100.0)
+        else:
+            target = (d.length - 100.0, d.half_width, 0.0)
+        out.append((f"S_{label}", _nearest_node(f, *target)))
+    if "battery" in f.labels:
+        out.append(("S_battery", f.labels["battery"]))
+    return out
+
+
+VARIANTS = {
+    "hammer": ("hammer_frame", "truck ladder frame on air bellows (hammer test)"),
+    "rig": ("rig_frame", "truck ladder frame on the 7-post rig"),
+    "rig-battery": ("rig_frame_battery", "truck ladder frame on the 7-post rig, battery box"),
+}
+
+
+def write_frame(variant: str, out_dir) -> list:
+    """Write a variant's deck and data files into ``out_dir`` (each atomically); returns
+    the paths.
+
+    hammer: ``hammer_frame.bdf``, ``.params.toml`` (the 30 calibration parameters),
+    ``.sensors.csv`` (24 positions x 3 directions) and ``.inputs.csv`` (2 hammer impacts);
+    rig, rig-battery: ``rig_frame[_battery].bdf``, ``.sensors.csv`` (7 triaxial sensors near
+    the actuators, plus the battery box) and ``.inputs.csv`` (the 7 actuators). An input's
+    direction is the basic axis 1, 2, 3, negative for the minus direction.
+    """
     from pathlib import Path
 
     from ..deck.writer import write_text_atomic
 
+    if variant not in VARIANTS:
+        raise ValueError(f"unknown truck-frame variant {variant!r}; expected one of "
+                         f"{', '.join(VARIANTS)}")  # fmt: skip
+    stem, title = VARIANTS[variant]
     out_dir = Path(out_dir)
-    f = build_hammer_frame()
+    dims = {"hammer": FrameDimensions(), "rig": RIG, "rig-battery": RIG_BATTERY}[variant]
+    f = build_frame(dims)
     X = f.mesh.xyz
-    paths = [
-        write_text_atomic(out_dir / "hammer_frame.bdf",
-                          deck_lines(f, "truck ladder frame on air bellows (hammer test)")),
-        write_text_atomic(out_dir / "hammer_frame.params.toml", params_toml(parameters())),
-    ]  # fmt: skip
+    paths = [write_text_atomic(out_dir / f"{stem}.bdf", deck_lines(f, title))]
+    if variant == "hammer":
+        paths.append(write_text_atomic(out_dir / f"{stem}.params.toml", params_toml(parameters())))
+        where, inputs = sensors(f), hammer_inputs(f)
+    else:
+        where = rig_sensors(f)
+        inputs = [(lab, g, comp * sign) for lab, g, comp, sign in f.inputs]
     rows = ["label,grid,x,y,z,directions"]
-    rows += [
-        f"{lab},{g},{X[g - 1][0]:g},{X[g - 1][1]:g},{X[g - 1][2]:g},123" for lab, g in sensors(f)
-    ]
-    paths.append(write_text_atomic(out_dir / "hammer_frame.sensors.csv", rows))
+    rows += [f"{lab},{g},{X[g - 1][0]:g},{X[g - 1][1]:g},{X[g - 1][2]:g},123"
+             for lab, g in where]  # fmt: skip
+    paths.append(write_text_atomic(out_dir / f"{stem}.sensors.csv", rows))
     rows = ["label,grid,x,y,z,direction"]
     rows += [f"{lab},{g},{X[g - 1][0]:g},{X[g - 1][1]:g},{X[g - 1][2]:g},{c}"
-             for lab, g, c in hammer_inputs(f)]  # fmt: skip
-    paths.append(write_text_atomic(out_dir / "hammer_frame.inputs.csv", rows))
+             for lab, g, c in inputs]  # fmt: skip
+    paths.append(write_text_atomic(out_dir / f"{stem}.inputs.csv", rows))
     return paths
+
+
+def write_hammer_frame(out_dir) -> list:
+    """The hammer variant's files (see :func:`write_frame`)."""
+    return write_frame("hammer", out_dir)
