@@ -164,3 +164,51 @@ def test_bad_shell_is_reported_by_element_id_with_threads(monkeypatch, write, co
     monkeypatch.setattr(structure, "KERNEL_CHUNK", 1)
     with pytest.raises(ModelError, match=rf"CQUAD4: .*{what}.*element ids \[13\]"):
         structure.assemble(model, structure.Options(threads=2))
+
+
+def test_node_diagonal_blocks_are_summed_apart_and_equal_the_full_scatter():
+    """Lumped (node-diagonal) element matrices go to per-node blocks; mixed with coupled ones
+    and single entries, the matrix equals a dense assembly, in rotated frames too."""
+    rng = np.random.default_rng(3)
+    ndof = np.array([6, 6, 1, 6])
+    dof_start = np.concatenate([[0], np.cumsum(ndof)[:-1]])
+    elems = np.array([[0, 1], [1, 3], [3, 0]])
+    pattern = Pattern.build(dof_start, ndof, [elems])
+    frames = np.tile(np.eye(3), (4, 1, 1))
+    frames[1] = rotation(rng)
+    lumped = np.zeros((3, 12, 12))
+    for e in range(3):
+        for a in range(2):
+            blk = rng.normal(size=(6, 6))
+            lumped[e, 6 * a : 6 * a + 6, 6 * a : 6 * a + 6] = blk + blk.T
+    coupled = rng.normal(size=(3, 12, 12))
+    coupled = coupled + np.swapaxes(coupled, 1, 2)
+    solid = np.zeros((2, 6, 6))  # 3 DOF per node, node-diagonal
+    solid[:, :3, :3] = np.eye(3)
+    solid[:, 3:, 3:] = 2 * np.eye(3)
+
+    def assemble(parts):
+        asm = Assembler(pattern, frames)
+        for nodes, d, m in parts:
+            asm.add_blocks(nodes, d, m)
+        asm.add_entries(np.array([12]), np.array([12]), np.array([5.0]))  # the scalar point
+        return asm.matrix().toarray()
+
+    def dense(parts):
+        out = np.zeros((19, 19))
+        out[12, 12] = 5.0
+        for nodes, d, mats in parts:
+            for nd, m in zip(nodes, mats, strict=True):
+                lam = np.zeros((len(nd) * d, len(nd) * d))
+                idx = []
+                for j, node in enumerate(nd):
+                    for g in range(d // 3):
+                        lam[d * j + 3 * g : d * j + 3 * g + 3, d * j + 3 * g : d * j + 3 * g + 3] = frames[node]  # fmt: skip
+                    idx += list(range(dof_start[node], dof_start[node] + d))
+                out[np.ix_(idx, idx)] += lam.T @ m @ lam
+        return out
+
+    only_lumped = [(elems, 6, lumped), (elems[:2], 3, solid)]
+    mixed = [*only_lumped, (elems, 6, coupled)]
+    for parts in (only_lumped, mixed):
+        assert np.allclose(assemble(parts), dense(parts), atol=1e-12)

@@ -169,18 +169,27 @@ class Assembler:
     """Accumulates element matrices into g-set matrices sharing one :class:`Pattern`.
 
     ``n_matrices`` matrices (e.g. K and M) are accumulated together, so the scatter positions
-    of an element block are computed once for all of them.
+    of an element block are computed once for all of them. Element matrices that couple no
+    two nodes (a lumped mass) are summed per node in small (n_nodes, 6, 6) blocks instead of
+    the full pattern, whose data array is then only allocated if something else needs it:
+    for a lumped mass matrix that saves a pattern-sized array and half the scatter.
     """
 
     def __init__(self, pattern: Pattern, frames: np.ndarray | None = None, n_matrices: int = 1):
         """``frames``: (n_nodes, 3, 3) displacement frames (columns = axes in basic); element
         matrices given in basic are rotated into them. None: every frame is basic."""
         self.pattern = pattern
-        self.data = [np.zeros(pattern.nnz) for _ in range(n_matrices)]
+        self._data: list[np.ndarray | None] = [None] * n_matrices
+        self._node_blocks: list[np.ndarray | None] = [None] * n_matrices
         self.frames = frames
         self._basic = (
             None if frames is None else np.all(np.abs(frames - np.eye(3)) < 1e-15, axis=(1, 2))
         )
+
+    def _full(self, which: int) -> np.ndarray:
+        if self._data[which] is None:
+            self._data[which] = np.zeros(self.pattern.nnz)
+        return self._data[which]
 
     def add_blocks(self, nodes: np.ndarray, dof_per_node: int, *mats: np.ndarray | None) -> None:
         """Add element matrices, one array per accumulated matrix (None to skip one).
@@ -194,13 +203,13 @@ class Assembler:
         """
         self.scatter(self.prepare(nodes, dof_per_node, *mats))
 
-    def prepare(self, nodes: np.ndarray, dof_per_node: int,
-                *mats: np.ndarray | None) -> list[tuple[np.ndarray, list]]:  # fmt: skip
+    def prepare(self, nodes: np.ndarray, dof_per_node: int, *mats: np.ndarray | None) -> list:
         """The work of :meth:`add_blocks` that does not touch the accumulated matrices
         (rotation into the displacement frames, CSR positions), so that it may run in
         worker threads; :meth:`scatter` adds the result. Arguments as for ``add_blocks``.
 
-        Returns a list of (positions (m,), [values (m,) or None per matrix]).
+        Returns a list of (positions (m,) or None, [per matrix: None, values (m,), or
+        ("nodes", node indices (p,), d, blocks (p, d, d)) for node-diagonal matrices]).
         """
         n = len(nodes)
         d = dof_per_node
@@ -210,8 +219,12 @@ class Assembler:
             chunk = [None if m is None else self._rotate(nd, d, m[s : s + CHUNK_ELEMENTS])
                      for m in mats]  # fmt: skip
             if (nd >= 0).all():
-                pos = self.pattern.block_positions(nd, d).ravel()
-                out.append((pos, [None if m is None else m.ravel() for m in chunk]))
+                values: list = [None if m is None else _node_diagonal(nd, d, m) for m in chunk]
+                full = [i for i, m in enumerate(chunk) if m is not None and values[i] is None]
+                pos = self.pattern.block_positions(nd, d).ravel() if full else None
+                for i in full:
+                    values[i] = chunk[i].ravel()
+                out.append((pos, values))
                 continue
             safe = np.where(nd < 0, 0, nd)
             dofs = (self.pattern.dof_start[safe][:, :, None] + np.arange(d)).reshape(len(nd), -1)
@@ -224,13 +237,20 @@ class Assembler:
             out.append((pos, [None if m is None else m[keep] for m in chunk]))
         return out
 
-    def scatter(self, prepared: list[tuple[np.ndarray, list]]) -> None:
+    def scatter(self, prepared: list) -> None:
         """Add what :meth:`prepare` returned to the accumulated matrices (not thread-safe:
         call from one thread, in a fixed order for reproducible sums)."""
         for pos, values in prepared:
-            for target, v in zip(self.data, values, strict=False):
-                if v is not None:
-                    np.add.at(target, pos, v)
+            for which, v in enumerate(values):
+                if v is None:
+                    continue
+                if isinstance(v, tuple):
+                    _, idx, d, blocks = v
+                    if self._node_blocks[which] is None:
+                        self._node_blocks[which] = np.zeros((self.pattern.n_nodes, 6, 6))
+                    np.add.at(self._node_blocks[which][:, :d, :d], idx, blocks)
+                else:
+                    np.add.at(self._full(which), pos, v)
 
     def _rotate(self, nodes: np.ndarray, d: int, m: np.ndarray) -> np.ndarray:
         if self.frames is None:
@@ -250,12 +270,36 @@ class Assembler:
         """Add single entries (g-set DOF, already in the nodes' displacement frames) to matrix
         number ``which``."""
         if len(rows):
-            np.add.at(self.data[which], self.pattern.positions(rows, cols), vals)
+            np.add.at(self._full(which), self.pattern.positions(rows, cols), vals)
 
     def matrix(self, which: int = 0) -> sp.csr_matrix:
-        """Assembled matrix number ``which``. It shares the accumulated data and the pattern's
-        index arrays (no copy): add nothing more to this matrix after taking it."""
+        """Assembled matrix number ``which``. Without node blocks it shares the accumulated
+        data and the pattern's index arrays (no copy): add nothing more to this matrix after
+        taking it."""
         p = self.pattern
         m = sp.csr_matrix((p.n_dof, p.n_dof))
-        m.data, m.indices, m.indptr = self.data[which], p.indices, p.indptr
-        return m
+        if self._data[which] is not None or self._node_blocks[which] is None:
+            m.data, m.indices, m.indptr = self._full(which), p.indices, p.indptr
+        blocks = self._node_blocks[which]
+        if blocks is None:
+            return m
+        node, i, j = np.nonzero(blocks)
+        start = p.dof_start[node]
+        if (p.ndof[node] < 6).any():
+            raise ValueError("a 6 x 6 node block was added to a scalar point")
+        b = sp.csr_matrix((blocks[node, i, j], (start + i, start + j)), shape=m.shape)
+        return b if self._data[which] is None else (m + b).tocsr()
+
+
+def _node_diagonal(nodes: np.ndarray, d: int, m: np.ndarray):
+    """("nodes", node indices (n k,), d, blocks (n k, d, d)) if the element matrices m
+    (n, k d, k d) couple no two of their nodes, else None."""
+    n, k = nodes.shape
+    m5 = m.reshape(n, k, d, k, d)
+    if k > 1:
+        off = ~np.eye(k, dtype=bool)
+        if np.any(m5.transpose(1, 3, 0, 2, 4)[off]):
+            return None
+    ar = np.arange(k)
+    blocks = m5[:, ar, :, ar, :].transpose(1, 0, 2, 3)  # (n, k, d, d)
+    return ("nodes", nodes.ravel(), d, blocks.reshape(n * k, d, d))
