@@ -116,10 +116,11 @@ def test_pattern_is_the_same_whatever_the_expansion_pass_size(monkeypatch, nodes
     dof_start = np.concatenate([[0], np.cumsum(ndof)[:-1]])
     pairs = rng.integers(0, 23, size=(40, 2))
     pairs = pairs[pairs[:, 0] != pairs[:, 1]]
-    pattern = Pattern.build(dof_start, ndof, [pairs])
     ref = reference_pattern(dof_start, ndof, pairs)
-    assert np.array_equal(pattern.indptr, ref.indptr)
-    assert np.array_equal(pattern.indices, ref.indices)
+    for background in (False, True):  # indices computed here or in a thread
+        pattern = Pattern.build(dof_start, ndof, [pairs], background=background)
+        assert np.array_equal(pattern.indptr, ref.indptr)
+        assert np.array_equal(pattern.indices, ref.indices)
 
 
 def test_threaded_assembly_gives_bitwise_the_same_matrices(monkeypatch):

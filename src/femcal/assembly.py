@@ -10,6 +10,7 @@ per-element Python loop.
 
 from __future__ import annotations
 
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,7 +30,9 @@ class Pattern:
     dof_start : (n_nodes,) first DOF of each node.
     ndof : (n_nodes,) DOF per node (6 for GRID, 1 for SPOINT).
     dof_node : (n_dof,) node of each DOF.
-    indptr, indices : CSR structure (indices int32 or int64, sorted within rows).
+    indptr, indices : CSR structure (indices int32 or int64, sorted within rows). The
+        scatter needs only ``indptr``; ``indices`` may still be computed in a background
+        thread (see :meth:`build`) and is waited for when first read.
     keys : (m,) sorted node-pair keys ``a * n_nodes + b`` of the node graph.
     prefix : (m,) offset, within each row of node a, of node b's first DOF.
     """
@@ -40,17 +43,35 @@ class Pattern:
     ndof: np.ndarray
     dof_node: np.ndarray
     indptr: np.ndarray
-    indices: np.ndarray
+    _indices: list  # [array] or [Future of the array]
     keys: np.ndarray
     prefix: np.ndarray
+
+    @property
+    def indices(self) -> np.ndarray:
+        v = self._indices[0]
+        if isinstance(v, Future):
+            v = v.result()
+            self._indices[0] = v
+        return v
 
     @property
     def nnz(self) -> int:
         return int(self.indptr[-1])
 
     @classmethod
-    def build(cls, dof_start: np.ndarray, ndof: np.ndarray, pairs: list[np.ndarray]) -> Pattern:
+    def build(
+        cls,
+        dof_start: np.ndarray,
+        ndof: np.ndarray,
+        pairs: list[np.ndarray],
+        *,
+        background: bool = False,
+    ) -> Pattern:
         """Pattern from node pairs.
+
+        With ``background``, the column indices (the pattern's largest array, which the
+        scatter does not need) are computed in a separate thread while the caller goes on.
 
         Parameters
         ----------
@@ -82,11 +103,15 @@ class Pattern:
         indptr = np.concatenate([[0], np.cumsum(row_len)]).astype(np.int64)
         nnz = int(indptr[-1])
         itype = np.int32 if max(nnz, n_dof) < 2**31 - 1 else np.int64
-        indices = _expand_columns(
-            dof_start, ndof, b, blk, node_ptr, start_of_row, row_len_node, nnz, itype
-        )
+        args = (dof_start, ndof, b, blk, node_ptr, start_of_row, row_len_node, nnz, itype)
+        if background:
+            pool = ThreadPoolExecutor(1, thread_name_prefix="femcal-pattern")
+            indices = pool.submit(_expand_columns, *args)
+            pool.shutdown(wait=False)
+        else:
+            indices = _expand_columns(*args)
         indptr = indptr.astype(itype)  # scipy wants indptr and indices of one dtype
-        return cls(n, n_dof, dof_start, ndof, dof_node, indptr, indices, keys, prefix)
+        return cls(n, n_dof, dof_start, ndof, dof_node, indptr, [indices], keys, prefix)
 
     def pair_index(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """Index into ``keys``/``prefix`` of node pairs (a, b), any shape; ValueError if absent."""

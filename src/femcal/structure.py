@@ -89,9 +89,10 @@ def assemble(model: Model, options: Options | None = None) -> Matrices:
     k6rot = opt.k6rot if opt.k6rot is not None else _param(model, "K6ROT", 100.0)
     ndof = np.where(model.is_grid, 6, 1)
     pairs = [_pairs(b) for b in model.elements.values()]
-    pattern = Pattern.build(model.dof_start, ndof, pairs)
-    asm = Assembler(pattern, model.cd_frames, n_matrices=2)  # K and M
     threads = opt.threads if opt.threads is not None else min(4, len(os.sched_getaffinity(0)))
+    # the pattern's column indices are only needed at the end: built while the kernels run
+    pattern = Pattern.build(model.dof_start, ndof, pairs, background=threads > 1)
+    asm = Assembler(pattern, model.cd_frames, n_matrices=2)  # K and M
     ctx = _Context(model, coupled, k6rot, max(1, threads))
     masses: dict[str, float] = {}
     for etype, block in model.elements.items():
