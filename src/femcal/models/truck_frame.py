@@ -50,15 +50,16 @@ class FrameDimensions:
     liner_gap: float = 6.5  # rail web to liner web, mid-surfaces: (8 + 5) / 2
     liner_flange: float = 75.0
     liner_x: tuple[float, float] = (150.0, 3350.0)
-    cross_x: tuple[float, ...] = (270.0, 1150.0, 2475.0, 3250.0)
+    cross_x: tuple[float, ...] = (270.0, 1150.0, 2475.0, 2825.0)
     cross_kinds: tuple[int, ...] = (0, 1, 2, 3)  # X1-X4 kinds (see _CROSS) of each member
-    rear_bracket_drop: float = 200.0  # how far the rig-connection brackets reach below
+    rear_bracket_drop: float = 290.0  # how far the rig-connection brackets reach below
     cross_height: tuple[float, ...] = (150.0, 90.0, 120.0, 120.0)
     tube_half_width: float = 50.0  # X2, along X
     bellows_x: tuple[float, ...] = (500.0, 3050.0)
     bracket_x0: tuple[float, ...] = (3360.0,)  # rig-connection brackets, 140 mm long each
     actuators: bool = False  # the 7-post rig's actuators instead of bellows
     battery_x: tuple[float, ...] = ()  # battery box brackets on the left rail (empty: none)
+    rear_tie: bool = True  # a tube between the rear brackets' feet (the rig adapter's)
 
 
 #: The 7-post rig frame: 3526 mm, five cross members, rig brackets at both ends.
@@ -71,6 +72,7 @@ RIG = FrameDimensions(
     bellows_x=(),
     bracket_x0=(0.0, 3386.0),
     actuators=True,
+    rear_tie=False,  # the actuators hold the brackets' feet
 )
 #: The rig frame with the battery box hung from the left rail.
 RIG_BATTERY = replace(RIG, battery_x=(1250.0, 1500.0))
@@ -123,6 +125,8 @@ BOLTS = {
     38: ("rail to liner flanges", 15.0, 11),
     39: ("air bellows mounts", 15.0, 13),
 }
+#: PBAR of the tie tube between the rear brackets' feet, and its outer diameter and wall (mm).
+TIE_PID, TIE_TUBE = 40, (60.0, 4.0)
 RHO = 7.85e-9  # t/mm^3
 NU = 0.3
 BELLOWS_PID = 50
@@ -172,7 +176,7 @@ def _x_required(d: FrameDimensions) -> list[float]:
         req += [xc + o for o in _CROSS[d.cross_kinds[i]].bolt_dx] + [xc]
     for x0 in d.bracket_x0:
         req += [x0, x0 + _BRACKET_LEN, *(x0 + b for b in _BRACKET_BOLT_DX)]
-        if d.actuators:  # they hold the brackets at their middle
+        if d.actuators or d.rear_tie:  # actuators or the tie hold the brackets' middle
             req.append(x0 + _BRACKET_LEN / 2)
     for xb in d.battery_x:
         req += [xb - 50.0, xb, xb + 25.0, xb + 50.0]
@@ -333,6 +337,14 @@ def _rig_brackets(f: _Frame, xs: np.ndarray) -> None:
             for x in (x0 + dx for dx in _BRACKET_BOLT_DX):
                 for z in _REAR_BOLT_Z:
                     _bolt(f, 37, (x, s * yb, z), (0, 1, 0), (x, s * d.half_width, z), (0, 1, 0))
+        if d.rear_tie and x0 == d.bracket_x0[-1]:
+            yf = float(foot[len(foot) // 2])
+            ends = []
+            for s in (1.0, -1.0):
+                centre = (x0 + _BRACKET_LEN / 2, s * yf, bottom)
+                ends.append(m.find(*centre))
+                f.rbe2.append((ends[-1], m.near(centre, 45.0, (0, 0, 1))))
+            f.cbar.append((TIE_PID, ends[0], ends[1], (0.0, 0.0, 1.0)))
 
 
 def _bellows(f: _Frame) -> None:
@@ -502,6 +514,13 @@ def deck_lines(f: _Frame, title: str) -> list[str]:
         inertia = round(np.pi * r**4 / 4, 1)
         out.append(f"$ PBAR {pid}: {name}, M{dia:g}")
         card("PBAR", pid, mid, area, inertia, inertia, 2.0 * inertia)
+    if any(b[0] == TIE_PID for b in f.cbar):
+        do, wall = TIE_TUBE
+        di = do - 2 * wall
+        area = round(np.pi * (do**2 - di**2) / 4, 2)
+        inertia = round(np.pi * (do**4 - di**4) / 64, 1)
+        out.append(f"$ PBAR {TIE_PID}: tie tube between the rear brackets, {do:g} x {wall:g} mm")
+        card("PBAR", TIE_PID, 10, area, inertia, inertia, 2.0 * inertia)
     bush_pids = {b[0] for b in f.bush}
     if BELLOWS_PID in bush_pids:
         out.append("$ air bellows")
