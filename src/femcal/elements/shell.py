@@ -571,46 +571,6 @@ def quad4_matrices(
     """Stiffness and mass of CQUAD4 elements: MITC4 bending/shear, Allman (ITW) membrane.
 
     Formulation, sign conventions, drilling, offsets and mass: see the module docstring.
-
-    Parameters
-    ----------
-    xyz : ndarray, shape (n, 4, 3)
-        Node coordinates in basic, NASTRAN order (counter-clockwise about the normal), length.
-    A : array_like, shape (n, 3, 3) or (3, 3)
-        Membrane stiffness, ``N = A eps`` (force/length), element frame, order xx, yy, xy
-        (engineering shear). Isotropic: ``t E / (1 - nu^2) [[1, nu, 0], [nu, 1, 0],
-        [0, 0, (1 - nu) / 2]]``.
-    D : array_like, shape (n, 3, 3) or (3, 3)
-        Bending stiffness, ``M = D kappa`` (force length / length); curvature convention in
-        the module docstring. Isotropic: ``t^3 / 12`` times the matrix above.
-    S : array_like, shape (n, 2, 2) or (2, 2), or None
-        Transverse shear stiffness, ``Q = S gamma`` (force/length), order xz, yz; isotropic
-        ``5/6 t G I``. None: shear-rigid (Kirchhoff) behaviour by the penalty
-        ``1e4 trace(D) / area I``.
-    B : array_like, shape (n, 3, 3) or (3, 3), optional
-        Membrane-bending coupling, ``N = A eps + B kappa``, ``M = B^T eps + D kappa``
-        (force); None is zero.
-    rho_area : array_like, shape (n,) or scalar
-        Structural mass per unit area (``rho t``), mass/length^2.
-    nsm : array_like, shape (n,) or scalar
-        Non-structural mass per unit area, mass/length^2.
-    zoffs : array_like, shape (n,) or scalar
-        Offset of the reference plane from the grid plane along the element z axis
-        (NASTRAN ZOFFS), length. Rigid links, applied to K and M.
-    k6rot : array_like, shape (n,) or scalar
-        NASTRAN PARAM K6ROT: adds ``k6rot * 1e-6 * A[2, 2]`` to the drilling penalty modulus
-        ``A[2, 2]`` (see the module docstring; the drilling DOFs are never singular).
-    coupled_mass : bool
-        False: lumped translational mass (row sums of the consistent mass). True: consistent
-        translational mass. No rotary inertia either way.
-
-    Returns
-    -------
-    K : ndarray, shape (n, 24, 24)
-        Stiffness in basic, DOFs ``[T1 T2 T3 R1 R2 R3]`` node by node (force/length,
-        force, force*length blocks). Symmetric.
-    M : ndarray, shape (n, 24, 24)
-        Mass in basic, same DOF order (mass, mass*length, mass*length^2 blocks). Symmetric.
     """
     T, xl, h, A_, D_, S_, B_, m, zo, alpha = _prepare(
         xyz, 4, A, D, S, B, rho_area, nsm, zoffs, k6rot
@@ -635,10 +595,18 @@ def tria3_matrices(
     """Stiffness and mass of CTRIA3 elements: Allman membrane, MITC3 bending/shear.
 
     Formulation, sign conventions, drilling, offsets and mass: see the module docstring.
+    """
+    T, xl, h, A_, D_, S_, B_, m, zo, alpha = _prepare(
+        xyz, 3, A, D, S, B, rho_area, nsm, zoffs, k6rot
+    )
+    K, Nint, Mcons = _tria3_local(xl, A_, D_, S_, B_, alpha)
+    return _to_basic(K, Nint, Mcons, m, T, zo[:, None] - h, coupled_mass)
 
+
+_PARAMS_DOC = """
     Parameters
     ----------
-    xyz : ndarray, shape (n, 3, 3)
+    xyz : ndarray, shape (n, {nn}, 3)
         Node coordinates in basic, NASTRAN order (counter-clockwise about the normal), length.
     A : array_like, shape (n, 3, 3) or (3, 3)
         Membrane stiffness, ``N = A eps`` (force/length), element frame, order xx, yy, xy
@@ -670,14 +638,12 @@ def tria3_matrices(
 
     Returns
     -------
-    K : ndarray, shape (n, 18, 18)
+    K : ndarray, shape (n, {k}, {k})
         Stiffness in basic, DOFs ``[T1 T2 T3 R1 R2 R3]`` node by node (force/length,
         force, force*length blocks). Symmetric.
-    M : ndarray, shape (n, 18, 18)
+    M : ndarray, shape (n, {k}, {k})
         Mass in basic, same DOF order (mass, mass*length, mass*length^2 blocks). Symmetric.
     """
-    T, xl, h, A_, D_, S_, B_, m, zo, alpha = _prepare(
-        xyz, 3, A, D, S, B, rho_area, nsm, zoffs, k6rot
-    )
-    K, Nint, Mcons = _tria3_local(xl, A_, D_, S_, B_, alpha)
-    return _to_basic(K, Nint, Mcons, m, T, zo[:, None] - h, coupled_mass)
+
+quad4_matrices.__doc__ = (quad4_matrices.__doc__ or "") + _PARAMS_DOC.format(nn=4, k=24)
+tria3_matrices.__doc__ = (tria3_matrices.__doc__ or "") + _PARAMS_DOC.format(nn=3, k=18)
