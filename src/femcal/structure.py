@@ -62,6 +62,13 @@ class Options:
     threads: int | None = None
 
 
+def _usable_cores() -> int:
+    """Cores this process may run on (its affinity where the OS tells it)."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
 def _param(model: Model, name: str, default: float) -> float:
     v = model.params.get(name)
     if not v:
@@ -89,7 +96,7 @@ def assemble(model: Model, options: Options | None = None) -> Matrices:
     k6rot = opt.k6rot if opt.k6rot is not None else _param(model, "K6ROT", 100.0)
     ndof = np.where(model.is_grid, 6, 1)
     pairs = [_pairs(b) for b in model.elements.values()]
-    threads = opt.threads if opt.threads is not None else min(4, len(os.sched_getaffinity(0)))
+    threads = opt.threads if opt.threads is not None else min(4, _usable_cores())
     # the pattern's column indices are only needed at the end: built while the kernels run
     pattern = Pattern.build(model.dof_start, ndof, pairs, background=threads > 1)
     asm = Assembler(pattern, model.cd_frames, n_matrices=2)  # K and M
