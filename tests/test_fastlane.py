@@ -122,13 +122,22 @@ def lines(draw):
     name = draw(names)
     vals = draw(st.lists(fields8, min_size=0, max_size=8))
     line = f"{name:<8}" + "".join(f"{v:>8}" if draw(st.booleans()) else f"{v:<8}" for v in vals)
-    kind = draw(st.sampled_from(["card", "card", "card", "cont", "comment", "blank"]))
+    kind = draw(st.sampled_from(["card", "card", "card", "cont", "comment", "blank", "free",
+                                 "free", "free cont", "free long"]))  # fmt: skip
     if kind == "cont":
         line = "+" + line[1:8].replace(name[1:], " " * (len(name) - 1)) + line[8:]
     elif kind == "comment":
         line = "$ " + line
     elif kind == "blank":
         line = ""
+    elif kind == "free":  # free field, fields padded or not, name in any case
+        pad = draw(st.booleans())
+        line = ",".join([draw(st.sampled_from([name, name.lower(), f" {name}"]))]
+                        + [f" {v} " if pad else v for v in vals])  # fmt: skip
+    elif kind == "free cont":
+        line = ",".join(["+", *vals])
+    elif kind == "free long":  # a field too long for small field, or a continuation field
+        line = ",".join([name, *vals, "1.23456789"] if vals else [name, *([""] * 8), "+C"])
     return line
 
 

@@ -9,7 +9,9 @@ wrong. So the fast lane changes speed, never results (the tests check both lanes
 
 A card qualifies when its line has no tab, comma or ``$``, is at most 80 characters, its
 name is in columns 1-8 without ``*``, its layout is a fixed table layout, and the next
-significant line (not blank, not a comment) starts a new card.
+significant line (not blank, not a comment) starts a new card. A simple free-field line (one
+line, at most 8 data fields of at most 8 characters, no ``*``, ``=`` or parentheses) is first
+rewritten as the small-field line it stands for, so it qualifies too.
 """
 
 from __future__ import annotations
@@ -69,6 +71,7 @@ def split_block(lines: list[str], at_end: bool, layouts: dict[str, Layout]) -> B
     n = len(lines)
     if n == 0:
         return Block([], np.zeros(0, np.int64), None)
+    lines = [_small_from_free(line) if "," in line else line for line in lines]
     lens = np.fromiter(map(len, lines), np.int64, n)
     text = "".join([line[:_COLS].ljust(_COLS) for line in lines])
     up = text.encode("latin-1", "replace").upper()
@@ -124,6 +127,21 @@ def split_block(lines: list[str], at_end: bool, layouts: dict[str, Layout]) -> B
             taken[good] = True
     slow = np.flatnonzero(significant & ~taken)
     return Block(groups, slow, stop)
+
+
+def _small_from_free(line: str) -> str:
+    """The small-field line a simple one-line free-field card stands for, or the line itself
+    (left to the field-by-field reader) when it is anything else."""
+    if "$" in line or "\t" in line or "=" in line or "(" in line or ")" in line:
+        return line
+    parts = line.split(",")
+    if len(parts) > 9:  # a continuation field, or more data than one line holds
+        return line
+    fields = [p.strip() for p in parts]
+    head = fields[0]
+    if not head or head[0] in "+*" or "*" in head or max(map(len, fields)) > 8:
+        return line
+    return "".join(f.ljust(8) for f in fields)
 
 
 def _first_stop(lines: list[str], U: np.ndarray, up: bytes) -> int | None:
