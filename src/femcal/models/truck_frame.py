@@ -1,21 +1,26 @@
-"""The bundled truck ladder frame (mm, tonne, s, N, MPa) as a NASTRAN SOL 103 deck.
+"""The bundled truck ladder frames (mm, tonne, s, N, MPa) as NASTRAN SOL 103 decks.
 
-Two side rails (C-sections, web 270 x flanges 85 x 8 mm) with a 5 mm inner liner nested in
-each, 860 mm apart, joined by four cross members of different kinds through attachment
-brackets, as in the reference study's hammer test (see ../shared/METHOD.md):
+Two side rails (C-sections, web 255 x flanges 90 x 8 mm) with a 5 mm inner liner nested in
+each, 860 mm apart, joined by cross members of different kinds through attachment brackets,
+as in the reference study (see ../shared/METHOD.md). The hammer-test frame (3500 mm, on air
+bellows) has four:
 
-* X1, front: C-channel (4 mm) on welded end plates (6 mm), bolted to the liners;
+* X1, front: C-channel (4 mm) on welded end plates (6 mm), bolted through liner and rail;
 * X2: rectangular tube (5 mm) on cast brackets of CHEXA solids (E = 164 000 MPa);
 * X3: C-channel (7 mm) on end plates (7 mm) with triangular gussets (CQUAD4 with CTRIA3
   along the hypotenuse);
-* X4, rear: C-channel (10 mm) on end plates (8 mm);
-* rear rig-connection brackets (10 mm plates with a foot flange) outside the rail webs;
+* X4: C-channel (10 mm) on end plates (8 mm), 675 mm ahead of the rear end;
+* rear rig-connection brackets (10 mm plates with a foot flange) outside the rail webs, their
+  feet tied by the rig adapter's tube;
 * air bellows under the rails: grounded CBUSH springs.
 
+The rig frames (:data:`RIG`, :data:`RIG_BATTERY`: 3526 mm, five cross members, brackets at both
+ends) stand on the 7-post rig's actuators instead (:func:`_actuators`), one with a battery box.
+
 Every bolt is modelled as in the study's deck: an RBE2 spider from the node at the bolt's
-centre to the ring of nodes around it (the hole rim and washer) in each of the two parts, and
-a CBAR between the two centres with the bolt's section (one PBAR per bolt group). Holes are
-not cut: the spider's rigid patch stands for the bolt head and washer.
+centre to the ring of nodes around it (the hole rim and washer) in each ply, and a CBAR
+between consecutive centres with the bolt's section (one PBAR per bolt group). Holes are not
+cut: the spider's rigid patch stands for the bolt head and washer.
 
 Coordinates: X from the front end rearwards, Y to the left, Z up; the rails' webs at
 Y = +-430, the frame's mid-height at Z = 0. Everything is built on shared station lines
@@ -226,7 +231,6 @@ def _rails(f: _Frame, xs: np.ndarray) -> None:
     hw, hz = d.half_width, d.web / 2
     lx = xs[(xs >= d.liner_x[0]) & (xs <= d.liner_x[1])]
     for s in (1.0, -1.0):
-        side = "left" if s > 0 else "right"
         # rail: web (normal -s Y, pointing inwards) and flanges
         zs = stations(-hz, hz, H, (-_BOLT_Z, _BOLT_Z, 0.0, *_REAR_BOLT_Z))
         m.patch(1, (0, s * hw, 0), (1, 0, 0), (0, 0, s), xs, zs * s)
@@ -241,7 +245,6 @@ def _rails(f: _Frame, xs: np.ndarray) -> None:
         ys = stations(yl, yl - d.liner_flange, H, (hw - 45.0,))
         for zf in (zl, -zl):
             m.patch(2, (0, 0, zf), (1, 0, 0), (0, s, 0), lx, ys)
-        f.labels[f"rail_{side}"] = 1
         pid = 31 if s > 0 else 32
         for x in _web_bolt_x(d):
             for z in (-_BOLT_Z, _BOLT_Z):
