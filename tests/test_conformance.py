@@ -26,9 +26,11 @@ SHELL_SOLID = {"CQUAD4", "CTRIA3", "CQUAD8", "CTRIA6", "CQUADR", "CTRIAR", "CSHE
 
 #: deck -> why it does not meet its tolerance yet (measured worst error in the text).
 KNOWN_GAPS = {
-    "pyn_fmondsp": "0.29 % (mode 16; tolerance 0.1 %): tapered PBEAML TUBE/BOX beams; the "
-    "shear factors NASTRAN gives TUBE and BOX sections are not yet matched (0.5 and the "
-    "wall-area fractions are used)",
+    "pyn_fmondsp": "0.29 % (mode 16; tolerance 0.1 %): tapered PBEAML TUBE/BOX beams. The "
+    "TUBE shear factor moves mode 16 (0.5: -0.29 %, 0.6: -0.17 %) but mode 11 stays near "
+    "-0.24 % for any TUBE factor; the BOX wall-area fractions are the best of those tried "
+    "(x0.8, x1.2, swapped, 5/6, none: 0.35-2.2 %); interpolating the dimensions instead of "
+    "the properties along the taper makes it 1.1 %. Not yet found",
     "pyn_modes_elements": "CSHEAR shear panels are not implemented",
     "pyn_trncomp12": "NASTRAN finds 9 near-zero modes, femcal 4, and the elastic modes come "
     "out 3-150 % high: this deck's PCOMP/MAT8 laminates (LAM blank, FT=STRN) on CQUAD8, "
