@@ -1,0 +1,158 @@
+"""Frequency response functions from normal modes, and the direct solution that checks them.
+
+H has shape (n_out, n_in, n_freq): output ``o`` per unit harmonic input ``i`` at each
+frequency. Outputs and inputs are rows of a sensor matrix ``C`` (n_out, n_g) and columns of
+a load matrix ``B`` (n_g, n_in) on the g-set, in the nodes' displacement (CD) frames;
+:func:`point_matrix` builds them for GRID components 1-6.
+
+Modal superposition (mass-normalised shapes phi_r, circular frequencies w_r, modal damping
+zeta_r)::
+
+    H(w) = sum_r (C phi_r)(phi_r^T B) / (w_r^2 - w^2 + 2 i zeta_r w_r w)
+
+gives receptance (displacement per force); mobility is ``i w H`` and accelerance ``-w^2 H``.
+Damping: one ratio for all modes, one per mode, or Rayleigh ``C = alpha M + beta K``, for
+which ``zeta_r = alpha / (2 w_r) + beta w_r / 2`` and the modal sum over all modes equals the
+direct solution of ``(K + i w C - w^2 M) u = f`` (:func:`direct_frf`), which the tests use to
+check the synthesis.
+
+Residual flexibility of truncated modes is not implemented yet.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from .model.model import Model
+
+QUANTITIES = ("receptance", "mobility", "accelerance")
+
+
+@dataclass(frozen=True)
+class Rayleigh:
+    """Proportional damping ``C = alpha M + beta K`` (alpha in 1/s, beta in s)."""
+
+    alpha: float = 0.0
+    beta: float = 0.0
+
+    def ratios(self, omega: np.ndarray) -> np.ndarray:
+        """Modal damping ratios (k,) at circular frequencies omega (k,), rad/s; a rigid-body
+        mode (omega = 0) takes none of the mass-proportional part."""
+        w = np.asarray(omega, float)
+        safe = np.where(w > 0, w, 1.0)
+        return np.where(w > 0, self.alpha / (2.0 * safe), 0.0) + self.beta * w / 2.0
+
+
+def point_matrix(model: Model, points: Sequence[tuple[int, int]]) -> sp.csr_matrix:
+    """Sensor matrix (n_points, n_g) picking GRID components (grid id, component 1-6; a scalar
+    point takes component 0 or 1) in the node's displacement frame.
+
+    Raises
+    ------
+    ValueError
+        For an unknown grid or a component it does not have, naming the point.
+    """
+    rows = []
+    for gid, comp in points:
+        idx = int(np.searchsorted(model.node_ids, gid))
+        if idx >= len(model.node_ids) or model.node_ids[idx] != gid:
+            raise ValueError(f"point {gid}:{comp}: no GRID or SPOINT {gid} in the model")
+        if model.is_grid[idx]:
+            if not 1 <= comp <= 6:
+                raise ValueError(f"point {gid}:{comp}: a GRID has components 1-6")
+            rows.append(int(model.dof_start[idx]) + comp - 1)
+        else:
+            if comp not in (0, 1):
+                raise ValueError(f"point {gid}:{comp}: a scalar point has component 0 (or 1)")
+            rows.append(int(model.dof_start[idx]))
+    n = len(rows)
+    return sp.csr_matrix((np.ones(n), (np.arange(n), rows)), shape=(n, model.n_dof))
+
+
+def modal_damping(
+    omega: np.ndarray, damping: float | Sequence[float] | np.ndarray | Rayleigh
+) -> np.ndarray:
+    """Damping ratio per mode (k,) from one ratio, one per mode, or :class:`Rayleigh`."""
+    omega = np.asarray(omega, float)
+    if isinstance(damping, Rayleigh):
+        return damping.ratios(omega)
+    z = np.broadcast_to(np.asarray(damping, float), omega.shape).copy()
+    if (z < 0).any():
+        raise ValueError("damping ratios must not be negative")
+    return z
+
+
+def modal_frf(
+    shapes: np.ndarray,
+    omega: np.ndarray,
+    C: sp.spmatrix | np.ndarray,
+    B: sp.spmatrix | np.ndarray,
+    freq_hz: np.ndarray,
+    damping: float | Sequence[float] | np.ndarray | Rayleigh,
+    quantity: str = "receptance",
+) -> np.ndarray:
+    """FRFs (n_out, n_in, n_freq) by modal superposition.
+
+    Parameters
+    ----------
+    shapes : (n_g, k) mass-normalised mode shapes on the g-set.
+    omega : (k,) circular natural frequencies, rad/s (rigid-body modes 0).
+    C : (n_out, n_g) sensor matrix; B : (n_g, n_in) load matrix.
+    freq_hz : (n_freq,) frequencies, Hz.
+    damping : one ratio, one per mode (k,), or :class:`Rayleigh`.
+    quantity : receptance (length/force), mobility (length/(force s)) or accelerance
+        (length/(force s^2)).
+    """
+    if quantity not in QUANTITIES:
+        raise ValueError(f"quantity must be one of {', '.join(QUANTITIES)}, not {quantity!r}")
+    omega = np.asarray(omega, float)
+    zeta = modal_damping(omega, damping)
+    out_r = np.asarray(C @ shapes)  # (n_out, k)
+    in_r = np.asarray(B.T @ shapes)  # (n_in, k)
+    w = 2.0 * np.pi * np.asarray(freq_hz, float)
+    # (k, n_freq) modal receptances
+    q = 1.0 / (omega[:, None] ** 2 - w[None, :] ** 2 + 2j * (zeta * omega)[:, None] * w[None, :])
+    H = np.einsum("ok,ik,kf->oif", out_r, in_r, q)
+    return _as_quantity(H, w, quantity)
+
+
+def direct_frf(
+    K: sp.spmatrix,
+    M: sp.spmatrix,
+    T: sp.spmatrix,
+    C: sp.spmatrix | np.ndarray,
+    B: sp.spmatrix | np.ndarray,
+    freq_hz: np.ndarray,
+    damping: Rayleigh,
+    quantity: str = "receptance",
+) -> np.ndarray:
+    """FRFs (n_out, n_in, n_freq) by solving ``(K + i w (alpha M + beta K) - w^2 M) u = f`` on
+    the independent set at every frequency (one sparse LU each).
+
+    K, M : (n_a, n_a) reduced matrices; T : (n_g, n_a) with u_g = T u_a; C, B as for
+    :func:`modal_frf`.
+    """
+    if quantity not in QUANTITIES:
+        raise ValueError(f"quantity must be one of {', '.join(QUANTITIES)}, not {quantity!r}")
+    K, M, T = sp.csc_matrix(K), sp.csc_matrix(M), sp.csr_matrix(T)
+    Ca = np.asarray((sp.csr_matrix(C) @ T).todense())  # (n_out, n_a)
+    Ba = np.asarray((T.T @ sp.csr_matrix(B)).todense())  # (n_a, n_in)
+    w = 2.0 * np.pi * np.asarray(freq_hz, float)
+    H = np.empty((Ca.shape[0], Ba.shape[1], len(w)), complex)
+    for f, wf in enumerate(w):
+        A = (K * (1.0 + 1j * wf * damping.beta) + M * (1j * wf * damping.alpha - wf * wf)).tocsc()
+        H[:, :, f] = Ca @ spla.splu(A).solve(Ba.astype(complex))
+    return _as_quantity(H, w, quantity)
+
+
+def _as_quantity(H: np.ndarray, w: np.ndarray, quantity: str) -> np.ndarray:
+    if quantity == "mobility":
+        return H * (1j * w)
+    if quantity == "accelerance":
+        return H * (-(w**2))
+    return H

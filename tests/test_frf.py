@@ -1,0 +1,89 @@
+"""Modal FRFs against a one-degree-of-freedom oscillator and the direct solution."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from femcal.deck import read_deck
+from femcal.frf import Rayleigh, direct_frf, modal_frf, point_matrix
+from femcal.modal import EigenRequest
+from femcal.model import build_model
+from femcal.sol103 import solve_sol103
+from femcal.structure import Options, assemble
+
+from .conftest import REFDECKS
+
+OSCILLATOR = """SOL 103
+CEND
+SPC = 1
+METHOD = 1
+BEGIN BULK
+EIGRL,1,,,1
+GRID,1,,0.,0.,0.,,23456
+CELAS2,10,400.,1,1
+CONM2,20,1,,0.25
+ENDDATA
+"""
+
+
+def test_one_mode_oscillator_is_the_textbook_receptance(write):
+    deck = read_deck(write(OSCILLATOR))
+    model = build_model(deck)
+    modes, _ = solve_sol103(deck, model)
+    k, m, zeta = 400.0, 0.25, 0.02
+    wn = np.sqrt(k / m)
+    assert modes.radians[0] == pytest.approx(wn, rel=1e-12)
+    f = np.linspace(0.5, 12.0, 40)
+    w = 2 * np.pi * f
+    P = point_matrix(model, [(1, 1)])
+    H = modal_frf(modes.shapes, modes.radians, P, P.T, f, zeta)
+    expected = 1.0 / (k - w**2 * m + 2j * zeta * wn * m * w)
+    assert np.allclose(H[0, 0], expected, rtol=1e-12)
+    A = modal_frf(modes.shapes, modes.radians, P, P.T, f, zeta, quantity="accelerance")
+    V = modal_frf(modes.shapes, modes.radians, P, P.T, f, zeta, quantity="mobility")
+    assert np.allclose(A[0, 0], -(w**2) * expected) and np.allclose(V[0, 0], 1j * w * expected)
+
+
+@pytest.fixture(scope="module")
+def cantilever():
+    deck = read_deck(REFDECKS / "cofe_cantilever_cbar" / "noReduction.dat")
+    model = build_model(deck)
+    # coupled mass: the bars' rotations carry inertia, so every DOF has a finite mode (with
+    # massless DOF the sum of the finite modes misses their static part)
+    mats = assemble(model, Options(coupled_mass=True))
+    modes, red = solve_sol103(deck, model, matrices=mats, request=EigenRequest(nd=1000))
+    assert modes.shapes.shape[1] == red.T.shape[1] == 20  # GRDSET leaves T2 and R3 free
+    return model, mats, modes, red
+
+
+def test_modal_sum_over_all_modes_equals_the_direct_solution(cantilever):
+    model, mats, modes, red = cantilever
+    points = [(11, 2), (11, 6), (6, 2), (3, 6)]
+    C = point_matrix(model, points)
+    damping = Rayleigh(alpha=2.0, beta=1e-6)
+    f = np.concatenate([np.linspace(1.0, 400.0, 23), modes.frequencies_hz[:4] * 1.0001])
+    for quantity in ("receptance", "accelerance"):
+        Hm = modal_frf(modes.shapes, modes.radians, C, C.T, f, damping, quantity)
+        Hd = direct_frf(red.reduce(mats.K), red.reduce(mats.M), red.T, C, C.T, f, damping,
+                        quantity)  # fmt: skip
+        scale = np.abs(Hd).max(axis=(0, 1))
+        assert np.all(np.abs(Hm - Hd).max(axis=(0, 1)) <= 1e-6 * scale), quantity
+
+
+def test_frfs_are_reciprocal(cantilever):
+    model, _, modes, _ = cantilever
+    C = point_matrix(model, [(11, 2), (4, 2), (8, 6)])
+    H = modal_frf(modes.shapes, modes.radians, C, C.T, np.linspace(1.0, 300.0, 17), 0.01)
+    assert np.allclose(H, np.swapaxes(H, 0, 1), rtol=1e-10, atol=0)
+
+
+def test_points_are_checked(cantilever):
+    model = cantilever[0]
+    with pytest.raises(ValueError, match="no GRID or SPOINT 99"):
+        point_matrix(model, [(99, 1)])
+    with pytest.raises(ValueError, match="components 1-6"):
+        point_matrix(model, [(11, 7)])
+    with pytest.raises(ValueError, match="quantity"):
+        modal_frf(np.zeros((66, 1)), np.ones(1), point_matrix(model, [(11, 1)]),
+                  point_matrix(model, [(11, 1)]).T, [1.0], 0.01, quantity="velocity")  # fmt: skip
