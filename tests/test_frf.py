@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from femcal.deck import read_deck
-from femcal.frf import Rayleigh, direct_frf, modal_frf, point_matrix
+from femcal.frf import Rayleigh, direct_frf, modal_frf, point_matrix, residual_flexibility
 from femcal.modal import EigenRequest
 from femcal.model import build_model
 from femcal.sol103 import solve_sol103
@@ -87,3 +87,51 @@ def test_points_are_checked(cantilever):
     with pytest.raises(ValueError, match="quantity"):
         modal_frf(np.zeros((66, 1)), np.ones(1), point_matrix(model, [(11, 1)]),
                   point_matrix(model, [(11, 1)]).T, [1.0], 0.01, quantity="velocity")  # fmt: skip
+
+
+def test_residual_flexibility_completes_the_modes_of_massless_dof():
+    """Lumped bar mass leaves the rotations massless: the 10 finite modes miss their static
+    part, and the residual flexibility puts it back exactly."""
+    deck = read_deck(REFDECKS / "cofe_cantilever_cbar" / "noReduction.dat")
+    model = build_model(deck)
+    mats = assemble(model, Options(coupled_mass=False))
+    modes, red = solve_sol103(deck, model, matrices=mats, request=EigenRequest(nd=1000))
+    assert modes.shapes.shape[1] == 10 < red.T.shape[1]
+    C = point_matrix(model, [(11, 2), (11, 6), (5, 6)])
+    f = np.linspace(2.0, 500.0, 19)
+    damping = Rayleigh(alpha=5.0)  # mass-proportional: the massless part is undamped too
+    Kaa = red.reduce(mats.K)
+    Hd = direct_frf(Kaa, red.reduce(mats.M), red.T, C, C.T, f, damping)
+    Hm = modal_frf(modes.shapes, modes.radians, C, C.T, f, damping)
+    R = residual_flexibility(Kaa, red.T, C, C.T, modes.shapes, modes.radians)
+    Hr = modal_frf(modes.shapes, modes.radians, C, C.T, f, damping, residual=R)
+
+    def worst(H):  # largest error of any output/input pair, relative to that pair's size
+        return (np.abs(H - Hd).max(axis=2) / np.abs(Hd).max(axis=2)).max()
+
+    assert worst(Hm) > 1e-3  # the finite modes alone fall short (0.3 %)
+    assert worst(Hr) < 1e-8
+
+
+def test_residual_flexibility_improves_a_truncated_frf(cantilever):
+    model, mats, modes, red = cantilever
+    C = point_matrix(model, [(11, 2), (8, 2)])
+    f = np.linspace(1.0, 150.0, 30)  # below the fourth mode
+    damping = 0.02
+    full = modal_frf(modes.shapes, modes.radians, C, C.T, f, damping)
+    keep = slice(0, 3)
+    S, W = modes.shapes[:, keep], modes.radians[keep]
+    R = residual_flexibility(red.reduce(mats.K), red.T, C, C.T, S, W)
+    bare = modal_frf(S, W, C, C.T, f, damping)
+    corrected = modal_frf(S, W, C, C.T, f, damping, residual=R)
+    err_bare = np.abs(bare - full).max()
+    err_corr = np.abs(corrected - full).max()
+    assert err_corr < 0.1 * err_bare
+
+
+def test_residual_flexibility_refuses_rigid_modes(cantilever):
+    model, mats, modes, red = cantilever
+    C = point_matrix(model, [(11, 2)])
+    with pytest.raises(ValueError, match="restrained"):
+        residual_flexibility(red.reduce(mats.K), red.T, C, C.T, modes.shapes[:, :2],
+                             np.array([0.0, 1.0]))  # fmt: skip

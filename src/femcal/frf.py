@@ -16,7 +16,11 @@ which ``zeta_r = alpha / (2 w_r) + beta w_r / 2`` and the modal sum over all mod
 direct solution of ``(K + i w C - w^2 M) u = f`` (:func:`direct_frf`), which the tests use to
 check the synthesis.
 
-Residual flexibility of truncated modes is not implemented yet.
+Residual flexibility (:func:`residual_flexibility`) adds what the modes left out contribute
+at low frequency: the static flexibility minus that of the kept elastic modes, a constant
+``R`` (n_out, n_in) added to the receptance. It needs a restrained model (K nonsingular).
+With all finite modes kept it is exactly the part of massless DOF, so the sum then equals
+the direct solution even when M is singular (a test checks).
 """
 
 from __future__ import annotations
@@ -95,6 +99,7 @@ def modal_frf(
     freq_hz: np.ndarray,
     damping: float | Sequence[float] | np.ndarray | Rayleigh,
     quantity: str = "receptance",
+    residual: np.ndarray | None = None,
 ) -> np.ndarray:
     """FRFs (n_out, n_in, n_freq) by modal superposition.
 
@@ -107,6 +112,8 @@ def modal_frf(
     damping : one ratio, one per mode (k,), or :class:`Rayleigh`.
     quantity : receptance (length/force), mobility (length/(force s)) or accelerance
         (length/(force s^2)).
+    residual : (n_out, n_in) residual flexibility added to the receptance (see
+        :func:`residual_flexibility`), or None.
     """
     if quantity not in QUANTITIES:
         raise ValueError(f"quantity must be one of {', '.join(QUANTITIES)}, not {quantity!r}")
@@ -118,7 +125,43 @@ def modal_frf(
     # (k, n_freq) modal receptances
     q = 1.0 / (omega[:, None] ** 2 - w[None, :] ** 2 + 2j * (zeta * omega)[:, None] * w[None, :])
     H = np.einsum("ok,ik,kf->oif", out_r, in_r, q)
+    if residual is not None:
+        H = H + np.asarray(residual)[:, :, None]
     return _as_quantity(H, w, quantity)
+
+
+def residual_flexibility(
+    K: sp.spmatrix,
+    T: sp.spmatrix,
+    C: sp.spmatrix | np.ndarray,
+    B: sp.spmatrix | np.ndarray,
+    shapes: np.ndarray,
+    omega: np.ndarray,
+) -> np.ndarray:
+    """Residual flexibility (n_out, n_in): ``C (K^-1 - sum_r phi_r phi_r^T / w_r^2) B`` over
+    the kept modes (mass-normalised g-set shapes (n_g, k), omega (k,) rad/s, all > 0).
+
+    K : (n_a, n_a) reduced stiffness; T : (n_g, n_a).
+
+    Raises
+    ------
+    ValueError
+        If a kept mode is a rigid-body mode or K is singular (a free model: its static
+        flexibility does not exist without inertia relief, which is not implemented).
+    """
+    omega = np.asarray(omega, float)
+    if (omega <= 0).any() or (omega < 1e-6 * omega.max()).any():
+        raise ValueError("residual flexibility needs a restrained model: a kept mode is rigid")
+    T = sp.csr_matrix(T)
+    Ba = np.asarray((T.T @ sp.csr_matrix(B)).todense())
+    try:
+        xa = spla.splu(sp.csc_matrix(K)).solve(Ba)
+    except RuntimeError as e:
+        raise ValueError(f"residual flexibility needs a nonsingular K ({e})") from None
+    static = np.asarray(sp.csr_matrix(C) @ (T @ xa))
+    out_r = np.asarray(C @ shapes)
+    in_r = np.asarray(B.T @ shapes)
+    return static - (out_r / omega**2) @ in_r.T
 
 
 def direct_frf(
