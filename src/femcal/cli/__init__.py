@@ -7,9 +7,9 @@ import sys
 from collections.abc import Sequence
 
 from ..errors import FemcalError
-from . import info, model, solve
+from . import frf, info, model, solve
 
-_COMMANDS = {"info": info, "solve": solve, "model": model}
+_COMMANDS = {"info": info, "solve": solve, "frf": frf, "model": model}
 
 
 def build_parser() -> argparse.ArgumentParser:

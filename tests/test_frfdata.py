@@ -1,0 +1,71 @@
+"""FRF data sets: NPZ and CSV round trips, labels, errors; the ``femcal frf`` command."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from femcal.cli import main
+from femcal.deck import read_deck
+from femcal.frf import modal_frf, point_matrix
+from femcal.frfdata import Channel, FRFData, read_csv, read_npz, write_csv, write_npz
+from femcal.modal import EigenRequest
+from femcal.model import build_model
+from femcal.sol103 import solve_sol103
+
+from .conftest import REFDECKS
+
+
+def sample() -> FRFData:
+    rng = np.random.default_rng(2)
+    H = rng.normal(size=(3, 2, 5)) + 1j * rng.normal(size=(3, 2, 5))
+    return FRFData.from_labels(np.array([1.0, 1.5, 2.0, 7.25, 10.0]), H,
+                               ["1001:+Y", "1002:3", "accel 7"], ["55:-X", "56:2"],
+                               "accelerance", "mm/s^2 per N")  # fmt: skip
+
+
+@pytest.mark.parametrize(("write", "read", "name"),
+                         [(write_npz, read_npz, "h.npz"), (write_csv, read_csv, "h.csv")])  # fmt: skip
+def test_round_trips_keep_values_and_labels(tmp_path, write, read, name):
+    d = sample()
+    back = read(write(tmp_path / name, d))
+    assert np.array_equal(back.frequency_hz, d.frequency_hz)
+    assert np.array_equal(back.H, d.H)  # exact: repr of floats in CSV
+    assert back.outputs == d.outputs and back.inputs == d.inputs
+    assert (back.quantity, back.units) == ("accelerance", "mm/s^2 per N")
+    assert not list(tmp_path.glob(".*.tmp"))  # nothing half-written left
+
+
+def test_labels_name_grid_and_direction():
+    assert Channel.parse("1001:+y") == Channel("1001:+y", 1001, "+Y")
+    assert Channel.parse("7:3") == Channel("7:3", 7, "3")
+    assert Channel.parse("accel 7") == Channel("accel 7")
+
+
+def test_bad_data_is_refused(tmp_path):
+    with pytest.raises(ValueError, match="expected \\(n_out, n_in, n_freq\\)"):
+        FRFData.from_labels([1.0, 2.0], np.zeros((1, 1, 3)), ["a"], ["b"])
+    with pytest.raises(ValueError, match="quantity"):
+        FRFData.from_labels([1.0], np.zeros((1, 1, 1)), ["a"], ["b"], "velocity")
+    p = tmp_path / "bad.csv"
+    p.write_text("frequency_hz,output,input,real,imag\n1.0,a,b,x,0\n")
+    with pytest.raises(ValueError, match=r"bad\.csv:2"):
+        read_csv(p)
+
+
+def test_frf_command_writes_the_modal_frf(tmp_path):
+    deck_path = REFDECKS / "cofe_cantilever_cbar" / "noReduction.dat"
+    out = tmp_path / "h.npz"
+    code = main(["frf", str(deck_path), "--input", "11:2", "--output", "11:2", "--output",
+                 "6:6", "--freq", "1:200:7", "--damping", "0.03", "--out", str(out)])  # fmt: skip
+    assert code == 0
+    d = read_npz(out)
+    assert d.H.shape == (2, 1, 29) and d.frequency_hz[0] == 1.0 and d.frequency_hz[-1] == 197.0
+    deck = read_deck(deck_path)
+    model = build_model(deck)
+    modes, _ = solve_sol103(deck, model, request=EigenRequest(v2=2 * 197.0, nd=None))
+    C = point_matrix(model, [(11, 2), (6, 6)])
+    B = point_matrix(model, [(11, 2)]).T
+    assert np.allclose(d.H, modal_frf(modes.shapes, modes.radians, C, B, d.frequency_hz, 0.03))
+    assert main(["frf", str(deck_path), "--input", "99:2", "--output", "11:2", "--freq",
+                 "1:2:1", "--out", str(out)]) == 2  # fmt: skip
