@@ -8,7 +8,16 @@ import pytest
 from femcal.cli import main
 from femcal.deck import read_deck
 from femcal.frf import modal_frf, point_matrix
-from femcal.frfdata import Channel, FRFData, read_csv, read_npz, write_csv, write_npz
+from femcal.frfdata import (
+    Channel,
+    FRFData,
+    read_csv,
+    read_npz,
+    read_uff,
+    write_csv,
+    write_npz,
+    write_uff,
+)
 from femcal.modal import EigenRequest
 from femcal.model import build_model
 from femcal.sol103 import solve_sol103
@@ -69,3 +78,19 @@ def test_frf_command_writes_the_modal_frf(tmp_path):
     assert np.allclose(d.H, modal_frf(modes.shapes, modes.radians, C, B, d.frequency_hz, 0.03))
     assert main(["frf", str(deck_path), "--input", "99:2", "--output", "11:2", "--freq",
                  "1:2:1", "--out", str(out)]) == 2  # fmt: skip
+
+
+def test_uff58_round_trip_keeps_values_and_grid_directions(tmp_path):
+    d = sample()
+    d = FRFData.from_labels(d.frequency_hz, d.H, ["1001:+Y", "1002:3", "7:-1"],
+                            ["55:-X", "56:2"], "accelerance", "mm/s^2/N")  # fmt: skip
+    back = read_uff(write_uff(tmp_path / "h.uff", d))
+    assert np.allclose(back.H, d.H, rtol=1e-10, atol=1e-12)
+    assert np.allclose(back.frequency_hz, d.frequency_hz, rtol=1e-12)
+    # directions come back as UFF codes: +Y is 2, -X is -1
+    assert [c.label for c in back.outputs] == ["1001:2", "1002:3", "7:-1"]
+    assert [(c.grid, c.direction) for c in back.inputs] == [(55, "-1"), (56, "2")]
+    assert (back.quantity, back.units) == ("accelerance", "mm/s^2/N")
+    with pytest.raises(ValueError, match="GRID:DIRECTION"):
+        write_uff(tmp_path / "x.uff", sample())  # "accel 7" names no grid
+    assert not list(tmp_path.glob(".*"))

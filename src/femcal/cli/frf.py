@@ -1,5 +1,5 @@
 """``femcal frf DECK --input GID:C ... --output GID:C ... --freq F1:F2:DF [--damping Z]
-[--quantity Q] [--residual] --out FILE.npz|FILE.csv``: FRFs by modal superposition."""
+[--quantity Q] [--residual] --out FILE.npz|FILE.csv|FILE.uff``: FRFs by modal superposition."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import numpy as np
 
 from ..deck import read_deck
 from ..frf import QUANTITIES, modal_frf, point_matrix, residual_flexibility
-from ..frfdata import FRFData, write_csv, write_npz
+from ..frfdata import FRFData, write_csv, write_npz, write_uff
 from ..modal import EigenRequest
 from ..model import build_model
 from ..sol103 import solve_sol103
@@ -84,7 +84,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="add the residual flexibility of the modes left out (restrained models)",
     )
-    p.add_argument("--out", type=Path, required=True, metavar="FILE", help="FILE.npz or FILE.csv")
+    p.add_argument(
+        "--out",
+        type=Path,
+        required=True,
+        metavar="FILE",
+        help="FILE.npz, FILE.csv or FILE.uff (UFF 58)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -135,7 +141,8 @@ def run(args: argparse.Namespace) -> int:
         [f"{g}:{c}" for g, c in args.input],
         args.quantity,
     )
-    (write_npz if suffix == ".npz" else write_csv)(args.out, data)
+    writer = {".npz": write_npz, ".csv": write_csv, ".uff": write_uff, ".unv": write_uff}
+    writer[suffix](args.out, data)
     progress(
         f"wrote {args.out}: {H.shape[0]} outputs x {H.shape[1]} inputs x {H.shape[2]} frequencies"
     )
