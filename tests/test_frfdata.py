@@ -11,6 +11,7 @@ from femcal.frf import modal_frf, point_matrix
 from femcal.frfdata import (
     Channel,
     FRFData,
+    assemble_runs,
     read_csv,
     read_npz,
     read_uff,
@@ -94,3 +95,33 @@ def test_uff58_round_trip_keeps_values_and_grid_directions(tmp_path):
     with pytest.raises(ValueError, match="GRID:DIRECTION"):
         write_uff(tmp_path / "x.uff", sample())  # "accel 7" names no grid
     assert not list(tmp_path.glob(".*"))
+
+
+def test_roving_runs_assemble_into_one_mimo_set():
+    rng = np.random.default_rng(8)
+    f = np.linspace(1.0, 50.0, 12)
+    outs = [f"{1000 + k}:{d}" for k in range(8) for d in ("+X", "+Y", "+Z")]  # 24 outputs
+    ins = ["55:+Y", "77:+Z"]
+    H = rng.normal(size=(24, 2, 12)) + 1j * rng.normal(size=(24, 2, 12))
+    runs, maps = [], []
+    for inp in range(2):  # one hammer input per run, 6 sensor channels roving over 24 outputs
+        for start in range(0, 24, 6):
+            local = [f"ch{c}" for c in range(6)]
+            runs.append(FRFData.from_labels(f, H[start:start + 6, inp:inp + 1], local,
+                                            ["hammer"], "accelerance"))  # fmt: skip
+            maps.append({**{f"ch{c}": outs[start + c] for c in range(6)}, "hammer": ins[inp]})
+    # a repeated measurement of one pair, with a small error, is averaged
+    extra = FRFData.from_labels(f, H[:1, :1] * 1.02, ["ch0"], ["hammer"], "accelerance")
+    got = assemble_runs([*runs, extra], [*maps, {"ch0": outs[0], "hammer": ins[0]}])
+    assert [c.label for c in got.outputs] == outs and [c.label for c in got.inputs] == ins
+    expected = H.copy()
+    expected[0, 0] *= 1.01
+    assert np.allclose(got.H, expected)
+    # all outputs for the first input, the first 6 only for the second: 18 pairs missing
+    with pytest.raises(ValueError, match="18 output/input pairs were not measured: 1002:"):
+        assemble_runs(runs[:5], maps[:5])
+    part = assemble_runs(runs[:4] + runs[4:5], maps[:5], allow_missing=True)
+    assert np.isnan(part.H[6:, 1].real).all() and not np.isnan(part.H[:6, 1].real).any()
+    other = FRFData.from_labels(f * 2, H[:1, :1], ["a"], ["b"], "accelerance")
+    with pytest.raises(ValueError, match="another frequency axis"):
+        assemble_runs([runs[0], other])
