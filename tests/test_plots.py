@@ -1,0 +1,41 @@
+"""FRF overlay plots: the panels hold exactly the test and model curves asked for."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from femcal.frfdata import FRFData
+from femcal.plots import frf_overlay
+
+
+def data(scale: float = 1.0) -> FRFData:
+    f = np.linspace(1.0, 100.0, 200)
+    w = 2 * np.pi * f
+    H = np.empty((2, 2, len(f)), complex)
+    for o in range(2):
+        for i in range(2):
+            wn = 2 * np.pi * (30.0 + 10 * o + 5 * i)
+            H[o, i] = scale / (wn**2 - w**2 + 2j * 0.02 * wn * w)
+    return FRFData.from_labels(f, H, ["1:2", "2:3"], ["5:2", "6:3"], "receptance", "mm/N")
+
+
+def test_overlay_draws_test_and_model_per_pair(tmp_path):
+    test, model = data(), data(1.1)
+    path = tmp_path / "overlay.png"
+    fig = frf_overlay(path, test, model, pairs=[(0, 1), (1, 0), (1, 1)], title="check")
+    assert path.stat().st_size > 10_000 and path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    visible = [ax for ax in fig.axes if ax.get_visible()]
+    assert len(visible) == 6  # magnitude and phase for 3 pairs
+    mag = visible[0]  # first pair's magnitude: test (0, 1) then the model's
+    t_line, m_line = mag.get_lines()
+    assert np.allclose(t_line.get_ydata(), np.abs(test.H[0, 1]))
+    assert np.allclose(m_line.get_ydata(), np.abs(model.H[0, 1]))
+    assert mag.get_title() == "1:2 / 6:3"
+    assert not list(tmp_path.glob(".*"))
+
+
+def test_overlay_refuses_a_model_without_the_channel(tmp_path):
+    other = FRFData.from_labels(data().frequency_hz, data().H, ["9:1", "2:3"], ["5:2", "6:3"])
+    with pytest.raises(ValueError, match="no FRF 1:2 / 5:2"):
+        frf_overlay(tmp_path / "x.png", data(), other)
