@@ -125,3 +125,14 @@ def test_roving_runs_assemble_into_one_mimo_set():
     other = FRFData.from_labels(f * 2, H[:1, :1], ["a"], ["b"], "accelerance")
     with pytest.raises(ValueError, match="another frequency axis"):
         assemble_runs([runs[0], other])
+
+
+def test_frf_command_writes_uff_and_refuses_other_formats(tmp_path):
+    deck_path = str(REFDECKS / "cofe_cantilever_cbar" / "noReduction.dat")
+    args = ["frf", deck_path, "--input", "11:2", "--output", "11:2", "--freq", "1:100:9"]
+    assert main([*args, "--out", str(tmp_path / "h.npz")]) == 0
+    assert main([*args, "--out", str(tmp_path / "h.uff")]) == 0
+    a, b = read_npz(tmp_path / "h.npz"), read_uff(tmp_path / "h.uff")
+    assert np.allclose(a.H, b.H, rtol=1e-10) and [c.label for c in b.outputs] == ["11:2"]
+    assert main([*args, "--out", str(tmp_path / "h.mat")]) == 2
+    assert not (tmp_path / "h.mat").exists()

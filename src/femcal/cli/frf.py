@@ -100,10 +100,10 @@ def run(args: argparse.Namespace) -> int:
         print(f"[{time.perf_counter() - t0:7.1f} s] {msg}", file=sys.stderr, flush=True)
 
     suffix = args.out.suffix.lower()
-    if suffix not in (".npz", ".csv"):
+    if suffix not in (".npz", ".csv", ".uff", ".unv"):
         print(
-            f"femcal frf: --out {args.out}: expected a .npz or .csv file "
-            "(UFF and MAT are not written yet)",
+            f"femcal frf: --out {args.out}: expected a .npz, .csv or .uff file "
+            "(MAT is not written yet)",
             file=sys.stderr,
         )
         return 2
