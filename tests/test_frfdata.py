@@ -13,9 +13,11 @@ from femcal.frfdata import (
     FRFData,
     assemble_runs,
     read_csv,
+    read_mat,
     read_npz,
     read_uff,
     write_csv,
+    write_mat,
     write_npz,
     write_uff,
 )
@@ -35,7 +37,8 @@ def sample() -> FRFData:
 
 
 @pytest.mark.parametrize(("write", "read", "name"),
-                         [(write_npz, read_npz, "h.npz"), (write_csv, read_csv, "h.csv")])  # fmt: skip
+                         [(write_npz, read_npz, "h.npz"), (write_csv, read_csv, "h.csv"),
+                          (write_mat, read_mat, "h.mat")])  # fmt: skip
 def test_round_trips_keep_values_and_labels(tmp_path, write, read, name):
     d = sample()
     back = read(write(tmp_path / name, d))
@@ -127,12 +130,14 @@ def test_roving_runs_assemble_into_one_mimo_set():
         assemble_runs([runs[0], other])
 
 
-def test_frf_command_writes_uff_and_refuses_other_formats(tmp_path):
+def test_frf_command_writes_uff_and_mat_and_refuses_other_formats(tmp_path):
     deck_path = str(REFDECKS / "cofe_cantilever_cbar" / "noReduction.dat")
     args = ["frf", deck_path, "--input", "11:2", "--output", "11:2", "--freq", "1:100:9"]
     assert main([*args, "--out", str(tmp_path / "h.npz")]) == 0
     assert main([*args, "--out", str(tmp_path / "h.uff")]) == 0
     a, b = read_npz(tmp_path / "h.npz"), read_uff(tmp_path / "h.uff")
     assert np.allclose(a.H, b.H, rtol=1e-10) and [c.label for c in b.outputs] == ["11:2"]
-    assert main([*args, "--out", str(tmp_path / "h.mat")]) == 2
-    assert not (tmp_path / "h.mat").exists()
+    assert main([*args, "--out", str(tmp_path / "h.mat")]) == 0
+    assert np.allclose(read_mat(tmp_path / "h.mat").H, a.H)
+    assert main([*args, "--out", str(tmp_path / "h.txt")]) == 2
+    assert not (tmp_path / "h.txt").exists()

@@ -337,3 +337,43 @@ def assemble_runs(
             named = ", ".join(f"{ol[o]}/{il[i]}" for o, i in missing[:10])
             raise ValueError(f"{len(missing)} output/input pairs were not measured: {named}")
     return FRFData.from_labels(f, H, list(outs), list(ins), runs[0].quantity, runs[0].units)
+
+
+# ----------------------------------------------------------------------------- MATLAB
+
+
+def write_mat(path: str | os.PathLike[str], data: FRFData) -> Path:
+    """MATLAB .mat (version 5, scipy.io) with the NPZ's variables: ``frequency_hz`` (1 x
+    n_freq), ``H`` (n_out x n_in x n_freq complex), ``output_labels`` and ``input_labels``
+    (cell arrays of char), ``quantity`` and ``units``."""
+    import scipy.io
+
+    def dump(fh) -> None:
+        cells = lambda chs: np.array([c.label for c in chs], dtype=object)  # noqa: E731
+        scipy.io.savemat(fh, {
+            "frequency_hz": np.asarray(data.frequency_hz, float)[None, :],
+            "H": np.asarray(data.H, complex), "output_labels": cells(data.outputs),
+            "input_labels": cells(data.inputs), "quantity": data.quantity,
+            "units": data.units,
+        }, do_compression=True)  # fmt: skip
+
+    return _atomic(Path(path), dump, binary=True)
+
+
+def read_mat(path: str | os.PathLike[str]) -> FRFData:
+    """Read what :func:`write_mat` writes (MATLAB 5 to 7.2 files); KeyError names a missing
+    variable. The LMS Test.Lab export layout (``FRF.x_values``, ``FRF.y_values.values``) is
+    not read yet."""
+    import scipy.io
+
+    z = scipy.io.loadmat(str(path), squeeze_me=True)
+    missing = {"frequency_hz", "H", "input_labels", "output_labels", "quantity"} - set(z)
+    if missing:
+        hint = " (an LMS export layout? not read yet)" if "FRF" in z else ""
+        raise KeyError(f"{path}: missing {', '.join(sorted(missing))}{hint}")
+    f = np.atleast_1d(np.asarray(z["frequency_hz"], float))
+    labels = lambda v: [str(s) for s in np.atleast_1d(v)]  # noqa: E731
+    outs, ins = labels(z["output_labels"]), labels(z["input_labels"])
+    H = np.asarray(z["H"], complex).reshape(len(outs), len(ins), len(f))
+    units = str(z["units"]) if "units" in z and np.size(z["units"]) else ""
+    return FRFData.from_labels(f, H, outs, ins, str(z["quantity"]), units)

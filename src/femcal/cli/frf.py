@@ -1,5 +1,5 @@
 """``femcal frf DECK --input GID:C ... --output GID:C ... --freq F1:F2:DF [--damping Z]
-[--quantity Q] [--residual] --out FILE.npz|FILE.csv|FILE.uff``: FRFs by modal superposition."""
+[--quantity Q] [--residual] --out FILE.npz|.csv|.uff|.mat``: FRFs by modal superposition."""
 
 from __future__ import annotations
 
@@ -12,11 +12,14 @@ import numpy as np
 
 from ..deck import read_deck
 from ..frf import QUANTITIES, modal_frf, point_matrix, residual_flexibility
-from ..frfdata import FRFData, write_csv, write_npz, write_uff
+from ..frfdata import FRFData, write_csv, write_mat, write_npz, write_uff
 from ..modal import EigenRequest
 from ..model import build_model
 from ..sol103 import solve_sol103
 from ..structure import Options, assemble
+
+_WRITERS = {".npz": write_npz, ".csv": write_csv, ".uff": write_uff, ".unv": write_uff,
+            ".mat": write_mat}  # fmt: skip
 
 
 def _point(text: str) -> tuple[int, int]:
@@ -89,7 +92,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         type=Path,
         required=True,
         metavar="FILE",
-        help="FILE.npz, FILE.csv or FILE.uff (UFF 58)",
+        help="FILE.npz, FILE.csv, FILE.uff (UFF 58) or FILE.mat",
     )
 
 
@@ -100,10 +103,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"[{time.perf_counter() - t0:7.1f} s] {msg}", file=sys.stderr, flush=True)
 
     suffix = args.out.suffix.lower()
-    if suffix not in (".npz", ".csv", ".uff", ".unv"):
+    if suffix not in _WRITERS:
         print(
-            f"femcal frf: --out {args.out}: expected a .npz, .csv or .uff file "
-            "(MAT is not written yet)",
+            f"femcal frf: --out {args.out}: expected a .npz, .csv, .uff or .mat file",
             file=sys.stderr,
         )
         return 2
@@ -141,8 +143,7 @@ def run(args: argparse.Namespace) -> int:
         [f"{g}:{c}" for g, c in args.input],
         args.quantity,
     )
-    writer = {".npz": write_npz, ".csv": write_csv, ".uff": write_uff, ".unv": write_uff}
-    writer[suffix](args.out, data)
+    _WRITERS[suffix](args.out, data)
     progress(
         f"wrote {args.out}: {H.shape[0]} outputs x {H.shape[1]} inputs x {H.shape[2]} frequencies"
     )
