@@ -31,3 +31,20 @@ def write(tmp_path: Path):
         return p
 
     return _write
+
+
+def solve_cantilever(coupled_mass: bool, n_modes: int = 1000):
+    """The 10-CBAR cantilever reference deck solved for its lowest modes: (model, matrices,
+    modes, reduction). With coupled mass every DOF (T2 and R3 of 10 grids) has a finite
+    mode; with lumped mass the rotations are massless."""
+    from femcal.deck import read_deck
+    from femcal.modal import EigenRequest
+    from femcal.model import build_model
+    from femcal.sol103 import solve_sol103
+    from femcal.structure import Options, assemble
+
+    deck = read_deck(REFDECKS / "cofe_cantilever_cbar" / "noReduction.dat")
+    model = build_model(deck)
+    mats = assemble(model, Options(coupled_mass=coupled_mass))
+    modes, red = solve_sol103(deck, model, matrices=mats, request=EigenRequest(nd=n_modes))
+    return model, mats, modes, red

@@ -7,12 +7,10 @@ import pytest
 
 from femcal.deck import read_deck
 from femcal.frf import Rayleigh, direct_frf, modal_frf, point_matrix, residual_flexibility
-from femcal.modal import EigenRequest
 from femcal.model import build_model
 from femcal.sol103 import solve_sol103
-from femcal.structure import Options, assemble
 
-from .conftest import REFDECKS
+from .conftest import solve_cantilever
 
 OSCILLATOR = """SOL 103
 CEND
@@ -47,12 +45,9 @@ def test_one_mode_oscillator_is_the_textbook_receptance(write):
 
 @pytest.fixture(scope="module")
 def cantilever():
-    deck = read_deck(REFDECKS / "cofe_cantilever_cbar" / "noReduction.dat")
-    model = build_model(deck)
     # coupled mass: the bars' rotations carry inertia, so every DOF has a finite mode (with
     # massless DOF the sum of the finite modes misses their static part)
-    mats = assemble(model, Options(coupled_mass=True))
-    modes, red = solve_sol103(deck, model, matrices=mats, request=EigenRequest(nd=1000))
+    model, mats, modes, red = solve_cantilever(coupled_mass=True)
     assert modes.shapes.shape[1] == red.T.shape[1] == 20  # GRDSET leaves T2 and R3 free
     return model, mats, modes, red
 
@@ -92,10 +87,7 @@ def test_points_are_checked(cantilever):
 def test_residual_flexibility_completes_the_modes_of_massless_dof():
     """Lumped bar mass leaves the rotations massless: the 10 finite modes miss their static
     part, and the residual flexibility puts it back exactly."""
-    deck = read_deck(REFDECKS / "cofe_cantilever_cbar" / "noReduction.dat")
-    model = build_model(deck)
-    mats = assemble(model, Options(coupled_mass=False))
-    modes, red = solve_sol103(deck, model, matrices=mats, request=EigenRequest(nd=1000))
+    model, mats, modes, red = solve_cantilever(coupled_mass=False)
     assert modes.shapes.shape[1] == 10 < red.T.shape[1]
     C = point_matrix(model, [(11, 2), (11, 6), (5, 6)])
     f = np.linspace(2.0, 500.0, 19)

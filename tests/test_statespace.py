@@ -5,11 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from femcal.deck import read_deck
 from femcal.frf import modal_frf, point_matrix
-from femcal.modal import EigenRequest
-from femcal.model import build_model
-from femcal.sol103 import solve_sol103
 from femcal.statespace import (
     StateSpace,
     frequency_response,
@@ -20,17 +16,13 @@ from femcal.statespace import (
     poles_to_modal,
     series,
 )
-from femcal.structure import Options, assemble
 
-from .conftest import REFDECKS
+from .conftest import solve_cantilever
 
 
 @pytest.fixture(scope="module")
 def cantilever():
-    deck = read_deck(REFDECKS / "cofe_cantilever_cbar" / "noReduction.dat")
-    model = build_model(deck)
-    mats = assemble(model, Options(coupled_mass=True))
-    modes, _ = solve_sol103(deck, model, matrices=mats, request=EigenRequest(nd=6))
+    model, _, modes, _ = solve_cantilever(coupled_mass=True, n_modes=6)
     C = point_matrix(model, [(11, 2), (7, 2), (9, 6)])
     return modes, C
 
