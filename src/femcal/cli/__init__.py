@@ -7,9 +7,15 @@ import sys
 from collections.abc import Sequence
 
 from ..errors import FemcalError
-from . import frf, info, model, solve
+from . import frf, info, model, solve, synth
 
-_COMMANDS = {"info": info, "solve": solve, "frf": frf, "model": model}
+_COMMANDS = {
+    "info": info,
+    "solve": solve,
+    "frf": frf,
+    "synth-test": synth,
+    "model": model,
+}
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,68 @@
+"""The shipped synthetic hammer test: its layout, its truth, and that it shows the modes."""
+
+from __future__ import annotations
+
+import csv
+import tomllib
+
+import numpy as np
+import pytest
+
+from femcal.frfdata import read_mat, read_uff
+from femcal.synthtest import make_hammer_test
+
+from .conftest import ROOT
+
+FRAME = ROOT / "models" / "truck_frame"
+
+
+@pytest.fixture(scope="module")
+def shipped():
+    return read_mat(FRAME / "hammer_test.mat"), tomllib.loads(
+        (FRAME / "hammer_test.truth.toml").read_text()
+    )
+
+
+def test_shipped_set_is_72_outputs_by_2_inputs_at_0_05_hz(shipped):
+    data, _ = shipped
+    assert data.H.shape == (72, 2, 3000) and data.quantity == "accelerance"
+    assert np.allclose(data.frequency_hz, 0.05 * np.arange(1, 3001))
+    with open(FRAME / "hammer_frame.sensors.csv", newline="") as fh:
+        grids = [int(r["grid"]) for r in csv.DictReader(fh)]
+    assert [c.label for c in data.outputs] == [f"{g}:+{a}" for g in grids for a in "XYZ"]
+    assert [c.direction for c in data.inputs] == ["+Y", "+Z"]
+    uff = read_uff(FRAME / "hammer_test.uff")  # the same numbers in the universal file
+    assert np.array_equal(uff.H, data.H)
+    assert [(c.grid, c.direction) for c in uff.outputs[:3]] == [(grids[0], d) for d in "123"]
+
+
+def test_truth_lists_the_hidden_parameters_within_their_bounds(shipped):
+    _, truth = shipped
+    params = tomllib.loads((FRAME / "hammer_frame.params.toml").read_text())["parameter"]
+    hidden = {p["name"]: p for p in truth["parameter"]}
+    assert len(hidden) == 30
+    for p in params:
+        t = hidden[p["name"]]["true"]
+        assert p["lower"] <= t <= p["upper"] and t != p["nominal"]
+
+
+def test_every_mode_of_the_real_frame_shows_in_the_data(shipped):
+    """The sum of |H|^2 over all channels peaks at each of the hidden frame's flexible modes
+    from 10 to 120 Hz, over noise and the other modes."""
+    data, truth = shipped
+    f = data.frequency_hz
+    indicator = (np.abs(data.H) ** 2).sum(axis=(0, 1))
+    modes = np.array(truth["modes"]["frequency_hz"])
+    modes = modes[(modes > 10) & (modes < 120)]
+    assert len(modes) >= 6
+    for fm in modes:
+        near = (f > fm * 0.985) & (f < fm * 1.015)
+        band = (f > fm * 0.9) & (f < fm * 1.1)
+        assert indicator[near].max() > 2.0 * np.median(indicator[band]), fm
+
+
+@pytest.mark.slow
+def test_the_shipped_set_regenerates():
+    made = make_hammer_test(FRAME / "hammer_frame.bdf", FRAME / "hammer_frame.params.toml",
+                            FRAME / "hammer_frame.sensors.csv", FRAME / "hammer_frame.inputs.csv")  # fmt: skip
+    assert np.allclose(made.data.H, read_mat(FRAME / "hammer_test.mat").H, rtol=1e-9, atol=0)
