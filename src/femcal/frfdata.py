@@ -13,13 +13,14 @@ import csv
 import io
 import os
 import re
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-QUANTITIES = ("receptance", "mobility", "accelerance")
+from .atomic import write_atomic
+from .frf import QUANTITIES
+
 _LABEL = re.compile(r"^\s*(\d+)\s*:\s*([+-]?(?:[1-6]|R?[XYZ]))\s*$", re.IGNORECASE)
 
 
@@ -87,13 +88,13 @@ def write_npz(path: str | os.PathLike[str], data: FRFData) -> Path:
     """NPZ with keys ``frequency_hz``, ``H``, ``input_labels``, ``output_labels``,
     ``quantity`` and ``units``."""
 
-    def dump(fh) -> None:
-        np.savez(fh, frequency_hz=data.frequency_hz, H=data.H,
+    def dump(tmp: str) -> None:
+        np.savez(tmp, frequency_hz=data.frequency_hz, H=data.H,
                  output_labels=np.array([c.label for c in data.outputs]),
                  input_labels=np.array([c.label for c in data.inputs]),
                  quantity=np.array(data.quantity), units=np.array(data.units))  # fmt: skip
 
-    return _atomic(Path(path), dump, binary=True)
+    return write_atomic(path, dump)
 
 
 def read_npz(path: str | os.PathLike[str]) -> FRFData:
@@ -116,24 +117,22 @@ def write_csv(path: str | os.PathLike[str], data: FRFData) -> Path:
     """Long-format CSV: a ``# quantity=... units=...`` line, then one row per output, input
     and frequency: frequency_hz, output, input, real, imag."""
 
-    def dump(fh) -> None:
-        fh.write(f"# quantity={data.quantity} units={data.units}\n")
-        w = csv.writer(fh, lineterminator="\n")
-        w.writerow(_CSV_HEAD)
-        for o, co in enumerate(data.outputs):
-            for i, ci in enumerate(data.inputs):
-                for f, h in zip(data.frequency_hz, data.H[o, i], strict=True):
-                    w.writerow(
-                        [
-                            repr(float(f)),
-                            co.label,
-                            ci.label,
-                            repr(float(h.real)),
-                            repr(float(h.imag)),
-                        ]
-                    )
+    def dump(tmp: str) -> None:
+        with open(tmp, "w", newline="") as fh:
+            _csv_rows(fh, data)
 
-    return _atomic(Path(path), dump, binary=False)
+    return write_atomic(path, dump)
+
+
+def _csv_rows(fh, data: FRFData) -> None:
+    fh.write(f"# quantity={data.quantity} units={data.units}\n")
+    w = csv.writer(fh, lineterminator="\n")
+    w.writerow(_CSV_HEAD)
+    for o, co in enumerate(data.outputs):
+        for i, ci in enumerate(data.inputs):
+            for f, h in zip(data.frequency_hz, data.H[o, i], strict=True):
+                row = [repr(float(f)), co.label, ci.label, repr(float(h.real)), repr(float(h.imag))]
+                w.writerow(row)
 
 
 def read_csv(path: str | os.PathLike[str]) -> FRFData:
@@ -173,22 +172,6 @@ def read_csv(path: str | os.PathLike[str]) -> FRFData:
     if np.isnan(H.real).any():
         raise ValueError(f"{path}: not every output, input and frequency has a value")
     return FRFData.from_labels(fs, H, list(outs), list(ins), quantity, units)
-
-
-def _atomic(path: Path, dump, *, binary: bool) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb" if binary else "w", **({} if binary else {"newline": ""})) as fh:
-            dump(fh)
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)  # mkstemp makes it private; give it the usual mode
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
 
 
 # ----------------------------------------------------------------------------- UFF 58
@@ -235,17 +218,12 @@ def write_uff(path: str | os.PathLike[str], data: FRFData, *, binary: bool = Fal
                 ordinate_spec_data_type=_UFF_ORDINATE[data.quantity],
                 orddenom_spec_data_type=13, data=np.asarray(data.H[o, i], complex), x=f,
             ))  # fmt: skip
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".uff", dir=path.parent)
-    os.close(fd)
-    try:
-        Path(tmp).unlink()
+
+    def dump(tmp: str) -> None:
+        Path(tmp).unlink()  # pyuff adds to a file that exists: start from none
         pyuff.UFF(tmp).write_sets(sets, mode="add")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+
+    return write_atomic(path, dump)
 
 
 def read_uff(path: str | os.PathLike[str]) -> FRFData:
@@ -352,16 +330,16 @@ def write_mat(path: str | os.PathLike[str], data: FRFData) -> Path:
     (cell arrays of char), ``quantity`` and ``units``."""
     import scipy.io
 
-    def dump(fh) -> None:
+    def dump(tmp: str) -> None:
         cells = lambda chs: np.array([c.label for c in chs], dtype=object)  # noqa: E731
-        scipy.io.savemat(fh, {
+        scipy.io.savemat(tmp, {
             "frequency_hz": np.asarray(data.frequency_hz, float)[None, :],
             "H": np.asarray(data.H, complex), "output_labels": cells(data.outputs),
             "input_labels": cells(data.inputs), "quantity": data.quantity,
             "units": data.units,
         }, do_compression=True)  # fmt: skip
 
-    return _atomic(Path(path), dump, binary=True)
+    return write_atomic(path, dump)
 
 
 def read_mat(path: str | os.PathLike[str]) -> FRFData:

@@ -7,13 +7,12 @@ meshio is imported only when a VTU is written.
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 
+from .atomic import write_atomic
 from .model.model import Model
 from .sol103 import Modes
 
@@ -71,31 +70,11 @@ def modes_json(modes: Modes, model: Model) -> dict:
     }  # fmt: skip
 
 
-def _atomic(path: Path, write) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        write(tmp)
-        os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
 def write_json(path: Path, data: dict) -> Path:
     def w(tmp: str) -> None:
         Path(tmp).write_text(json.dumps(data, indent=1))
 
-    return _atomic(path, w)
+    return write_atomic(path, w)
 
 
 def write_npz(path: Path, modes: Modes, model: Model) -> Path:
@@ -111,7 +90,7 @@ def write_npz(path: Path, modes: Modes, model: Model) -> Path:
                 xyz=model.xyz, cd_frames=model.cd_frames,
             )  # fmt: skip
 
-    return _atomic(path, w)
+    return write_atomic(path, w)
 
 
 def basic_translations(modes: Modes, model: Model) -> np.ndarray:
@@ -161,4 +140,4 @@ def write_vtu(path: Path, modes: Modes, model: Model) -> Path:
     def w(tmp: str) -> None:
         meshio.write(tmp, mesh, file_format="vtu")
 
-    return _atomic(path, w)
+    return write_atomic(path, w)

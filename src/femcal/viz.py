@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import os
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
+from .atomic import write_atomic
 from .model.model import Model
 from .results import basic_translations, mesh_cells
 from .sol103 import Modes
@@ -80,12 +80,10 @@ def render_modes(
         label = f"Mode {i + 1}: {modes.frequencies_hz[i]:.3f} Hz"
         pl.add_text(f"{title}  {label}" if title else label, font_size=12)
         pl.view_isometric()
-        path = out_dir / f"mode_{i + 1:03d}.png"
-        tmp = path.with_name(f".{path.stem}.tmp.png")
-        pl.screenshot(str(tmp))
-        pl.close()
-        os.replace(tmp, path)
-        paths.append(path)
+        try:
+            paths.append(write_atomic(out_dir / f"mode_{i + 1:03d}.png", pl.screenshot))
+        finally:
+            pl.close()
     return paths
 
 
@@ -107,9 +105,7 @@ def render_mesh(
     if title:
         pl.add_text(title, font_size=12)
     pl.view_isometric()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.tmp.png")
-    pl.screenshot(str(tmp))
-    pl.close()
-    os.replace(tmp, path)
-    return path
+    try:
+        return write_atomic(path, pl.screenshot)
+    finally:
+        pl.close()
