@@ -69,3 +69,23 @@ def test_the_shipped_set_regenerates():
     # the same to rounding: ARPACK's random start vector moves the modes in the last digits
     scale = np.abs(shipped).max(axis=2, keepdims=True)
     assert np.all(np.abs(made.data.H - shipped) <= 1e-7 * scale)
+
+
+def test_bad_sensor_and_parameter_files_are_named(tmp_path):
+    from femcal.synthtest import read_points
+
+    bad = tmp_path / "s.csv"
+    bad.write_text("label,grid,directions\nA,1,123\nB,x1,123\n")
+    with pytest.raises(ValueError, match=r"s\.csv:3: grid 'x1'"):
+        read_points(bad)
+    bad.write_text("label,directions\nA,123\n")
+    with pytest.raises(ValueError, match=r"s\.csv:1: missing column\(s\) grid"):
+        read_points(bad)
+    bad.write_text("label,grid,direction\nA,1,9\n")
+    with pytest.raises(ValueError, match="expected codes 1-6"):
+        read_points(bad)
+    toml = tmp_path / "p.toml"
+    toml.write_text('[[parameter]]\nname = "p1"\ncard = "PSHELL"\n')
+    with pytest.raises(ValueError, match=r"p\.toml: parameter 1 needs name, card, id"):
+        make_hammer_test(FRAME / "hammer_frame.bdf", toml, FRAME / "hammer_frame.sensors.csv",
+                         FRAME / "hammer_frame.inputs.csv")  # fmt: skip

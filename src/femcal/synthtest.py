@@ -70,17 +70,34 @@ class SynthTest:
 
 def read_points(path: str | Path) -> list[tuple[str, int, int]]:
     """(label, grid, direction) rows of a sensors or inputs CSV (``directions`` 123 expands
-    to three rows labelled GRID:+X, +Y, +Z; a signed ``direction`` gives one)."""
+    to three rows labelled GRID:+X, +Y, +Z; a signed ``direction`` gives one).
+
+    Raises
+    ------
+    ValueError
+        Naming the file and line of a missing column or a field that is not a number.
+    """
     out = []
     with open(path, newline="") as fh:
-        for row in csv.DictReader(fh):
-            g = int(row["grid"])
-            dirs = row.get("directions") or row.get("direction")
-            if dirs is None:
-                raise ValueError(f"{path}: expected a directions or direction column")
-            codes = [int(c) for c in dirs] if "directions" in row else [int(dirs)]
-            for c in codes:
-                out.append((row["label"], g, c))
+        reader = csv.DictReader(fh)
+        fields = reader.fieldnames or []
+        dir_col = "directions" if "directions" in fields else "direction"
+        missing = [c for c in ("label", "grid", dir_col) if c not in fields]
+        if missing:
+            raise ValueError(f"{path}:1: missing column(s) {', '.join(missing)}; expected "
+                             "label, grid and directions (or direction)")  # fmt: skip
+        for row in reader:
+            line = reader.line_num
+            try:
+                g = int(row["grid"])
+                text = row[dir_col].strip()
+                codes = [int(c) for c in text] if dir_col == "directions" else [int(text)]
+            except (TypeError, ValueError):
+                raise ValueError(f"{path}:{line}: grid {row['grid']!r} and {dir_col} "
+                                 f"{row[dir_col]!r} must be integers") from None  # fmt: skip
+            if not codes or any(not 1 <= abs(c) <= 6 for c in codes):
+                raise ValueError(f"{path}:{line}: {dir_col} {text!r}: expected codes 1-6")
+            out += [(row["label"], g, c) for c in codes]
     return out
 
 
@@ -95,16 +112,27 @@ def make_hammer_test(deck_path: str | Path, params_path: str | Path,
     """Build the synthetic test (see the module docstring)."""
     s = settings or SynthSettings()
     rng = np.random.default_rng(s.seed)
+    sensors = read_points(sensors_path)  # before the solution, so bad files fail at once
+    inputs = read_points(inputs_path)
     deck = read_deck(deck_path)
     model = build_model(deck)
-    params = tomllib.loads(Path(params_path).read_text())["parameter"]
+    params = tomllib.loads(Path(params_path).read_text()).get("parameter", [])
     truth = []
-    for p in params:
+    for n, p in enumerate(params, start=1):
+        need = ("name", "card", "id", "field", "nominal", "lower", "upper")
+        if any(k not in p for k in need):
+            raise ValueError(f"{params_path}: parameter {n} needs {', '.join(need)}; it has "
+                             f"{', '.join(p)}")  # fmt: skip
+        if (p["card"], p["field"]) not in _FIELDS:
+            known = ", ".join(f"{c} {f}" for c, f in _FIELDS)
+            raise ValueError(f"{params_path}: parameter {p['name']}: {p['card']} {p['field']} "
+                             f"is not a parameter field femcal knows ({known})")  # fmt: skip
         where, key, column = _FIELDS[(p["card"], p["field"])]
         table = getattr(model, where)[p["card"]]
         rows = np.flatnonzero(table[key] == p["id"])
         if len(rows) != 1:
-            raise ValueError(f"parameter {p['name']}: {p['card']} {p['id']} not in the deck")
+            raise ValueError(f"{params_path}: parameter {p['name']}: {p['card']} {p['id']} is "
+                             "not in the deck")  # fmt: skip
         lo = p["lower"] / p["nominal"] - 1.0
         hi = p["upper"] / p["nominal"] - 1.0
         rel = float(rng.uniform(s.spread * lo, s.spread * hi))
@@ -124,8 +152,6 @@ def make_hammer_test(deck_path: str | Path, params_path: str | Path,
     modes, _ = solve_sol103(deck, model, matrices=mats,
                             request=EigenRequest(v2=s.modes_to, nd=None))  # fmt: skip
     zeta = rng.uniform(*s.damping, size=len(modes.radians))
-    sensors = read_points(sensors_path)
-    inputs = read_points(inputs_path)
     f = s.df * np.arange(1, round(s.f_max / s.df) + 1)
     positions = list(dict.fromkeys((lab, g) for lab, g, _ in sensors))
     runs, maps = [], []

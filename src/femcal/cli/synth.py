@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+import tomllib
 from pathlib import Path
 
 from ..deck.writer import write_text_atomic
@@ -27,8 +28,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     print(f"[{0.0:7.1f} s] making the synthetic test of {args.deck}", file=sys.stderr)
-    test = make_hammer_test(args.deck, args.params, args.sensors, args.inputs,
-                            SynthSettings(seed=args.seed))  # fmt: skip
+    try:
+        test = make_hammer_test(args.deck, args.params, args.sensors, args.inputs,
+                                SynthSettings(seed=args.seed))  # fmt: skip
+    except (ValueError, tomllib.TOMLDecodeError) as e:
+        print(f"femcal synth-test: {e}", file=sys.stderr)
+        return 2
     args.out.mkdir(parents=True, exist_ok=True)
     d = test.data
     stem = args.out / args.name
