@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import csv
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -148,7 +148,7 @@ def make_hammer_test(deck_path: str | Path, params_path: str | Path,
         for comp in (3, 5):  # R1 and R3 (0-based 3 and 5)
             d = int(model.dof_start[node]) + comp
             K[d, d] = K[d, d] + s.support_stiffness
-    mats = type(mats)(K.tocsr(), mats.M, mats.element_mass)
+    mats = replace(mats, K=K.tocsr())
     modes, _ = solve_sol103(deck, model, matrices=mats,
                             request=EigenRequest(v2=s.modes_to, nd=None))  # fmt: skip
     zeta = rng.uniform(*s.damping, size=len(modes.radians))
