@@ -81,6 +81,52 @@ class FRFData:
                    tuple(Channel.parse(str(s)) for s in input_labels), quantity, units)  # fmt: skip
 
 
+# ----------------------------------------------------------------------------- units
+
+#: Lengths in metres for the unit strings of FRFs (numerator of length/N, length/s/N,
+#: length/s^2/N).
+_LENGTHS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "um": 1e-6, "in": 0.0254}
+_G = 9.80665  # m/s^2 per g (standard gravity)
+
+
+def _parse_units(units: str) -> tuple[str, float] | None:
+    """(quantity, SI value of one unit) for FRF units such as ``mm/s^2/N``, ``(m/s2)/N``,
+    ``g/N``, ``m/N``; None when the string is not one of these forms."""
+    s = units.replace(" ", "").replace("(", "").replace(")", "").replace("²", "^2")
+    s = s.replace("s2", "s^2").replace("*", "")
+    if s.lower() == "g/n":
+        return "accelerance", _G
+    for length, metres in _LENGTHS.items():
+        for suffix, quantity in (("/N", "receptance"), ("/s/N", "mobility"),
+                                 ("/s^2/N", "accelerance")):  # fmt: skip
+            if s == length + suffix:
+                return quantity, metres
+    return None
+
+
+def quantity_of_units(units: str) -> str | None:
+    """receptance, mobility or accelerance as the unit string says (``mm/s^2/N`` ->
+    accelerance), or None if it says none of them."""
+    parsed = _parse_units(units)
+    return parsed[0] if parsed else None
+
+
+def convert_units(data: FRFData, units: str) -> FRFData:
+    """The same FRFs in other units of the same quantity (``g/N`` -> ``mm/s^2/N`` multiplies
+    by 9806.65); ValueError naming both units if either is not understood or they measure
+    different quantities."""
+    have, want = _parse_units(data.units), _parse_units(units)
+    if have is None or want is None:
+        bad = data.units if have is None else units
+        raise ValueError(f"cannot convert FRF units {data.units!r} to {units!r}: {bad!r} is "
+                         "not one of length/N, length/s/N, length/s^2/N (length m, mm, cm, "
+                         "um, in) or g/N")  # fmt: skip
+    if have[0] != want[0] or have[0] != data.quantity:
+        raise ValueError(f"cannot convert {data.quantity} in {data.units!r} to {units!r}")
+    return FRFData(data.frequency_hz, data.H * (have[1] / want[1]), data.outputs, data.inputs,
+                   data.quantity, units)  # fmt: skip
+
+
 # ----------------------------------------------------------------------------- NPZ
 
 
@@ -342,20 +388,45 @@ def write_mat(path: str | os.PathLike[str], data: FRFData) -> Path:
     return write_atomic(path, dump)
 
 
-def read_mat(path: str | os.PathLike[str]) -> FRFData:
-    """Read what :func:`write_mat` writes (MATLAB 5 to 7.2 files); KeyError names a missing
-    variable. The LMS Test.Lab export layout (``FRF.x_values``, ``FRF.y_values.values``) is
-    not read yet."""
+def read_mat(path: str | os.PathLike[str], *, quantity: str | None = None) -> FRFData:
+    """Read a MATLAB file (version 5 to 7.2): what :func:`write_mat` writes, or the LMS
+    Test.Lab export layout (structs with ``x_values`` and ``y_values``; see
+    :mod:`femcal.lmsmat`, where ``quantity`` is used). KeyError names a missing variable."""
     import scipy.io
 
     z = scipy.io.loadmat(str(path), squeeze_me=True)
     missing = {"frequency_hz", "H", "input_labels", "output_labels", "quantity"} - set(z)
     if missing:
-        hint = " (an LMS export layout? not read yet)" if "FRF" in z else ""
-        raise KeyError(f"{path}: missing {', '.join(sorted(missing))}{hint}")
+        if not any(isinstance(v, np.ndarray) and v.dtype.names and "x_values" in v.dtype.names
+                   and "y_values" in v.dtype.names for v in z.values()):  # fmt: skip
+            raise KeyError(f"{path}: missing {', '.join(sorted(missing))} (and no Test.Lab "
+                           "struct with x_values and y_values)")  # fmt: skip
+        from .lmsmat import read_lms_mat
+
+        return read_lms_mat(path, quantity=quantity)
     f = np.atleast_1d(np.asarray(z["frequency_hz"], float))
     labels = lambda v: [str(s) for s in np.atleast_1d(v)]  # noqa: E731
     outs, ins = labels(z["output_labels"]), labels(z["input_labels"])
     H = np.asarray(z["H"], complex).reshape(len(outs), len(ins), len(f))
     units = str(z["units"]) if "units" in z and np.size(z["units"]) else ""
     return FRFData.from_labels(f, H, outs, ins, str(z["quantity"]), units)
+
+
+# ----------------------------------------------------------------------------- any format
+
+READERS = {".npz": read_npz, ".csv": read_csv, ".uff": read_uff, ".unv": read_uff,
+           ".mat": read_mat}  # fmt: skip
+
+
+def read_frf(path: str | os.PathLike[str]) -> FRFData:
+    """Read an FRF file by its suffix: .npz, .csv, .uff/.unv (UFF 58) or .mat (femcal's
+    variables or the LMS Test.Lab layout). ValueError for another suffix,
+    FileNotFoundError for a missing file."""
+    path = Path(path)
+    reader = READERS.get(path.suffix.lower())
+    if reader is None:
+        raise ValueError(f"{path}: unknown FRF file type {path.suffix!r}; expected "
+                         f"{', '.join(READERS)}")  # fmt: skip
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such file")
+    return reader(path)
