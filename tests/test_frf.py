@@ -6,7 +6,14 @@ import numpy as np
 import pytest
 
 from femcal.deck import read_deck
-from femcal.frf import Rayleigh, direct_frf, modal_frf, point_matrix, residual_flexibility
+from femcal.frf import (
+    Rayleigh,
+    direct_frf,
+    direction_matrix,
+    modal_frf,
+    point_matrix,
+    residual_flexibility,
+)
 from femcal.model import build_model
 from femcal.sol103 import solve_sol103
 
@@ -127,3 +134,34 @@ def test_residual_flexibility_refuses_rigid_modes(cantilever):
     with pytest.raises(ValueError, match="restrained"):
         residual_flexibility(red.reduce(mats.K), red.T, C, C.T, modes.shapes[:, :2],
                              np.array([0.0, 1.0]))  # fmt: skip
+
+
+ROTATED = """BEGIN BULK
+CORD2R,5,,0.,0.,0.,0.,0.,1.
+,1.,1.,0.
+GRID,1,,0.,0.,0.
+GRID,2,,1.,0.,0.,5
+ENDDATA
+"""
+
+
+def test_direction_sensors_read_along_basic_directions_in_any_cd_frame(write):
+    model = build_model(read_deck(write(ROTATED)))
+    frame = model.cd_frames[1]  # GRID 2's displacement frame (rotated 45 deg about Z)
+    assert not np.allclose(frame, np.eye(3))
+    rng = np.random.default_rng(3)
+    u = rng.normal(size=model.n_dof)  # g-set: GRID 2's components in its own frame
+    v = np.array([0.0, 0.6, 0.8])
+    C = direction_matrix(model, [(2, v), (1, 2 * v), (2, v)], rotation=False)
+    basic_2 = frame @ u[6:9]
+    assert C[0] @ u == pytest.approx(v @ basic_2, rel=1e-12)
+    assert C[1] @ u == pytest.approx(v @ u[0:3], rel=1e-12)  # normalised; basic CD
+    R = direction_matrix(model, [(2, v)], rotation=True)
+    assert R[0] @ u == pytest.approx(v @ (frame @ u[9:12]), rel=1e-12)
+    # along a CD axis it equals point_matrix
+    assert np.allclose(direction_matrix(model, [(2, frame[:, 1])]).toarray(),
+                       point_matrix(model, [(2, 2)]).toarray())  # fmt: skip
+    with pytest.raises(ValueError, match=r"point 2: direction .* has no length"):
+        direction_matrix(model, [(2, [0, 0, 0])])
+    with pytest.raises(ValueError, match="point 9: no GRID 9"):
+        direction_matrix(model, [(9, v)])

@@ -3,7 +3,8 @@
 H has shape (n_out, n_in, n_freq): output ``o`` per unit harmonic input ``i`` at each
 frequency. Outputs and inputs are rows of a sensor matrix ``C`` (n_out, n_g) and columns of
 a load matrix ``B`` (n_g, n_in) on the g-set, in the nodes' displacement (CD) frames;
-:func:`point_matrix` builds them for GRID components 1-6.
+:func:`point_matrix` builds them for GRID components 1-6 and :func:`direction_matrix` for
+any measurement direction given in the basic frame.
 
 Modal superposition (mass-normalised shapes phi_r, circular frequencies w_r, modal damping
 zeta_r)::
@@ -76,6 +77,38 @@ def point_matrix(model: Model, points: Sequence[tuple[int, int]]) -> sp.csr_matr
             rows.append(int(model.dof_start[idx]))
     n = len(rows)
     return sp.csr_matrix((np.ones(n), (np.arange(n), rows)), shape=(n, model.n_dof))
+
+
+def direction_matrix(
+    model: Model, points: Sequence[tuple[int, Sequence[float]]], *, rotation: bool = False
+) -> sp.csr_matrix:
+    """Sensor matrix (n_points, n_g) for measurement directions given in the basic frame.
+
+    Each point is (grid id, direction (3,)); the direction is normalised and taken into the
+    node's displacement (CD) frame, so a sensor along (0, 0.6, 0.8) reads
+    ``0.6 u_y + 0.8 u_z`` in basic coordinates whatever the node's CD system. With
+    ``rotation`` the direction applies to the rotations (components 4-6) instead.
+
+    Raises
+    ------
+    ValueError
+        For an unknown grid, a scalar point or a zero direction, naming the point.
+    """
+    rows, cols, vals = [], [], []
+    for r, (gid, vec) in enumerate(points):
+        idx = int(model.node_index(gid)[0])
+        if idx < 0 or not model.is_grid[idx]:
+            raise ValueError(f"point {gid}: no GRID {gid} in the model")
+        v = np.asarray(vec, float).reshape(3)
+        norm = np.linalg.norm(v)
+        if not norm > 0:
+            raise ValueError(f"point {gid}: direction {tuple(v)} has no length")
+        local = model.cd_frames[idx].T @ (v / norm)  # components in the CD frame
+        start = int(model.dof_start[idx]) + (3 if rotation else 0)
+        rows += [r] * 3
+        cols += list(range(start, start + 3))
+        vals += list(local)
+    return sp.csr_matrix((vals, (rows, cols)), shape=(len(points), model.n_dof))
 
 
 def modal_damping(
