@@ -1,0 +1,358 @@
+"""The reference study's identification workflow on top of the subspace method.
+
+For a band [f_lo, f_hi] split into parts at chosen frequencies (e.g. 10-60, 60-100,
+100-120 Hz):
+
+1. Channels are scaled to unit RMS over the band (outputs and inputs), so that no sensor
+   dominates the fits by its units or position; the scaling is undone at the end. Channels
+   the others do not explain (:mod:`femcal.identify.channels`) are left out of the pole
+   estimation and flagged.
+2. Each part is identified by the frequency-domain subspace method
+   (:mod:`femcal.identify.subspace`) at its order, given or the automatic order of its
+   stabilisation diagram (:mod:`femcal.identify.stabilization`). Its physical poles are
+   those inside the part with damping between 0 and ``zeta_max``, and with an automatic
+   order only those at the diagram's physical modes.
+3. The residual effect of modes outside a part is taken by extra fixed poles: one at
+   ``gamma`` times the part's upper edge (gamma = 1.43), one far away at ``beta`` times it
+   (beta = 100), and (femcal's addition, on by default, ``lower_residual``) one at the lower
+   edge divided by gamma for the modes below; together with the feedthrough D they stand for
+   the out-of-band modes, so the in-band residues are not bent to fit them.
+4. The parts' physical poles are joined (a pole found in two parts is kept once, from the
+   part where it lies farthest from the edges), and B, C, D of the joined model, with the
+   residual poles of the whole band, are estimated over the whole band by linear least
+   squares for the fixed poles, alternating B and (C, D) until the fit stops improving
+   (:func:`femcal.identify.lsq.fit_fixed_poles`).
+
+The result holds the real state-space model (residual states flagged), the physical poles
+as frequency and damping ratio, the complex mode shapes at the outputs (C times the
+eigenvectors, normalised to a largest component of 1), the fit error of every channel and
+the channels whose fit is poor enough to suspect the sensor.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..frfdata import Channel, FRFData
+from ..statespace import StateSpace, poles_to_modal
+from .channels import consistency_error, outliers
+from .lsq import FixedPoleModel, Resolvent, fit_c, fit_fixed_poles, response
+from .stabilization import Stabilization, physical_poles, poles_at_modes, stabilization
+from .subspace import default_block_rows, model_of_order, subspace_basis
+
+#: Highest model order of a part (and at most half its frequencies).
+MAX_ORDER = 200
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Identification options (defaults: the reference study's).
+
+    gamma, beta : residual poles at gamma and beta times a band's upper edge.
+    lower_residual : also a residual pole at the lower edge / gamma.
+    residual_damping : damping ratio of the residual poles.
+    feedthrough : estimate D. stable : reflect unstable subspace poles.
+    zeta_max : poles damped more than this are not physical modes.
+    max_order : highest order of the stabilisation diagrams (automatic orders).
+    max_iter, tol : of the alternating least squares.
+    suspect_factor, suspect_floor : a channel is suspect when its fit error exceeds both
+        ``suspect_factor`` times the median channel's and ``suspect_floor``.
+    exclude_suspects : identify again without the suspect channels (their C and D are
+        still estimated, so their fit error is reported), so that a broken sensor does not
+        spoil the poles.
+    """
+
+    gamma: float = 1.43
+    beta: float = 100.0
+    lower_residual: bool = True
+    residual_damping: float = 0.05
+    feedthrough: bool = True
+    stable: bool = True
+    zeta_max: float = 0.2
+    max_order: int = 24
+    max_iter: int = 50
+    tol: float = 1e-7
+    suspect_factor: float = 4.0
+    suspect_floor: float = 0.1
+    exclude_suspects: bool = True
+
+
+@dataclass(frozen=True)
+class Part:
+    """One part of the band: its limits (Hz), the order used, whether it was chosen
+    automatically, its physical poles, and its stabilisation diagram (if computed)."""
+
+    band: tuple[float, float]
+    order: int
+    automatic: bool
+    poles: np.ndarray
+    diagram: Stabilization | None = None
+
+
+@dataclass(frozen=True)
+class IdentifiedModel:
+    """An identified model of FRF data.
+
+    Attributes
+    ----------
+    system : real state-space model, H(s) = C (sI - A)^-1 B + D in the data's units.
+    residual_states : (n,) True for the states of residual poles.
+    poles : (k,) physical poles (Im > 0), ascending frequency, rad/s.
+    frequency_hz, damping_ratio : (k,).
+    shapes : (p, k) complex mode shapes at the outputs, largest component 1.
+    participation : (m, k) complex modal participation of the inputs (V^-1 B rows),
+        scaled with the shapes' normalisation so ``shape participation^T`` is the residue.
+    outputs, inputs, quantity, units : as the data's.
+    band : (f_lo, f_hi) Hz.
+    fit_error : (p,) per output channel, ``||H - H_model|| / ||H||`` over the band.
+    suspect : (p,) channels whose fit is poor, or that the other channels do not explain
+        (see :class:`Settings` and :mod:`femcal.identify.channels`).
+    consistency : (p,) leave-one-out consistency error of each channel.
+    parts : the parts identified.
+    history : cost of the whole-band fit after each alternating step (scaled data).
+    """
+
+    system: StateSpace
+    residual_states: np.ndarray
+    poles: np.ndarray
+    frequency_hz: np.ndarray
+    damping_ratio: np.ndarray
+    shapes: np.ndarray
+    participation: np.ndarray
+    outputs: tuple[Channel, ...]
+    inputs: tuple[Channel, ...]
+    quantity: str
+    units: str
+    band: tuple[float, float]
+    fit_error: np.ndarray
+    suspect: np.ndarray
+    parts: list[Part] = field(default_factory=list)
+    history: list[float] = field(default_factory=list)
+    consistency: np.ndarray | None = None
+
+    def frf(self, freq_hz: np.ndarray) -> FRFData:
+        """The model's FRFs at freq_hz as a data set (same labels, quantity and units)."""
+        H = frequency_response(self.system, freq_hz)
+        return FRFData(np.asarray(freq_hz, float), H, self.outputs, self.inputs,
+                       self.quantity, self.units)  # fmt: skip
+
+
+def frequency_response(system: StateSpace, freq_hz: np.ndarray) -> np.ndarray:
+    """H (p, m, K) of a (diagonalisable) state-space model through its eigenvalues."""
+    s = 2j * np.pi * np.asarray(freq_hz, float)
+    lam, V = np.linalg.eig(system.A)
+    CV = system.C @ V
+    WB = np.linalg.solve(V, system.B)
+    q = 1.0 / (s[None, :] - lam[:, None])  # (n, K)
+    return np.einsum("pn,nk,nm->pmk", CV, q, WB, optimize=True) + system.D[:, :, None]
+
+
+def residual_pole(freq_hz: float, zeta: float) -> complex:
+    w = 2.0 * np.pi * freq_hz
+    return complex(-zeta * w, w * np.sqrt(1.0 - zeta**2))
+
+
+def _residual_poles(band: tuple[float, float], s: Settings) -> np.ndarray:
+    hz = [s.gamma * band[1], s.beta * band[1]]
+    if s.lower_residual:
+        hz.insert(0, band[0] / s.gamma)
+    return np.array([residual_pole(h, s.residual_damping) for h in hz])
+
+
+def _scales(H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Output and input scales: RMS of each output over inputs and frequencies, then of each
+    input over the scaled outputs; 1 where a channel is all zero."""
+    so = np.sqrt(np.mean(np.abs(H) ** 2, axis=(1, 2)))
+    so = np.where(so > 0, so, 1.0)
+    si = np.sqrt(np.mean(np.abs(H / so[:, None, None]) ** 2, axis=(0, 2)))
+    si = np.where(si > 0, si, 1.0)
+    return so, si
+
+
+def _dedupe(found: list[tuple[complex, tuple[float, float]]]) -> np.ndarray:
+    """Poles found in several parts kept once: the one farthest (relatively) from its part's
+    edges; poles closer than 0.5 % in frequency and 20 % in damping count as one."""
+    def margin(item):
+        pole, (lo, hi) = item
+        f = abs(pole) / (2 * np.pi)
+        return min(f / lo - 1.0, 1.0 - f / hi)
+
+    kept: list[tuple[complex, tuple[float, float]]] = []
+    for item in sorted(found, key=margin, reverse=True):
+        f, z = poles_to_modal(np.array([item[0]]))
+        same = False
+        for other in kept:
+            fo, zo = poles_to_modal(np.array([other[0]]))
+            if abs(f[0] / fo[0] - 1) < 0.005 and abs(z[0] / zo[0] - 1) < 0.2:
+                same = True
+                break
+        if not same:
+            kept.append(item)
+    poles = np.array([k[0] for k in kept], complex)
+    return poles[np.argsort(np.abs(poles))]
+
+
+def identify(data: FRFData, band: tuple[float, float], *,
+             splits: Sequence[float] = (), orders: int | Sequence[int | None] | None = None,
+             settings: Settings | None = None,
+             progress: Callable[[str], None] | None = None) -> IdentifiedModel:  # fmt: skip
+    """Identify a continuous-time model of ``data`` over ``band`` (see the module docstring).
+
+    Parameters
+    ----------
+    data : FRFs (p outputs, m inputs, K frequencies).
+    band : (f_lo, f_hi) Hz.
+    splits : frequencies inside the band where it is split into parts.
+    orders : the model order of every part (one number), of each part (a list; None for
+        automatic), or None: automatic for all (stabilisation diagram up to
+        ``settings.max_order``).
+    progress : called with a line of text per step.
+
+    Raises
+    ------
+    ValueError
+        For a band outside the data, splits outside the band, a part without data, or an
+        order list of the wrong length.
+    """
+    s = settings or Settings()
+    say = progress or (lambda _msg: None)
+    f_all = np.asarray(data.frequency_hz, float)
+    lo, hi = float(band[0]), float(band[1])
+    if not (lo < hi) or lo <= 0:
+        raise ValueError(f"band {lo}-{hi} Hz: expected 0 < f_lo < f_hi")
+    if lo < f_all[0] * (1 - 1e-12) or hi > f_all[-1] * (1 + 1e-12):
+        raise ValueError(f"band {lo}-{hi} Hz lies outside the data ({f_all[0]}-{f_all[-1]} Hz)")
+    edges = [lo, *sorted(float(x) for x in splits), hi]
+    if any(not (lo < x < hi) for x in edges[1:-1]):
+        raise ValueError(f"splits {list(splits)} must lie inside the band {lo}-{hi} Hz")
+    n_parts = len(edges) - 1
+    if orders is None or isinstance(orders, int):
+        part_orders: list[int | None] = [orders] * n_parts
+    else:
+        part_orders = list(orders)
+        if len(part_orders) != n_parts:
+            raise ValueError(f"{len(part_orders)} orders for {n_parts} parts")
+    sel = (f_all >= lo) & (f_all <= hi)
+    f = f_all[sel]
+    so, si = _scales(data.H[:, :, sel])
+    Hs = data.H[:, :, sel] / so[:, None, None] / si[None, :, None]
+    consistency = consistency_error(Hs)
+    use = ~outliers(consistency, s.suspect_factor, s.suspect_floor)
+    if not use.all():
+        bad = [data.outputs[i].label for i in np.flatnonzero(~use)]
+        say(f"channels {', '.join(bad)} are not consistent with the others (leave-one-out "
+            "error " + ", ".join(f"{e:.2f}" for e in consistency[~use])
+            + "): left out of the pole estimation")  # fmt: skip
+    result = _identify_pass(data, f, Hs, so, si, edges, part_orders, use, s, say)
+    result = replace(result, consistency=consistency,
+                     suspect=result.suspect | ~use)  # fmt: skip
+    if s.exclude_suspects and (result.suspect & use).any() and (~result.suspect).sum() >= 2:
+        bad = [data.outputs[i].label for i in np.flatnonzero(result.suspect)]
+        say(f"suspect channels {', '.join(bad)}: identified again without them")
+        again = _identify_pass(data, f, Hs, so, si, edges, part_orders, ~result.suspect, s,
+                               say)  # fmt: skip
+        result = replace(again, consistency=consistency, suspect=again.suspect | result.suspect)
+    return result
+
+
+def _identify_pass(data: FRFData, f: np.ndarray, Hs: np.ndarray, so: np.ndarray,
+                   si: np.ndarray, edges: list[float], part_orders: list[int | None],
+                   use: np.ndarray, s: Settings, say: Callable[[str], None]
+                   ) -> IdentifiedModel:  # fmt: skip
+    """One identification: poles and B from the channels in ``use`` (p,), C and D of every
+    channel for those."""
+    Hu = Hs[use]
+    p = Hu.shape[0]
+    found: list[tuple[complex, tuple[float, float]]] = []
+    parts: list[Part] = []
+    for a, b, n in zip(edges[:-1], edges[1:], part_orders, strict=True):
+        ps = (f >= a) & (f <= b)
+        if ps.sum() < 4:
+            raise ValueError(f"part {a}-{b} Hz holds {ps.sum()} frequencies; need at least 4")
+        # the subspace step sees the part scaled on its own (its poles do not depend on it)
+        po, pi = _scales(Hu[:, :, ps])
+        Hp = Hu[:, :, ps] / po[:, None, None] / pi[None, :, None]
+        diagram = None
+        if n is None:
+            diagram = stabilization(f[ps], Hp, (a, b),
+                                    orders=range(2, s.max_order + 1, 2), zeta_max=s.zeta_max,
+                                    stable_system=s.stable)  # fmt: skip
+            n_use = diagram.auto_order
+            at = next(op for op in diagram.orders if op.order == n_use)
+            lam = at.poles[poles_at_modes(at, diagram.modes_hz)]
+        else:
+            n_use = int(n)
+            limit = min(MAX_ORDER, int(ps.sum()) // 2)
+            if not 1 <= n_use <= limit:
+                raise ValueError(f"order {n_use} is outside 1..{limit} for part {a:g}-{b:g} "
+                                 f"Hz ({ps.sum()} frequencies)")  # fmt: skip
+            basis = subspace_basis(f[ps], Hp, default_block_rows(n_use, p))
+            A, C = model_of_order(basis, n_use, stable=s.stable)
+            lam, _ = physical_poles(A, C, (a, b), s.zeta_max)
+        fr, z = poles_to_modal(lam)
+        say(f"part {a:g}-{b:g} Hz: order {n_use}{' (automatic)' if n is None else ''}, "
+            + (", ".join(f"{x:.2f} Hz ({100 * y:.2f} %)" for x, y in zip(fr, z, strict=True))
+               or "no physical pole"))  # fmt: skip
+        parts.append(Part((a, b), n_use, n is None, lam, diagram))
+        found += [(complex(x), (a, b)) for x in lam]
+    poles = _dedupe(found)
+    lo, hi = edges[0], edges[-1]
+    sk = 2j * np.pi * f
+    model, history = fit_fixed_poles(sk, Hu, poles, _residual_poles((lo, hi), s),
+                                     feedthrough=s.feedthrough, max_iter=s.max_iter,
+                                     tol=s.tol)  # fmt: skip
+    if not use.all():  # C and D of every channel for the B of the channels used
+        C, D = fit_c(Resolvent(model.A, sk), model.B, Hs, s.feedthrough)
+        model = replace(model, C=C, D=D)
+    say(f"whole band {lo:g}-{hi:g} Hz: {len(poles)} poles, B, C, D refined in "
+        f"{len(history) - 1} alternating steps (cost {history[0]:.4g} -> {history[-1]:.4g})")
+    return _result(data, model, so, si, f, Hs, (lo, hi), parts, history, s)
+
+
+def _result(data: FRFData, model: FixedPoleModel, so: np.ndarray, si: np.ndarray,
+            f: np.ndarray, Hs: np.ndarray, band: tuple[float, float], parts: list[Part],
+            history: list[float], s: Settings) -> IdentifiedModel:  # fmt: skip
+    system = StateSpace(model.A, model.B * si[None, :], model.C * so[:, None],
+                        model.D * so[:, None] * si[None, :])  # fmt: skip
+    Hm = response(model, 2j * np.pi * f)
+    err = np.sqrt(np.sum(np.abs(Hm - Hs) ** 2, axis=(1, 2)) / np.sum(np.abs(Hs) ** 2, axis=(1, 2)))
+    suspect = outliers(err, s.suspect_factor, s.suspect_floor)
+    k = len(model.poles)
+    lam, V = np.linalg.eig(model.A[: 2 * k, : 2 * k])  # the physical states come first
+    W = np.linalg.inv(V)
+    up = np.flatnonzero(lam.imag > 0)
+    up = up[np.argsort(lam[up].imag)]
+    lam = lam[up]
+    shapes = system.C[:, : 2 * k] @ V[:, up]
+    part = W[up] @ system.B[: 2 * k]  # (k, m)
+    big = np.argmax(np.abs(shapes), axis=0)
+    norm = shapes[big, np.arange(len(up))]
+    shapes = shapes / norm
+    part = (part * norm[:, None]).T
+    fr, z = poles_to_modal(lam)
+    return IdentifiedModel(system, model.residual.copy(), lam, fr, z, shapes, part,
+                           data.outputs, data.inputs, data.quantity, data.units, band, err,
+                           suspect, parts, history)  # fmt: skip
+
+
+def equalize_damping(model: IdentifiedModel, zeta0: float) -> IdentifiedModel:
+    """The model with every complex pole's damping set to zeta0 and its imaginary part (the
+    damped natural frequency) kept, residues unchanged: the test side of the damping
+    equalisation. Real poles are kept as they are."""
+    if not 0 <= zeta0 < 1:
+        raise ValueError(f"zeta0 = {zeta0}: expected 0 <= zeta0 < 1")
+    sysm = model.system
+    lam, V = np.linalg.eig(sysm.A)
+    W = np.linalg.inv(V)
+    cplx = np.abs(lam.imag) > 0
+    new = lam.copy()
+    new[cplx] = lam[cplx].imag * (-zeta0 / np.sqrt(1.0 - zeta0**2) * np.sign(lam[cplx].imag)
+                                  + 1j)  # fmt: skip
+    A = (V @ np.diag(new) @ W).real
+    system = StateSpace(A, sysm.B, sysm.C, sysm.D)
+    poles = model.poles.imag * (-zeta0 / np.sqrt(1.0 - zeta0**2) + 1j)
+    fr, z = poles_to_modal(poles)
+    return replace(model, system=system, poles=poles, frequency_hz=fr, damping_ratio=z)

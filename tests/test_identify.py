@@ -1,0 +1,177 @@
+"""System identification: FRFs made from known modal models (with modes outside the band)
+give their poles and shapes back; noise, broken channels, damping equalisation, the
+stabilisation diagram, the building blocks against their definitions."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from femcal.frfdata import FRFData
+from femcal.identify import (
+    Settings,
+    equalize_damping,
+    fit_fixed_poles,
+    frequency_response,
+    identify,
+    mac,
+    model_of_order,
+    stabilization,
+    subspace_basis,
+)
+from femcal.identify.lsq import Resolvent, cost, response
+from femcal.statespace import modal_to_poles, poles_to_modal
+
+FN = np.array([12.0, 21.0, 33.0, 47.0, 52.0, 80.0, 130.0, 200.0])  # Hz
+ZETA = np.array([0.01, 0.02, 0.015, 0.01, 0.012, 0.02, 0.01, 0.01])
+BAND = (15.0, 100.0)
+IN_BAND = (BAND[0] < FN) & (BAND[1] > FN)  # 21, 33, 47, 52, 80 Hz
+
+
+def modal_set(*, p=12, m=2, noise=0.0, seed=0, f=None):
+    """Accelerance of a proportionally damped modal model: real shapes phi (p, k) and
+    participations L (m, k); 2 % noise is relative to each value."""
+    rng = np.random.default_rng(seed)
+    f = np.arange(1.0, 160.0, 0.1) if f is None else f
+    phi = rng.normal(size=(p, len(FN)))
+    L = rng.normal(size=(m, len(FN)))
+    w, wn = 2 * np.pi * f, 2 * np.pi * FN
+    q = -(w**2) / (wn[:, None] ** 2 - w**2 + 2j * (ZETA * wn)[:, None] * w)
+    H = np.einsum("pk,mk,kf->pmf", phi, L, q)
+    H = H + noise * np.abs(H) * (rng.normal(size=H.shape) + 1j * rng.normal(size=H.shape)) / 2**0.5
+    data = FRFData.from_labels(f, H, [f"{i + 1}:+Z" for i in range(p)],
+                               [f"{100 + i}:+Y" for i in range(m)], "accelerance", "mm/s^2/N")  # fmt: skip
+    return data, phi
+
+
+@pytest.mark.parametrize("splits", [(), (40.0,)])
+def test_noise_free_poles_and_shapes_come_back(splits):
+    data, phi = modal_set()
+    model = identify(data, BAND, splits=splits)
+    assert len(model.frequency_hz) == IN_BAND.sum()
+    np.testing.assert_allclose(model.frequency_hz, FN[IN_BAND], rtol=1e-4)
+    np.testing.assert_allclose(model.damping_ratio, ZETA[IN_BAND], rtol=1e-4)
+    assert np.diag(mac(model.shapes, phi[:, IN_BAND])).min() > 0.9999
+    # the modes at 12, 130 and 200 Hz act in the band through the residual poles and D,
+    # which stand for them to a few parts in a thousand
+    assert model.fit_error.max() < 0.005 and not model.suspect.any()
+    sel = (data.frequency_hz >= BAND[0]) & (data.frequency_hz <= BAND[1])
+    Hm = model.frf(data.frequency_hz[sel]).H
+    assert np.linalg.norm(Hm - data.H[:, :, sel]) < 0.005 * np.linalg.norm(data.H[:, :, sel])
+    # shapes normalised to a largest component of 1; shape x participation is the residue
+    assert np.allclose(np.abs(model.shapes).max(axis=0), 1.0)
+    assert np.allclose(model.shapes[np.argmax(np.abs(model.shapes), axis=0), range(5)], 1.0)
+
+
+def test_two_percent_noise_within_half_a_percent_and_twenty_percent_damping():
+    for seed in (1, 2, 3):
+        data, phi = modal_set(noise=0.02, seed=seed, p=24)
+        model = identify(data, BAND, splits=(40.0,))
+        assert len(model.frequency_hz) == IN_BAND.sum(), seed
+        assert np.abs(model.frequency_hz / FN[IN_BAND] - 1).max() < 0.005
+        assert np.abs(model.damping_ratio / ZETA[IN_BAND] - 1).max() < 0.2
+        assert np.diag(mac(model.shapes, phi[:, IN_BAND])).min() > 0.99
+        assert 0.01 < np.median(model.fit_error) < 0.04  # the noise level
+
+
+def test_broken_channels_are_flagged_and_do_not_spoil_the_poles():
+    data, _ = modal_set(noise=0.02, seed=4, p=24)
+    H = data.H.copy()
+    rng = np.random.default_rng(5)
+    H[5] = np.abs(H[5]).mean() * (rng.normal(size=H[5].shape) + 1j * rng.normal(size=H[5].shape))
+    H[13] = np.roll(H[13], 50, axis=-1)  # a channel from another measurement
+    broken = FRFData(data.frequency_hz, H, data.outputs, data.inputs, data.quantity, data.units)
+    lines = []
+    model = identify(broken, BAND, progress=lines.append)
+    assert list(np.flatnonzero(model.suspect)) == [5, 13]
+    assert model.fit_error[[5, 13]].min() > 0.5
+    assert any("channels 6:+Z, 14:+Z are not consistent" in line for line in lines)
+    assert np.abs(model.frequency_hz / FN[IN_BAND] - 1).max() < 0.005
+
+
+def test_damping_equalisation_keeps_damped_frequencies_and_residues():
+    data, _ = modal_set()
+    model = identify(data, BAND)
+    eq = equalize_damping(model, 0.01)
+    np.testing.assert_allclose(eq.damping_ratio, 0.01, rtol=1e-12)
+    np.testing.assert_allclose(eq.poles.imag, model.poles.imag, rtol=1e-12)
+    # every pole of the system (the residual ones too) carries zeta0 now
+    _, z_all = poles_to_modal(np.linalg.eigvals(eq.system.A))
+    np.testing.assert_allclose(z_all, 0.01, rtol=1e-9)
+    # the equalised FRF is the residues over the new poles
+    f = np.linspace(16, 99, 57)
+    s = 2j * np.pi * f
+    k = len(model.poles)
+    res = np.einsum("pk,mk->kpm", model.shapes, model.participation)
+    lam = eq.poles
+    phys = np.einsum("kpm,kf->pmf", res, 1 / (s[None] - lam[:, None])) + np.einsum(
+        "kpm,kf->pmf", res.conj(), 1 / (s[None] - lam.conj()[:, None]))
+    rest = eq.system
+    n_phys = 2 * k  # residual states and D: compare what is left
+    from femcal.statespace import StateSpace
+
+    tail = StateSpace(rest.A[n_phys:, n_phys:], rest.B[n_phys:], rest.C[:, n_phys:], rest.D)
+    np.testing.assert_allclose(eq.frf(f).H, phys + frequency_response(tail, f), rtol=1e-9,
+                               atol=1e-9 * np.abs(phys).max())  # fmt: skip
+    with pytest.raises(ValueError, match="expected 0 <= zeta0 < 1"):
+        equalize_damping(model, 1.5)
+
+
+def test_stabilisation_diagram_finds_the_modes_and_an_order():
+    data, _ = modal_set(noise=0.01, seed=7)
+    d = stabilization(data.frequency_hz, data.H, BAND, orders=range(2, 25, 2))
+    np.testing.assert_allclose(d.modes_hz, FN[IN_BAND], rtol=0.005)
+    assert d.auto_order in [op.order for op in d.orders]
+    at = next(op for op in d.orders if op.order == d.auto_order)
+    assert at.stable.sum() >= IN_BAND.sum()
+    errors = [op.fit_error for op in d.orders]
+    assert errors[-1] < errors[0]
+
+
+def test_subspace_recovers_an_exact_state_space_model():
+    # a random stable continuous model of order 6, no feedthrough
+    rng = np.random.default_rng(11)
+    poles = modal_to_poles(np.array([5.0, 9.0, 14.0]), np.array([0.02, 0.05, 0.01]))
+    f = np.linspace(2.0, 20.0, 200)
+    s = 2j * np.pi * f
+    c = rng.normal(size=(3, 4)) + 1j * rng.normal(size=(3, 4))
+    b = rng.normal(size=(3, 2)) + 1j * rng.normal(size=(3, 2))
+    res = np.einsum("kp,km->kpm", c, b)  # rank one: a state pair per pole pair
+    H = (np.einsum("kpm,kf->pmf", res, 1 / (s[None] - poles[:, None]))
+         + np.einsum("kpm,kf->pmf", res.conj(), 1 / (s[None] - poles.conj()[:, None])))  # fmt: skip
+    A, _ = model_of_order(subspace_basis(f, H, 5), 6)
+    got = np.sort_complex(np.linalg.eigvals(A))
+    want = np.sort_complex(np.concatenate([poles, poles.conj()]))
+    np.testing.assert_allclose(got, want, rtol=1e-9)
+    # the fixed-pole least squares gives the model back exactly
+    model, _ = fit_fixed_poles(s, H, poles, feedthrough=False)
+    assert np.linalg.norm(response(model, s) - H) < 1e-9 * np.linalg.norm(H)
+    # with rank-two residues (each pole seen differently from the two inputs) one state
+    # pair per pole cannot fit; the fit is then the least-squares optimum in B and in C, D
+    res2 = res + np.einsum("kp,km->kpm", c[:, ::-1], b[:, ::-1])
+    H2 = (np.einsum("kpm,kf->pmf", res2, 1 / (s[None] - poles[:, None]))
+          + np.einsum("kpm,kf->pmf", res2.conj(), 1 / (s[None] - poles.conj()[:, None])))  # fmt: skip
+    model, history = fit_fixed_poles(s, H2, poles, feedthrough=False)
+    assert all(b <= a * (1 + 1e-9) for a, b in itertools.pairwise(history))
+    R = Resolvent(model.A, s)
+    best = cost(R, model.B, model.C, model.D, H2)
+    assert best > 1e-3 * np.vdot(H2, H2).real
+    for _ in range(5):
+        dB = 1e-3 * rng.normal(size=model.B.shape)
+        dC = 1e-3 * rng.normal(size=model.C.shape)
+        assert cost(R, model.B + dB, model.C, model.D, H2) > best
+        assert cost(R, model.B, model.C + dC, model.D, H2) > best
+
+
+def test_bad_arguments_are_refused():
+    data, _ = modal_set()
+    with pytest.raises(ValueError, match="outside the data"):
+        identify(data, (10.0, 500.0))
+    with pytest.raises(ValueError, match="must lie inside the band"):
+        identify(data, BAND, splits=(120.0,))
+    with pytest.raises(ValueError, match="2 orders for 3 parts"):
+        identify(data, BAND, splits=(30.0, 60.0), orders=[4, 4])
+    with pytest.raises(ValueError, match="order 999 is outside"):
+        identify(data, BAND, orders=999, settings=Settings())
