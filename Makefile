@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.femcal-setup
 
-.PHONY: setup demo test test-slow lint bench-parse bench-assembly bench-eigen clean
+.PHONY: setup demo test test-slow lint bench-parse bench-assembly bench-eigen bench-identify clean
 
 setup: $(STAMP)
 
@@ -42,6 +42,16 @@ bench-assembly: setup
 bench-eigen: setup
 	@command -v ccx >/dev/null || { [ "$$(id -u)" = 0 ] && apt-get install -y -qq calculix-ccx >/dev/null; } || true
 	$(PY) benchmarks/eigen_vs_calculix.py
+
+# Identification of the synthetic hammer test against its true modes, and sdypy-ema's LSCF on
+# the same data (sdypy-ema lives in its own environment: benchmark only).
+bench-identify: setup .venv-ema/.ok
+	$(PY) benchmarks/identify_hammer.py
+
+.venv-ema/.ok:
+	python3 -m venv .venv-ema
+	.venv-ema/bin/python -m pip install -q 'sdypy-ema==0.31.0'
+	@touch $@
 
 .venv-bench/.ok:
 	python3 -m venv .venv-bench

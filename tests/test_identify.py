@@ -175,3 +175,56 @@ def test_bad_arguments_are_refused():
         identify(data, BAND, splits=(30.0, 60.0), orders=[4, 4])
     with pytest.raises(ValueError, match="order 999 is outside"):
         identify(data, BAND, orders=999, settings=Settings())
+
+
+def test_cli_writes_the_model_summary_and_pictures(tmp_path, capsys):
+    import json
+
+    from femcal.cli import main
+    from femcal.frfdata import write_uff
+    from femcal.identify.io import read_model
+
+    data, _ = modal_set(noise=0.01, seed=8)
+    H = data.H.copy()
+    H[3] = np.roll(H[3], 40, axis=-1)  # a channel from another measurement
+    src = write_uff(tmp_path / "test.uff",
+                    FRFData(data.frequency_hz, H, data.outputs, data.inputs, data.quantity,
+                            data.units))  # fmt: skip
+    out = tmp_path / "out"
+    rc = main(["identify", str(src), "--band", "15", "100", "--split", "40",
+               "--json", str(tmp_path / "id.json"), "--out", str(out)])  # fmt: skip
+    assert rc == 0
+    printed = capsys.readouterr().out
+    assert "suspect channel 4:3" in printed
+    summary = json.loads((tmp_path / "id.json").read_text())
+    got = [p["frequency_hz"] for p in summary["poles"]]
+    np.testing.assert_allclose(got, FN[IN_BAND], rtol=0.005)
+    assert all(0 < p["damping_ratio"] < 0.05 for p in summary["poles"])
+    chans = {c["label"]: c for c in summary["channels"]}
+    assert chans["4:3"]["suspect"] and chans["4:3"]["fit_error"] > 0.5
+    assert summary["suspect_channels"] == ["4:3"]
+    for name in ("model.npz", "identify.json", "frf_model.npz", "overlay.png",
+                 "stabilization_part1.png", "stabilization_part2.png"):  # fmt: skip
+        assert (out / name).stat().st_size > 0, name
+    back = read_model(out / "model.npz")
+    np.testing.assert_allclose(back.frequency_hz, got, rtol=1e-12)
+    clean, _ = modal_set(seed=8)  # the same model without noise (noise is drawn last)
+    sel = (clean.frequency_hz >= 20) & (clean.frequency_hz <= 90)
+    ok = ~back.suspect
+    Hm = back.frf(clean.frequency_hz[sel]).H[ok]
+    H0 = clean.H[ok][:, :, sel]
+    assert np.linalg.norm(Hm - H0) < 0.02 * np.linalg.norm(H0)
+
+
+def test_cli_reports_bad_input(tmp_path, capsys):
+    from femcal.cli import main
+
+    assert main(["identify", str(tmp_path / "none.npz"), "--band", "1", "2"]) == 2
+    assert "No such file or directory" in capsys.readouterr().err
+    data, _ = modal_set()
+    from femcal.frfdata import write_npz
+
+    src = write_npz(tmp_path / "d.npz", data)
+    assert main(["identify", str(src), "--band", "15", "500"]) == 2
+    assert "outside the data" in capsys.readouterr().err
+    assert main(["identify", str(src), "--band", "15", "100", "--units", "g/N"]) == 0

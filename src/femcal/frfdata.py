@@ -10,6 +10,7 @@ are (a grid of None).
 from __future__ import annotations
 
 import csv
+import errno
 import io
 import os
 import re
@@ -428,5 +429,5 @@ def read_frf(path: str | os.PathLike[str]) -> FRFData:
         raise ValueError(f"{path}: unknown FRF file type {path.suffix!r}; expected "
                          f"{', '.join(READERS)}")  # fmt: skip
     if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such file")
+        raise FileNotFoundError(errno.ENOENT, os.strerror(errno.ENOENT), str(path))
     return reader(path)

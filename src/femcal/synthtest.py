@@ -106,14 +106,19 @@ def _label(grid: int, code: int) -> str:
     return f"{grid}:{'-' if code < 0 else '+'}{axis}"
 
 
-def make_hammer_test(deck_path: str | Path, params_path: str | Path,
-                     sensors_path: str | Path, inputs_path: str | Path,
-                     settings: SynthSettings | None = None) -> SynthTest:  # fmt: skip
-    """Build the synthetic test (see the module docstring)."""
-    s = settings or SynthSettings()
-    rng = np.random.default_rng(s.seed)
-    sensors = read_points(sensors_path)  # before the solution, so bad files fail at once
-    inputs = read_points(inputs_path)
+def hidden_frame(deck_path: str | Path, params_path: str | Path, settings: SynthSettings,
+                 rng: np.random.Generator):  # fmt: skip
+    """The "real" frame: the deck with hidden parameter values drawn from ``rng`` and the
+    cross support, solved to ``settings.modes_to``.
+
+    Returns
+    -------
+    (model, modes, truth): the model with the hidden values, its modes
+    (:class:`femcal.sol103.Modes`) and per parameter a dict (name, card, id, field, nominal,
+    true, p). With ``rng = np.random.default_rng(settings.seed)`` this is the frame behind
+    :func:`make_hammer_test`'s data (it draws the parameters first).
+    """
+    s = settings
     deck = read_deck(deck_path)
     model = build_model(deck)
     params = tomllib.loads(Path(params_path).read_text()).get("parameter", [])
@@ -151,6 +156,18 @@ def make_hammer_test(deck_path: str | Path, params_path: str | Path,
     mats = replace(mats, K=K.tocsr())
     modes, _ = solve_sol103(deck, model, matrices=mats,
                             request=EigenRequest(v2=s.modes_to, nd=None))  # fmt: skip
+    return model, modes, truth
+
+
+def make_hammer_test(deck_path: str | Path, params_path: str | Path,
+                     sensors_path: str | Path, inputs_path: str | Path,
+                     settings: SynthSettings | None = None) -> SynthTest:  # fmt: skip
+    """Build the synthetic test (see the module docstring)."""
+    s = settings or SynthSettings()
+    rng = np.random.default_rng(s.seed)
+    sensors = read_points(sensors_path)  # before the solution, so bad files fail at once
+    inputs = read_points(inputs_path)
+    model, modes, truth = hidden_frame(deck_path, params_path, s, rng)
     zeta = rng.uniform(*s.damping, size=len(modes.radians))
     f = s.df * np.arange(1, round(s.f_max / s.df) + 1)
     positions = list(dict.fromkeys((lab, g) for lab, g, _ in sensors))

@@ -7,13 +7,14 @@ import sys
 from collections.abc import Sequence
 
 from ..errors import FemcalError
-from . import frf, info, model, solve, synth
+from . import frf, identify, info, model, solve, synth
 
 _COMMANDS = {
     "info": info,
     "solve": solve,
     "frf": frf,
     "synth-test": synth,
+    "identify": identify,
     "model": model,
 }
 
