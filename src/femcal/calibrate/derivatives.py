@@ -1,0 +1,167 @@
+"""Exact parameter derivatives of K and M, and eigen-sensitivities.
+
+dK/dP and dM/dP come from the element kernels themselves. Every parameter field states the
+polynomial degree d of the element matrices in its value (:data:`FIELDS`: thickness enters
+membrane, shear and mass linearly and bending cubically, so K is a cubic in T; K is linear
+in E, A, I, J, spring rates; M linear in RHO, A, T, concentrated masses). The elements that
+depend on the parameter are assembled alone at d + 1 values around P; the matrices are then
+exactly the polynomial through them, whose derivative at P is a fixed combination of the
+d + 1 matrices (Lagrange weights). No step size is involved: the result is exact up to
+rounding. The degree is checked every time at one more point (the interpolating
+polynomial must reproduce the matrices at P itself), so a field whose dependence is not a
+polynomial of that degree (e.g. a bar with shear flexibility, whose stiffness is rational
+in A) is refused with a clear error instead of giving a wrong derivative.
+
+Eigen-sensitivities of mass-normalised modes (Fox and Kapoor 1968; Nelson 1976):
+``dlam = phi^T (dK - lam dM) phi``; ``dphi`` by Nelson's method, which needs one sparse
+solve per mode and no other modes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from ..errors import FemcalError
+from ..model.model import Model
+from ..structure import Options, assemble
+from .parameters import Parameter, affected_elements, current_value, subset, with_values
+
+#: Relative half-width of the interpolation points around P.
+SPREAD = 0.3
+#: Largest relative misfit at P accepted as "the dependence is that polynomial".
+DEGREE_CHECK = 1e-9
+
+
+class DerivativeError(FemcalError):
+    """A parameter's derivative cannot be formed exactly (names parameter and cause)."""
+
+
+def _lagrange_derivative_weights(nodes: np.ndarray, at: float = 0.0) -> np.ndarray:
+    """Weights w (n,) with f'(at) = sum w_j f(nodes_j) for every polynomial of degree
+    n - 1."""
+    n = len(nodes)
+    w = np.zeros(n)
+    for j in range(n):
+        others = np.delete(nodes, j)
+        denom = np.prod(nodes[j] - others)
+        # derivative of prod_{k != j} (x - x_k) at x = at
+        s = 0.0
+        for m in range(n - 1):
+            s += np.prod(np.delete(at - others, m))
+        w[j] = s / denom
+    return w
+
+
+def _lagrange_value_weights(nodes: np.ndarray, at: float = 0.0) -> np.ndarray:
+    """Weights with f(at) = sum w_j f(nodes_j) for polynomials of degree n - 1."""
+    n = len(nodes)
+    w = np.zeros(n)
+    for j in range(n):
+        others = np.delete(nodes, j)
+        w[j] = np.prod(at - others) / np.prod(nodes[j] - others)
+    return w
+
+
+def _combine(mats: list[sp.csr_matrix], w: np.ndarray) -> sp.csr_matrix:
+    out = mats[0] * w[0]
+    for A, c in zip(mats[1:], w[1:], strict=True):
+        out = out + A * c
+    return sp.csr_matrix(out)
+
+
+def _max_abs(A: sp.spmatrix) -> float:
+    A = sp.csr_matrix(A)
+    return float(np.abs(A.data).max()) if A.nnz else 0.0
+
+
+def parameter_matrices(model: Model, par: Parameter, *, options: Options | None = None
+                       ) -> tuple[sp.csr_matrix, sp.csr_matrix]:  # fmt: skip
+    """dK/dP and dM/dP (g-set CSR, per unit of P) at the model's current value of P.
+
+    Raises
+    ------
+    DerivativeError
+        If no element depends on the parameter, or the matrices are not the polynomial of
+        the field's degree in it.
+    """
+    spec = par.spec
+    rows = affected_elements(model, par)
+    if not rows:
+        raise DerivativeError(f"parameter {par.name} ({par.card} {par.id} {par.field}): no "
+                              "element depends on it")  # fmt: skip
+    sub = subset(model, rows)
+    P = current_value(model, par.card, par.id, par.field)
+    degree = max(spec.k_degree, spec.m_degree)
+    nodes = np.linspace(-SPREAD, SPREAD, degree + 1)
+    Ks, Ms = [], []
+    for d in nodes:
+        mats = assemble(with_values(sub, [par], [P * (1.0 + d)]), options)
+        Ks.append(mats.K)
+        Ms.append(mats.M)
+    at_P = assemble(sub, options)
+    wv = _lagrange_value_weights(nodes)
+    for name, series, exact in (("stiffness", Ks, at_P.K), ("mass", Ms, at_P.M)):
+        scale = _max_abs(exact)
+        miss = _max_abs(_combine(series, wv) - exact)
+        if scale > 0 and miss > DEGREE_CHECK * scale:
+            kinds = ", ".join(sorted(rows))
+            raise DerivativeError(
+                f"parameter {par.name} ({par.card} {par.id} {par.field}): the {name} of its "
+                f"elements ({kinds}) is not a polynomial of degree {degree} in "
+                f"{par.field} (misfit {miss / scale:.1e}); its derivative would not be exact. "
+                "Shear-flexible bars (PBAR K1/K2) and other nonlinear dependences are not "
+                "supported as parameters yet.")  # fmt: skip
+    w = _lagrange_derivative_weights(nodes) / P  # d/dP = (d/d delta) / P
+    dK = _combine(Ks, w) if spec.k_degree > 0 else sp.csr_matrix(at_P.K.shape)
+    dM = _combine(Ms, w) if spec.m_degree > 0 else sp.csr_matrix(at_P.M.shape)
+    return dK, dM
+
+
+def derivative_matrices(model: Model, params: list[Parameter], *,
+                        options: Options | None = None, scaled: bool = True,
+                        progress=None) -> list[tuple[sp.csr_matrix, sp.csr_matrix]]:  # fmt: skip
+    """(dK, dM) of every parameter at the model's current values; with ``scaled`` per unit
+    of the scaled parameter p (``dX/dp = P0 dX/dP``), else per unit of P."""
+    out = []
+    for k, par in enumerate(params):
+        dK, dM = parameter_matrices(model, par, options=options)
+        if scaled:
+            dK, dM = dK * par.nominal, dM * par.nominal
+        out.append((dK, dM))
+        if progress is not None:
+            progress(k + 1, len(params), par)
+    return out
+
+
+def eigenvalue_sensitivities(shapes: np.ndarray, eigenvalues: np.ndarray, dK: sp.spmatrix,
+                             dM: sp.spmatrix) -> np.ndarray:  # fmt: skip
+    """dlam (k,) = phi^T (dK - lam dM) phi for mass-normalised shapes (n, k)."""
+    KP = dK @ shapes
+    MP = dM @ shapes
+    return np.einsum("nk,nk->k", shapes, KP) - eigenvalues * np.einsum("nk,nk->k", shapes, MP)
+
+
+def eigenvector_sensitivity(K: sp.spmatrix, M: sp.spmatrix, phi: np.ndarray, lam: float,
+                            dK: sp.spmatrix, dM: sp.spmatrix) -> np.ndarray:  # fmt: skip
+    """dphi (n,) of one mass-normalised mode by Nelson's method (distinct eigenvalue).
+
+    ``(K - lam M) v = -(dK - lam dM) phi + dlam M phi`` is solved with the component of
+    largest amplitude fixed at zero (the matrix is singular along phi), then
+    ``dphi = v + c phi`` with ``c = -phi^T M v - phi^T dM phi / 2`` keeps the mass
+    normalisation.
+    """
+    K, M, dK, dM = (sp.csc_matrix(x) for x in (K, M, dK, dM))
+    dlam = float(phi @ (dK @ phi) - lam * (phi @ (dM @ phi)))
+    rhs = -(dK @ phi - lam * (dM @ phi)) + dlam * (M @ phi)
+    A = (K - lam * M).tolil()
+    k = int(np.argmax(np.abs(phi)))
+    A[k, :] = 0.0
+    A[:, k] = 0.0
+    A[k, k] = 1.0
+    rhs = rhs.copy()
+    rhs[k] = 0.0
+    v = spla.splu(sp.csc_matrix(A)).solve(rhs)
+    c = -float(phi @ (M @ v)) - 0.5 * float(phi @ (dM @ phi))
+    return v + c * phi

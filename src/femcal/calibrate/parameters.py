@@ -1,0 +1,339 @@
+"""Calibration parameters: which card field each one is, its nominal value (read from the
+deck), its bounds, and models and decks with new values.
+
+A parameter P is scaled as in the reference study: ``P = P0 (1 + p)``, so p = 0 is the
+nominal model and the bounds become ``p_lo = lower / P0 - 1``, ``p_hi = upper / P0 - 1``.
+
+The parameter file is TOML with one ``[[parameter]]`` table per parameter::
+
+    [[parameter]]
+    name = "p1"                 # unique
+    description = "side rail thickness (mm)"   # optional
+    card = "PSHELL"             # see FIELDS
+    id = 1                      # the card's id (PID, MID, or element id for CONM2)
+    field = "T"
+    nominal = 8.0               # optional; if given it must equal the deck's value
+    lower = 6.4                 # absolute bounds ...
+    upper = 9.6
+    # ... or relative ones: lower_rel = -0.2, upper_rel = 0.2  (fractions of P0)
+
+Each field also states how the element matrices depend on it (polynomial degree of K and M
+in the value), which :mod:`femcal.calibrate.derivatives` uses for exact derivatives.
+"""
+
+from __future__ import annotations
+
+import os
+import tomllib
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from ..model.model import ElementBlock, Model
+
+
+@dataclass(frozen=True)
+class FieldSpec:
+    """Where a parameter field lives and how K and M depend on it.
+
+    kind : ``property`` / ``material`` (a table column of ``Model.properties`` /
+    ``Model.materials``), ``record`` (a field of a list card's records, index for tuples),
+    or ``element`` (a column of an element block's data, the id being the element id).
+    k_degree, m_degree : polynomial degree of the element stiffness and mass in the value
+    (0: independent of it).
+    """
+
+    card: str
+    field: str
+    kind: str
+    column: str
+    index: int | None
+    k_degree: int
+    m_degree: int
+    meaning: str
+
+
+def _spec(card, field, kind, column, k, m, meaning, index=None) -> FieldSpec:
+    return FieldSpec(card, field, kind, column, index, k, m, meaning)
+
+
+#: The parameter fields femcal calibrates.
+FIELDS: dict[tuple[str, str], FieldSpec] = {
+    (s.card, s.field): s
+    for s in [
+        _spec("PSHELL", "T", "property", "t", 3, 1,
+              "membrane and shear stiffness and mass linear, bending cubic in T"),
+        _spec("MAT1", "E", "material", "e", 1, 0, "stiffness linear in E (G derived from E)"),
+        _spec("MAT1", "RHO", "material", "rho", 0, 1, "mass linear in RHO"),
+        _spec("PBAR", "A", "property", "a", 1, 1, "axial stiffness and mass linear in A"),
+        _spec("PBAR", "I1", "property", "i1", 1, 0, "bending stiffness linear in I1"),
+        _spec("PBAR", "I2", "property", "i2", 1, 0, "bending stiffness linear in I2"),
+        _spec("PBAR", "J", "property", "j", 1, 0, "torsion stiffness linear in J"),
+        _spec("PROD", "A", "property", "a", 1, 1, "axial stiffness and mass linear in A"),
+        _spec("PROD", "J", "property", "j", 1, 0, "torsion stiffness linear in J"),
+        _spec("PELAS", "K", "property", "k", 1, 0, "spring stiffness"),
+        *[_spec("PBUSH", f"K{i + 1}", "record", "k", 1, 0, f"bush stiffness K{i + 1}", i)
+          for i in range(6)],
+        _spec("CONM2", "M", "element", "m", 0, 1, "concentrated mass"),
+    ]
+}  # fmt: skip
+
+#: Element types that reference each property card.
+PROPERTY_ELEMENTS = {
+    "PSHELL": ("CQUAD4", "CTRIA3", "CQUAD8", "CTRIA6", "CQUADR", "CTRIAR"),
+    "PBAR": ("CBAR",),
+    "PROD": ("CROD",),
+    "PELAS": ("CELAS1", "CELAS3"),
+    "PBUSH": ("CBUSH",),
+}
+
+#: Material fields of property tables (column names) and of property records (attributes).
+_MATERIAL_COLUMNS = ("mid", "mid1", "mid2", "mid3", "mid4")
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One calibration parameter: ``P = nominal (1 + p)`` with ``p`` in ``[p_lower,
+    p_upper]``; ``lower`` and ``upper`` are the absolute bounds of P."""
+
+    name: str
+    card: str
+    id: int
+    field: str
+    nominal: float
+    lower: float
+    upper: float
+    description: str = ""
+
+    @property
+    def spec(self) -> FieldSpec:
+        return FIELDS[(self.card, self.field)]
+
+    @property
+    def p_lower(self) -> float:
+        return self.lower / self.nominal - 1.0
+
+    @property
+    def p_upper(self) -> float:
+        return self.upper / self.nominal - 1.0
+
+    def value(self, p: float) -> float:
+        """P for the scaled parameter p."""
+        return self.nominal * (1.0 + p)
+
+
+def _locate(model: Model, spec: FieldSpec, ident: int, where: str):
+    """(container, row) of the parameter's value; ValueError naming what is missing."""
+    if spec.kind in ("property", "material"):
+        tables = model.properties if spec.kind == "property" else model.materials
+        table = tables.get(spec.card)
+        key = "mid" if spec.kind == "material" else "pid"
+        if not isinstance(table, dict):
+            raise ValueError(f"{where}: the deck has no {spec.card} card")
+        rows = np.flatnonzero(table[key] == ident)
+        if len(rows) != 1:
+            raise ValueError(f"{where}: {spec.card} {ident} is not in the deck")
+        return table, int(rows[0])
+    if spec.kind == "record":
+        recs = model.properties.get(spec.card)
+        if not isinstance(recs, list):
+            raise ValueError(f"{where}: the deck has no {spec.card} card")
+        rows = [i for i, r in enumerate(recs) if r.pid == ident]
+        if len(rows) != 1:
+            raise ValueError(f"{where}: {spec.card} {ident} is not in the deck")
+        return recs, rows[0]
+    block = model.elements.get(spec.card)
+    if block is None:
+        raise ValueError(f"{where}: the deck has no {spec.card} element")
+    rows = np.flatnonzero(block.ids == ident)
+    if len(rows) != 1:
+        raise ValueError(f"{where}: {spec.card} {ident} is not in the deck")
+    return block, int(rows[0])
+
+
+def current_value(model: Model, card: str, ident: int, field: str) -> float:
+    """The model's value of a parameter field."""
+    spec = FIELDS[(card, field)]
+    where = f"{card} {ident} {field}"
+    box, row = _locate(model, spec, ident, where)
+    if spec.kind == "record":
+        return float(getattr(box[row], spec.column)[spec.index])
+    if spec.kind == "element":
+        return float(box.data[spec.column][row])
+    return float(box[spec.column][row])
+
+
+def read_parameters(path: str | os.PathLike[str], model: Model) -> list[Parameter]:
+    """Parameters of a TOML file (see the module docstring), nominal values from the model.
+
+    Raises
+    ------
+    ValueError
+        Naming the file and the parameter: a missing key, an unknown card/field, a card not
+        in the deck, a nominal that differs from the deck's, bounds that do not hold the
+        nominal, a repeated name or field.
+    """
+    path = Path(path)
+    try:
+        doc = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as e:
+        raise ValueError(f"{path}: not valid TOML ({e})") from None
+    items = doc.get("parameter")
+    if not isinstance(items, list) or not items:
+        raise ValueError(f"{path}: no [[parameter]] tables")
+    out: list[Parameter] = []
+    seen: dict[str, str] = {}
+    for n, item in enumerate(items, start=1):
+        name = str(item.get("name", f"#{n}"))
+        where = f"{path}: parameter {name}"
+        missing = [k for k in ("name", "card", "id", "field") if k not in item]
+        if missing:
+            raise ValueError(f"{where}: missing {', '.join(missing)}")
+        card, field = str(item["card"]).upper(), str(item["field"]).upper()
+        if (card, field) not in FIELDS:
+            known = ", ".join(f"{c} {f}" for c, f in FIELDS)
+            raise ValueError(f"{where}: {card} {field} is not a parameter field femcal "
+                             f"calibrates ({known})")  # fmt: skip
+        ident = int(item["id"])
+        try:
+            nominal = current_value(model, card, ident, field)
+        except ValueError as e:
+            raise ValueError(f"{where}: {e}") from None
+        if not np.isfinite(nominal) or nominal == 0:
+            raise ValueError(f"{where}: {card} {ident} {field} is {nominal} in the deck; a "
+                             "parameter needs a nonzero nominal value")  # fmt: skip
+        if "nominal" in item and not np.isclose(float(item["nominal"]), nominal, rtol=1e-9):
+            raise ValueError(f"{where}: nominal {item['nominal']} but the deck has {nominal}")
+        if "lower" in item and "upper" in item:
+            lo, hi = float(item["lower"]), float(item["upper"])
+        elif "lower_rel" in item and "upper_rel" in item:
+            lo = nominal * (1.0 + float(item["lower_rel"]))
+            hi = nominal * (1.0 + float(item["upper_rel"]))
+        else:
+            raise ValueError(f"{where}: give bounds as lower and upper (absolute) or lower_rel "
+                             "and upper_rel (fractions of the nominal)")  # fmt: skip
+        lo, hi = min(lo, hi), max(lo, hi)
+        if not lo <= nominal <= hi or lo == hi:
+            raise ValueError(f"{where}: bounds [{lo}, {hi}] must hold the nominal {nominal}")
+        key = f"{card} {ident} {field}"
+        if name in seen:
+            raise ValueError(f"{where}: the name is used twice")
+        if key in seen.values():
+            raise ValueError(f"{where}: {key} is already a parameter")
+        seen[name] = key
+        out.append(Parameter(name, card, ident, field, nominal, lo, hi,
+                             str(item.get("description", ""))))  # fmt: skip
+    return out
+
+
+def with_values(model: Model, params: list[Parameter], values: np.ndarray) -> Model:
+    """A copy of the model with the parameters set to ``values`` (P, not p); the original
+    model and the deck behind it are not changed (the tables that change are copied)."""
+    props = dict(model.properties)
+    mats = dict(model.materials)
+    elements = dict(model.elements)
+    for par, v in zip(params, np.asarray(values, float), strict=True):
+        spec = par.spec
+        _, row = _locate(model, spec, par.id, par.name)
+        if spec.kind in ("property", "material"):
+            group = props if spec.kind == "property" else mats
+            table = dict(group[spec.card])
+            col = np.array(table[spec.column], copy=True)
+            col[row] = v
+            table[spec.column] = col
+            group[spec.card] = table
+        elif spec.kind == "record":
+            recs = list(props[spec.card])
+            old = recs[row]
+            vals = list(getattr(old, spec.column))
+            vals[spec.index] = v
+            recs[row] = replace(old, **{spec.column: tuple(vals)})
+            props[spec.card] = recs
+        else:
+            block = elements[spec.card]
+            data = dict(block.data)
+            col = np.array(data[spec.column], copy=True)
+            col[row] = v
+            data[spec.column] = col
+            elements[spec.card] = replace(block, data=data)
+        model = replace(model, properties=props, materials=mats, elements=elements)
+    return model
+
+
+def affected_elements(model: Model, par: Parameter) -> dict[str, np.ndarray]:
+    """Element type -> row indices (into its block) of the elements whose matrices depend
+    on the parameter."""
+    spec = par.spec
+    out: dict[str, np.ndarray] = {}
+    if spec.kind == "element":
+        block = model.elements[spec.card]
+        out[spec.card] = np.flatnonzero(block.ids == par.id)
+        return out
+    if spec.kind in ("property", "record"):
+        pids = {par.id}
+        types = PROPERTY_ELEMENTS[spec.card]
+    else:  # a material: every property that refers to it, and CONROD elements
+        pids = set()
+        for table in model.properties.values():
+            if isinstance(table, dict):
+                for c in _MATERIAL_COLUMNS:
+                    if c in table:
+                        pids |= {int(x) for x in table["pid"][table[c] == par.id]}
+            else:
+                for r in table:
+                    mids = [getattr(r, "mid", None)]
+                    mids += [ply.mid for ply in getattr(r, "plies", ())]
+                    if par.id in mids:
+                        pids.add(int(r.pid))
+        types = tuple(model.elements)
+        if "CONROD" in model.elements:
+            block = model.elements["CONROD"]
+            rows = np.flatnonzero(block.data["mid"] == par.id)
+            if len(rows):
+                out["CONROD"] = rows
+    for etype in types:
+        block = model.elements.get(etype)
+        if block is None or etype == "CONROD":
+            continue
+        rows = np.flatnonzero(np.isin(block.pids, list(pids)))
+        if len(rows):
+            out[etype] = rows
+    return out
+
+
+def subset(model: Model, rows: dict[str, np.ndarray]) -> Model:
+    """The model with only the given elements (type -> rows); nodes and DOF unchanged."""
+    blocks = {}
+    for etype, r in rows.items():
+        b = model.elements[etype]
+        blocks[etype] = ElementBlock(
+            b.type, b.ids[r], b.pids[r], b.nodes[r],
+            None if b.components is None else b.components[r],
+            {k: v[r] for k, v in b.data.items()}, b.file[r], b.line[r],
+        )  # fmt: skip
+    return replace(model, elements=blocks)
+
+
+def write_calibrated_deck(deck_path: str | os.PathLike[str], params: list[Parameter],
+                          values: np.ndarray, out: str | os.PathLike[str]) -> Path:  # fmt: skip
+    """Read the deck again, set the parameters' card fields to ``values`` and write it
+    (large field, atomically) to ``out``."""
+    from ..deck import read_deck, write_deck
+
+    deck = read_deck(deck_path)
+    for par, v in zip(params, np.asarray(values, float), strict=True):
+        spec = par.spec
+        if spec.kind == "record":
+            recs = deck.records[spec.card]
+            for i, r in enumerate(recs.items):
+                if r.pid == par.id:
+                    vals = list(getattr(r, spec.column))
+                    vals[spec.index] = float(v)
+                    recs.items[i] = replace(r, **{spec.column: tuple(vals)})
+            continue
+        table = deck.tables[spec.card]
+        key = {"property": "pid", "material": "mid", "element": "eid"}[spec.kind]
+        rows = np.flatnonzero(table.columns[key] == par.id)
+        table.columns[spec.column][rows] = float(v)
+    return write_deck(deck, out)

@@ -1,0 +1,114 @@
+"""Small decks for the calibration tests: a cantilevered plate with a stiffener bar, a rod,
+a tip mass, a bush and a spring, every kind of calibration parameter in a few hundred DOF."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def plate_deck(nx: int = 6, ny: int = 3, *, lx: float = 600.0, ly: float = 300.0) -> str:
+    """SOL 103 deck (mm, tonne, s): a 5 mm steel plate clamped along x = 0, a CBAR stiffener
+    along y = 0, a CROD brace, a CONM2 at the free corner, a CBUSH and a CELAS1 to ground at
+    the free edge."""
+    lines = ["SOL 103", "CEND", "METHOD = 1", "SPC = 1", "BEGIN BULK", "EIGRL,1,,,12",
+             "MAT1,1,210000.,,.3,7.85-9", "MAT1,2,70000.,,.33,2.7-9",
+             "PSHELL,1,1,5.,1,,1", "PBAR,2,2,120.,900.,1600.,2000.",
+             "PROD,3,1,30.,50.", "PBUSH,4,K,40.,50.,60.,0.,0.,0.", "PELAS,5,25."]  # fmt: skip
+    gid = lambda i, j: 1 + i + (nx + 1) * j  # noqa: E731
+    for j in range(ny + 1):
+        for i in range(nx + 1):
+            lines.append(f"GRID,{gid(i, j)},,{lx * i / nx!r},{ly * j / ny!r},0.")
+    eid = 1
+    for j in range(ny):
+        for i in range(nx):
+            lines.append(f"CQUAD4,{eid},1,{gid(i, j)},{gid(i + 1, j)},{gid(i + 1, j + 1)},"
+                         f"{gid(i, j + 1)}")  # fmt: skip
+            eid += 1
+    for i in range(nx):
+        lines.append(f"CBAR,{100 + i},2,{gid(i, 0)},{gid(i + 1, 0)},0.,0.,1.")
+    lines.append(f"CROD,200,3,{gid(nx, 0)},{gid(nx - 2, ny)}")
+    lines.append(f"CONM2,300,{gid(nx, ny)},,0.002")
+    lines.append(f"GRID,900,,{lx!r},{ly / 2!r},-50.")
+    lines.append(f"CBUSH,400,4,{gid(nx, ny // 2)},900,,,,0")
+    lines.append(f"CELAS1,500,5,{gid(nx, 1)},3")
+    lines.append("SPC1,1,123456,900")
+    lines.append("SPC1,1,123456," + ",".join(str(gid(0, j)) for j in range(ny + 1)))
+    lines.append("ENDDATA")
+    return "\n".join(lines) + "\n"
+
+
+PARAMS_TOML = """
+[[parameter]]
+name = "t"
+card = "PSHELL"
+id = 1
+field = "T"
+lower_rel = -0.2
+upper_rel = 0.2
+
+[[parameter]]
+name = "E_steel"
+card = "MAT1"
+id = 1
+field = "E"
+lower_rel = -0.2
+upper_rel = 0.2
+
+[[parameter]]
+name = "rho_steel"
+card = "MAT1"
+id = 1
+field = "RHO"
+lower_rel = -0.2
+upper_rel = 0.2
+
+[[parameter]]
+name = "A_bar"
+card = "PBAR"
+id = 2
+field = "A"
+lower_rel = -0.2
+upper_rel = 0.2
+
+[[parameter]]
+name = "I1_bar"
+card = "PBAR"
+id = 2
+field = "I1"
+lower_rel = -0.2
+upper_rel = 0.2
+
+[[parameter]]
+name = "A_rod"
+card = "PROD"
+id = 3
+field = "A"
+lower_rel = -0.2
+upper_rel = 0.2
+
+[[parameter]]
+name = "k_bush"
+card = "PBUSH"
+id = 4
+field = "K3"
+lower_rel = -0.5
+upper_rel = 0.5
+
+[[parameter]]
+name = "k_spring"
+card = "PELAS"
+id = 5
+field = "K"
+lower_rel = -0.5
+upper_rel = 0.5
+
+[[parameter]]
+name = "m_tip"
+card = "CONM2"
+id = 300
+field = "M"
+lower_rel = -0.5
+upper_rel = 0.5
+"""
+
+__all__ = ["PARAMS_TOML", "np", "plate_deck"]

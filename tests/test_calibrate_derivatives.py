@@ -1,0 +1,155 @@
+"""Calibration parameters and their exact derivatives: dK/dp, dM/dp and eigen-sensitivities
+against central finite differences of full assemblies and eigen solutions."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.linalg as sla
+import scipy.sparse as sp
+
+from femcal.calibrate.derivatives import (
+    DerivativeError,
+    eigenvalue_sensitivities,
+    eigenvector_sensitivity,
+    parameter_matrices,
+)
+from femcal.calibrate.parameters import (
+    current_value,
+    read_parameters,
+    with_values,
+    write_calibrated_deck,
+)
+from femcal.constraints import build_reduction
+from femcal.deck import read_deck
+from femcal.model import build_model
+from femcal.structure import assemble
+
+from .calib_decks import PARAMS_TOML, plate_deck
+
+
+@pytest.fixture(scope="module")
+def plate(tmp_path_factory):
+    d = tmp_path_factory.mktemp("plate")
+    deck_path = d / "plate.bdf"
+    deck_path.write_text(plate_deck())
+    (d / "params.toml").write_text(PARAMS_TOML)
+    deck = read_deck(deck_path)
+    model = build_model(deck)
+    params = read_parameters(d / "params.toml", model)
+    return deck_path, deck, model, params
+
+
+def _rel(A, B) -> float:
+    A, B = sp.csr_matrix(A), sp.csr_matrix(B)
+    scale = np.abs(B.data).max()
+    diff = A - B
+    return float(np.abs(diff.data).max() / scale) if diff.nnz else 0.0
+
+
+def test_parameters_read_their_nominal_from_the_deck(plate):
+    _, _, model, params = plate
+    got = {p.name: (p.nominal, p.lower, p.upper) for p in params}
+    assert got["t"] == pytest.approx((5.0, 4.0, 6.0))
+    assert got["k_bush"] == pytest.approx((60.0, 30.0, 90.0))
+    assert got["m_tip"] == pytest.approx((0.002, 0.001, 0.003))
+    assert params[0].p_lower == pytest.approx(-0.2) and params[0].p_upper == pytest.approx(0.2)
+    changed = with_values(model, params, [p.nominal * 1.1 for p in params])
+    for p in params:
+        assert current_value(changed, p.card, p.id, p.field) == pytest.approx(1.1 * p.nominal)
+        assert current_value(model, p.card, p.id, p.field) == pytest.approx(p.nominal)
+
+
+@pytest.mark.parametrize("name", ["t", "E_steel", "rho_steel", "A_bar", "I1_bar", "A_rod",
+                                  "k_bush", "k_spring", "m_tip"])  # fmt: skip
+def test_dk_and_dm_equal_central_differences(plate, name):
+    _, _, model, params = plate
+    par = next(p for p in params if p.name == name)
+    dK, dM = parameter_matrices(model, par)
+    h = 1e-4 * par.nominal
+    plus = assemble(with_values(model, [par], [par.nominal + h]))
+    minus = assemble(with_values(model, [par], [par.nominal - h]))
+    fd_K = (plus.K - minus.K) / (2 * h)
+    fd_M = (plus.M - minus.M) / (2 * h)
+    if par.spec.k_degree:
+        assert _rel(dK, fd_K) < 1e-6
+    else:
+        assert dK.nnz == 0 and abs(fd_K).max() == 0
+    if par.spec.m_degree:
+        assert _rel(dM, fd_M) < 1e-6
+    else:
+        assert dM.nnz == 0 and abs(fd_M).max() == 0
+
+
+def _modes(deck, model, red=None):
+    mats = assemble(model)
+    red = red or build_reduction(deck, model)
+    K, M = red.reduce(mats.K).toarray(), red.reduce(mats.M).toarray()
+    mu, v = sla.eigh(M, K)  # M is singular (massless rotations): 1 / lambda, K-normalised
+    keep = np.argsort(mu)[::-1][:12]
+    lam, phi = 1.0 / mu[keep], v[:, keep] / np.sqrt(mu[keep])  # mass-normalised
+    return mats, red, lam, phi
+
+
+@pytest.mark.parametrize("name", ["t", "E_steel", "rho_steel", "A_bar", "k_bush", "m_tip"])
+def test_eigen_sensitivities_equal_central_differences(plate, name):
+    _, deck, model, params = plate
+    par = next(p for p in params if p.name == name)
+    mats, red, lam, phi = _modes(deck, model)
+    dK, dM = parameter_matrices(model, par)
+    dKa, dMa = red.reduce(dK), red.reduce(dM)
+    n = 5
+    dlam = eigenvalue_sensitivities(phi[:, :n], lam[:n], dKa, dMa)
+    h = 1e-4 * par.nominal
+    # fourth-order central differences: (8 (f(h) - f(-h)) - (f(2h) - f(-2h))) / 12 h
+    runs = {s: _modes(deck, with_values(model, [par], [par.nominal + s * h]), red)[2:]
+            for s in (-2, -1, 1, 2)}  # fmt: skip
+
+    def fd(get):
+        return (8 * (get(1) - get(-1)) - (get(2) - get(-2))) / (12 * h)
+
+    fd_lam = fd(lambda s: runs[s][0][:n])
+    np.testing.assert_allclose(dlam, fd_lam, rtol=1e-6, atol=1e-6 * np.abs(fd_lam).max())
+    Ka, Ma = red.reduce(mats.K), red.reduce(mats.M)
+    for k in range(n):
+        dphi = eigenvector_sensitivity(Ka, Ma, phi[:, k], lam[k], dKa, dMa)
+        fdv = fd(lambda s, k=k: np.sign(runs[s][1][:, k] @ phi[:, k]) * runs[s][1][:, k])
+        assert np.abs(dphi - fdv).max() < 1e-6 * np.abs(fdv).max(), k
+
+
+def test_a_nonpolynomial_dependence_is_refused(tmp_path):
+    text = plate_deck().replace("PBAR,2,2,120.,900.,1600.,2000.",
+                                "PBAR,2,2,120.,900.,1600.,2000.\n,,,,,,,,\n,.8,.8")  # fmt: skip
+    (tmp_path / "d.bdf").write_text(text)
+    (tmp_path / "p.toml").write_text(PARAMS_TOML)
+    model = build_model(read_deck(tmp_path / "d.bdf"))
+    params = read_parameters(tmp_path / "p.toml", model)
+    par = next(p for p in params if p.name == "A_bar")
+    with pytest.raises(DerivativeError, match=r"A_bar \(PBAR 2 A\).*not a polynomial of degree 1"):
+        parameter_matrices(model, par)
+
+
+def test_bad_parameter_files_are_named(plate, tmp_path):
+    _, _, model, _ = plate
+    bad = [('card = "PSHELL"\nid = 1\nfield = "T"\nnominal = 6.0\nlower = 4.0\nupper = 7.0',
+            "nominal 6.0 but the deck has 5.0"),
+           ('card = "PSHELL"\nid = 1\nfield = "MID1"\nlower = 4.0\nupper = 7.0',
+            "PSHELL MID1 is not a parameter field"),
+           ('card = "PSHELL"\nid = 77\nfield = "T"\nlower = 4.0\nupper = 7.0',
+            "PSHELL 77 is not in the deck"),
+           ('card = "PSHELL"\nid = 1\nfield = "T"\nlower = 5.5\nupper = 7.0',
+            "must hold the nominal"),
+           ('card = "PSHELL"\nid = 1\nfield = "T"', "give bounds")]  # fmt: skip
+    for body, message in bad:
+        (tmp_path / "p.toml").write_text(f'[[parameter]]\nname = "x"\n{body}\n')
+        with pytest.raises(ValueError, match=message):
+            read_parameters(tmp_path / "p.toml", model)
+
+
+def test_calibrated_deck_carries_the_new_values(plate, tmp_path):
+    deck_path, _, _, params = plate
+    values = [p.nominal * (1.0 + 0.01 * (k + 1)) for k, p in enumerate(params)]
+    out = write_calibrated_deck(deck_path, params, values, tmp_path / "cal.bdf")
+    back = build_model(read_deck(out))
+    for p, v in zip(params, values, strict=True):
+        assert current_value(back, p.card, p.id, p.field) == pytest.approx(v, rel=1e-12)
