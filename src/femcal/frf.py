@@ -111,6 +111,39 @@ def direction_matrix(
     return sp.csr_matrix((vals, (rows, cols)), shape=(len(points), model.n_dof))
 
 
+_AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
+
+
+def channel_matrix(model: Model, channels: Sequence) -> sp.csr_matrix:
+    """Sensor matrix (n, n_g) of measurement channels labelled ``GRID:DIR`` (objects with
+    ``label``, ``grid`` and ``direction``, as :class:`femcal.frfdata.Channel`).
+
+    A signed axis (``+X``, ``-Y``, ``+RZ``) is a direction in the basic frame, taken into
+    the node's displacement frame (:func:`direction_matrix`); a component number (``1``-``6``)
+    is that component in the node's displacement frame (:func:`point_matrix`).
+
+    Raises
+    ------
+    ValueError
+        For a label that names no grid and direction, or a grid the model lacks.
+    """
+    rows = []
+    for ch in channels:
+        if ch.grid is None or ch.direction is None:
+            raise ValueError(f"channel {ch.label!r}: expected GRID:DIRECTION (e.g. 1001:+Z)")
+        d = ch.direction.upper()
+        if d.lstrip("+-").isdigit():
+            comp = int(d.lstrip("+-"))
+            rows.append(point_matrix(model, [(ch.grid, comp)]) * (-1.0 if d[0] == "-" else 1.0))
+            continue
+        sign = -1.0 if d.startswith("-") else 1.0
+        axis = d.lstrip("+-")
+        rot = axis.startswith("R")
+        vec = sign * np.array(_AXES[axis.lstrip("R")])
+        rows.append(direction_matrix(model, [(ch.grid, vec)], rotation=rot))
+    return sp.vstack(rows).tocsr() if rows else sp.csr_matrix((0, model.n_dof))
+
+
 def modal_damping(
     omega: np.ndarray, damping: float | Sequence[float] | np.ndarray | Rayleigh
 ) -> np.ndarray:

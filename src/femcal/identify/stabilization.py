@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..correlate import mac
 from ..statespace import poles_to_modal
 from .lsq import lsfd
 from .subspace import default_block_rows, model_of_order, subspace_basis
@@ -59,16 +60,6 @@ class Stabilization:
     modes_hz: np.ndarray
     auto_order: int
     singular_values: np.ndarray
-
-
-def mac(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Modal assurance criterion between the columns of a (p, ka) and b (p, kb):
-    ``|a^H b|^2 / ((a^H a)(b^H b))`` as (ka, kb)."""
-    a = np.asarray(a)
-    b = np.asarray(b)
-    num = np.abs(a.conj().T @ b) ** 2
-    den = np.outer(np.einsum("pk,pk->k", a.conj(), a).real, np.einsum("pk,pk->k", b.conj(), b).real)
-    return num / np.where(den > 0, den, 1.0)
 
 
 def physical_poles(A: np.ndarray, C: np.ndarray, band: tuple[float, float],

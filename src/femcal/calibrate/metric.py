@@ -1,0 +1,58 @@
+"""The FRF deviation metric of the calibration and its Jacobian.
+
+``delta = eps^H eps`` with ``eps(p) = log10 vect(H_A(p)) - log10 vect(H_X)`` over all output
+and input pairs and the selected frequencies: magnitudes by default (``log10 |H|``), or the
+complex logarithm (``complex-log``), whose imaginary part is the phase difference / ln 10
+(wrapped to +-pi) and so weighs phase too. The Jacobian of the magnitude form is
+``Re(dH/dp / H) / ln 10``, of the phase part ``Im(dH/dp / H) / ln 10``.
+
+Frequencies are sampled at equal logarithmic steps with ``n`` samples per half-power
+bandwidth ``2 zeta0 w``: ``f_{k+1} = f_k (1 + 2 zeta0 / n)``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+METRICS = ("log-magnitude", "complex-log")
+_LN10 = np.log(10.0)
+
+
+def log_frequencies(f_lo: float, f_hi: float, zeta0: float, per_bandwidth: float = 3.0
+                    ) -> np.ndarray:  # fmt: skip
+    """Frequencies (Hz) from f_lo to f_hi (inclusive ends) at the ratio 1 + 2 zeta0 / n."""
+    if not 0 < f_lo < f_hi:
+        raise ValueError(f"frequency band {f_lo}-{f_hi} Hz: expected 0 < f_lo < f_hi")
+    if not zeta0 > 0 or not per_bandwidth > 0:
+        raise ValueError("zeta0 and the samples per bandwidth must be positive")
+    ratio = 1.0 + 2.0 * zeta0 / per_bandwidth
+    n = int(np.ceil(np.log(f_hi / f_lo) / np.log(ratio))) + 1
+    return np.geomspace(f_lo, f_hi, max(n, 2))
+
+
+def residuals(H_model: np.ndarray, H_test: np.ndarray, metric: str = "log-magnitude"
+              ) -> np.ndarray:  # fmt: skip
+    """eps as a real vector: (n_out n_in n_f,) for log-magnitude, twice that for complex-log
+    (magnitude part, then phase part)."""
+    if metric not in METRICS:
+        raise ValueError(f"metric must be one of {', '.join(METRICS)}, not {metric!r}")
+    ratio = H_model / H_test
+    mag = np.log10(np.abs(ratio)).ravel()
+    if metric == "log-magnitude":
+        return mag
+    return np.concatenate([mag, (np.angle(ratio) / _LN10).ravel()])
+
+
+def jacobian(H_model: np.ndarray, dH: np.ndarray, metric: str = "log-magnitude") -> np.ndarray:
+    """d eps / dp as (n_residuals, n_p) from H (n_out, n_in, n_f) and dH (n_p, ...)."""
+    rel = dH / H_model[None]
+    n_p = dH.shape[0]
+    mag = (rel.real / _LN10).reshape(n_p, -1).T
+    if metric == "log-magnitude":
+        return mag
+    return np.concatenate([mag, (rel.imag / _LN10).reshape(n_p, -1).T])
+
+
+def deviation(eps: np.ndarray) -> float:
+    """delta = eps^T eps."""
+    return float(eps @ eps)

@@ -1,0 +1,176 @@
+"""The reduced surrogate of the FE model and its FRFs with analytic parameter derivatives.
+
+Around a centre point p_c the FE model is reduced on its own mass-normalised modes Phi
+(n_g, r) there (the study used the first 100 flexible modes)::
+
+    K~(p) = Lambda + sum_i (p_i - p_c,i) Phi^T dK/dp_i Phi
+    M~(p) = I      + sum_i (p_i - p_c,i) Phi^T dM/dp_i Phi
+
+with dK/dp_i, dM/dp_i exact (:mod:`femcal.calibrate.derivatives`); for parameters that K
+and M depend on linearly (moduli, areas, masses) this is the reduced model exactly, for
+thicknesses it is first order. The surrogate's modes come from the small dense problem
+``K~ psi = lam M~ psi``, every mode gets the same modal damping zeta0, and the FRFs at the
+sensor channels C (n_out, r) = C_g Phi and inputs B (n_in, r) are::
+
+    H(w) = sum_j (C psi_j)(B psi_j)^T q_j(w)
+    q_j(w) = (i w)^a / (lam_j - w^2 + 2 i zeta0 sqrt(lam_j) w)
+
+(a = 0, 1, 2 for receptance, mobility, accelerance). Their derivatives follow from the
+exact eigen-derivatives of the small problem (all r modes are at hand):
+``dlam_j = psi_j^T (dK~ - lam_j dM~) psi_j`` and
+``dpsi_j = sum_k c_kj psi_k`` with ``c_kj = psi_k^T (dK~ - lam_j dM~) psi_j / (lam_j - lam_k)``
+(k != j) and ``c_jj = -psi_j^T dM~ psi_j / 2``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+
+from ..deck.deck import Deck
+from ..frf import QUANTITIES, channel_matrix
+from ..modal import EigenRequest
+from ..model.model import Model
+from ..sol103 import solve_sol103
+from ..structure import Options, assemble
+from .derivatives import derivative_matrices
+from .parameters import Parameter, with_values
+
+_POWER = {"receptance": 0, "mobility": 1, "accelerance": 2}
+
+
+@dataclass(frozen=True)
+class Surrogate:
+    """Reduced model around ``p_center`` (see the module docstring).
+
+    Attributes
+    ----------
+    p_center : (n_p,) scaled parameters of the centre.
+    K0, M0 : (r, r) reduced stiffness (rad^2/s^2 per unit modal mass) and mass at the centre.
+    dK, dM : (n_p, r, r) their derivatives per unit p.
+    C : (n_out, r) sensor channels on the basis; B : (n_in, r) inputs on the basis.
+    zeta : modal damping ratio of every mode.
+    quantity : receptance, mobility or accelerance.
+    basis_hz : (r,) frequencies of the basis modes at the centre.
+    """
+
+    p_center: np.ndarray
+    K0: np.ndarray
+    M0: np.ndarray
+    dK: np.ndarray  # noqa: N815 (the matrices' names)
+    dM: np.ndarray  # noqa: N815
+    C: np.ndarray
+    B: np.ndarray
+    zeta: float
+    quantity: str
+    basis_hz: np.ndarray
+
+    @property
+    def n_params(self) -> int:
+        return len(self.p_center)
+
+    def matrices(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """K~(p), M~(p) (r, r)."""
+        dp = np.asarray(p, float) - self.p_center
+        K = self.K0 + np.tensordot(dp, self.dK, axes=1)
+        M = self.M0 + np.tensordot(dp, self.dM, axes=1)
+        return 0.5 * (K + K.T), 0.5 * (M + M.T)
+
+    def modes(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Eigenvalues (r,) ascending and M~-normalised eigenvectors (r, r) at p."""
+        K, M = self.matrices(p)
+        return sla.eigh(K, M)
+
+    def frequencies_hz(self, p: np.ndarray) -> np.ndarray:
+        lam = self.modes(p)[0]
+        return np.sign(lam) * np.sqrt(np.abs(lam)) / (2 * np.pi)
+
+    def frf(self, p: np.ndarray, freq_hz: np.ndarray) -> np.ndarray:
+        """H (n_out, n_in, n_f) at p."""
+        lam, psi = self.modes(p)
+        q = self._q(lam, freq_hz)[0]
+        S, P = self.C @ psi, self.B @ psi
+        return np.einsum("oj,ij,jf->oif", S, P, q, optimize=True)
+
+    def _q(self, lam: np.ndarray, freq_hz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Modal factors q (r, n_f) and dq/dlam (r, n_f)."""
+        w = 2 * np.pi * np.asarray(freq_hz, float)
+        root = np.sqrt(np.maximum(lam, 0.0))
+        Dn = lam[:, None] - w[None, :] ** 2 + 2j * self.zeta * root[:, None] * w[None, :]
+        num = (1j * w[None, :]) ** _POWER[self.quantity]
+        q = num / Dn
+        safe = np.where(root > 0, root, 1.0)
+        dD = 1.0 + np.where(root[:, None] > 0, 1j * self.zeta * w[None, :] / safe[:, None], 0.0)
+        return q, -q * dD / Dn
+
+    def frf_and_jacobian(self, p: np.ndarray, freq_hz: np.ndarray
+                         ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+        """H (n_out, n_in, n_f) and dH/dp (n_p, n_out, n_in, n_f) at p."""
+        lam, psi = self.modes(p)
+        q, dq = self._q(lam, freq_hz)
+        S, P = self.C @ psi, self.B @ psi  # (n_out, r), (n_in, r)
+        H = np.einsum("oj,ij,jf->oif", S, P, q, optimize=True)
+        gap = lam[None, :] - lam[:, None]  # [k, j] = lam_j - lam_k
+        tiny = 1e-12 * max(float(np.abs(lam).max()), 1.0)
+        inv_gap = np.where(np.abs(gap) > tiny, 1.0 / np.where(np.abs(gap) > tiny, gap, 1.0), 0.0)
+        n_o, n_i, n_f = H.shape
+        dH = np.empty((self.n_params, n_o, n_i, n_f), complex)
+        SP = np.einsum("oj,ij->oij", S, P).reshape(n_o * n_i, -1)  # (o i, r)
+        for i in range(self.n_params):
+            G = psi.T @ self.dK[i] @ psi
+            N = psi.T @ self.dM[i] @ psi
+            dlam = np.diag(G) - lam * np.diag(N)
+            Cc = (G - N * lam[None, :]) * inv_gap
+            np.fill_diagonal(Cc, -0.5 * np.diag(N))
+            dS, dP = S @ Cc, P @ Cc
+            shape_part = (np.einsum("oj,ij->oij", dS, P) + np.einsum("oj,ij->oij", S, dP))
+            dH[i] = (shape_part.reshape(n_o * n_i, -1) @ q
+                     + (SP * dlam[None, :]) @ dq).reshape(n_o, n_i, n_f)  # fmt: skip
+        return H, dH
+
+
+def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center: np.ndarray,
+                    outputs: Sequence, inputs: Sequence, *, n_modes: int = 100,
+                    zeta: float = 0.01, quantity: str = "accelerance",
+                    options: Options | None = None,
+                    progress: Callable[[str], None] | None = None,
+                    ) -> tuple[Surrogate, object]:  # fmt: skip
+    """Reduce the model at ``p_center`` on its first ``n_modes`` modes.
+
+    Parameters
+    ----------
+    outputs, inputs : channels (``femcal.frfdata.Channel``) of the test data.
+
+    Returns
+    -------
+    The surrogate and the full model's modes at the centre (:class:`femcal.sol103.Modes`).
+    """
+    if quantity not in QUANTITIES:
+        raise ValueError(f"quantity must be one of {', '.join(QUANTITIES)}")
+    say = progress or (lambda _m: None)
+    values = [par.value(p) for par, p in zip(params, p_center, strict=True)]
+    model_c = with_values(model, params, values)
+    mats = assemble(model_c, options)
+    modes, _ = solve_sol103(deck, model_c, matrices=mats,
+                            request=EigenRequest(nd=n_modes))  # fmt: skip
+    Phi = modes.shapes  # (n_g, r), mass-normalised
+    say(f"surrogate: {Phi.shape[1]} modes up to {modes.frequencies_hz[-1]:.1f} Hz; "
+        f"derivatives of K and M for {len(params)} parameters")
+    ders = derivative_matrices(model_c, params, options=options)
+    r = Phi.shape[1]
+    dK = np.empty((len(params), r, r))
+    dM = np.empty((len(params), r, r))
+    for i, (a, b) in enumerate(ders):
+        dK[i] = Phi.T @ (a @ Phi)
+        dM[i] = Phi.T @ (b @ Phi)
+    Cg = channel_matrix(model, outputs)
+    Bg = channel_matrix(model, inputs)
+    K0 = Phi.T @ (mats.K @ Phi)
+    M0 = Phi.T @ (mats.M @ Phi)
+    sur = Surrogate(np.asarray(p_center, float), 0.5 * (K0 + K0.T), 0.5 * (M0 + M0.T), dK, dM,
+                    np.asarray(Cg @ Phi), np.asarray(Bg @ Phi), float(zeta), quantity,
+                    modes.frequencies_hz.copy())  # fmt: skip
+    return sur, modes

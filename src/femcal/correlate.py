@@ -1,0 +1,105 @@
+"""Correlation of test and FE modes: MAC, mode pairing, frequency differences,
+pseudo-orthogonality with the mass reduced to the sensors.
+
+Shapes are columns of (n_sensors, k) arrays at the same sensor channels (the FE shapes taken
+to the sensor directions with :func:`femcal.frf.channel_matrix`); test shapes may be complex.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+def mac(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Modal assurance criterion between the columns of a (p, ka) and b (p, kb):
+    ``|a^H b|^2 / ((a^H a)(b^H b))`` as (ka, kb)."""
+    a = np.asarray(a)
+    b = np.asarray(b)
+    num = np.abs(a.conj().T @ b) ** 2
+    den = np.outer(np.einsum("pk,pk->k", a.conj(), a).real, np.einsum("pk,pk->k", b.conj(), b).real)
+    return num / np.where(den > 0, den, 1.0)
+
+
+def frequency_difference(f_test: np.ndarray, f_fe: np.ndarray) -> np.ndarray:
+    """(f_test - f_FE) / f_FE x 100 %."""
+    f_test, f_fe = np.asarray(f_test, float), np.asarray(f_fe, float)
+    return (f_test - f_fe) / f_fe * 100.0
+
+
+@dataclass(frozen=True)
+class Pair:
+    """A test mode paired with an FE mode (0-based indices), their MAC and the frequency
+    difference (test - FE) / FE in %."""
+
+    test: int
+    fe: int
+    mac: float
+    frequency_difference: float
+
+
+def pair_modes(test_shapes: np.ndarray, test_hz: np.ndarray, fe_shapes: np.ndarray,
+               fe_hz: np.ndarray, *, min_mac: float = 0.4, max_frequency_ratio: float = 1.5
+               ) -> list[Pair]:  # fmt: skip
+    """Pair test modes with FE modes by MAC, each FE mode at most once.
+
+    Candidates are pairs with MAC at least ``min_mac`` and frequencies within a factor
+    ``max_frequency_ratio``; they are taken in order of falling MAC, ties (MAC within 0.02)
+    broken by the smaller frequency difference. Test modes without a candidate stay
+    unpaired. Returns the pairs in test-mode order.
+    """
+    M = mac(test_shapes, fe_shapes)
+    ft, ff = np.asarray(test_hz, float), np.asarray(fe_hz, float)
+    ratio = np.maximum(ft[:, None] / ff[None, :], ff[None, :] / ft[:, None])
+    cand = [(M[i, j], -abs(np.log(ratio[i, j])), i, j)
+            for i in range(M.shape[0]) for j in range(M.shape[1])
+            if M[i, j] >= min_mac and ratio[i, j] <= max_frequency_ratio]  # fmt: skip
+    cand.sort(key=lambda c: (round(c[0] / 0.02), c[1]), reverse=True)
+    used_t: set[int] = set()
+    used_f: set[int] = set()
+    pairs = []
+    for m, _, i, j in cand:
+        if i in used_t or j in used_f:
+            continue
+        used_t.add(i)
+        used_f.add(j)
+        pairs.append(Pair(i, j, float(m), float(frequency_difference(ft[i], ff[j]))))
+    return sorted(pairs, key=lambda p: p.test)
+
+
+def real_shapes(shapes: np.ndarray) -> np.ndarray:
+    """Complex shapes (p, k) rotated to their best real approximation: each column turned by
+    the phase that maximises its real part's norm, then the real part."""
+    Z = np.asarray(shapes)
+    if not np.iscomplexobj(Z):
+        return Z.astype(float)
+    # the angle of the principal axis of the points in the complex plane
+    theta = 0.5 * np.angle(np.sum(Z**2, axis=0))
+    return (Z * np.exp(-1j * theta)[None, :]).real
+
+
+def serep_mass(fe_sensor_shapes: np.ndarray) -> np.ndarray:
+    """Mass matrix (p, p) reduced to the sensors by SEREP (O'Callahan 1989) from
+    mass-normalised FE shapes at the sensors (p, r), r <= p: ``pinv(Phi_s)^T pinv(Phi_s)``."""
+    P = np.linalg.pinv(np.asarray(fe_sensor_shapes, float))
+    return P.T @ P
+
+
+def pseudo_orthogonality(test_shapes: np.ndarray, fe_shapes: np.ndarray,
+                         reduced_mass: np.ndarray) -> np.ndarray:  # fmt: skip
+    """Pseudo-orthogonality ``Phi_T^T M_s Phi_FE`` (kt, kf) with test shapes made real and
+    scaled to unit modal mass in the reduced mass M_s (p, p), FE shapes as given
+    (mass-normalised); close to the identity for well-correlated, well-scaled modes (up to
+    the sign of each test shape, which is chosen to make the diagonal positive)."""
+    T = real_shapes(test_shapes)
+    mt = np.einsum("pk,pq,qk->k", T, reduced_mass, T)
+    T = T / np.sqrt(np.where(mt > 0, mt, 1.0))[None, :]
+    P = T.T @ reduced_mass @ np.asarray(fe_shapes, float)
+    return P
+
+
+def modal_scale_factor(test_shape: np.ndarray, fe_shape: np.ndarray) -> complex:
+    """The factor s minimising ``|test - s fe|``: ``fe^H test / fe^H fe``."""
+    a = np.asarray(fe_shape)
+    return complex(np.vdot(a, test_shape) / np.vdot(a, a))

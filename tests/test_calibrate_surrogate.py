@@ -1,0 +1,103 @@
+"""The reduced surrogate: FRFs against the full model, exactness for parameters the matrices
+depend on linearly, the analytic Jacobian of the log-FRF metric against finite differences."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.linalg as sla
+
+from femcal.calibrate.metric import jacobian, log_frequencies, residuals
+from femcal.calibrate.parameters import read_parameters, with_values
+from femcal.calibrate.surrogate import build_surrogate
+from femcal.deck import read_deck
+from femcal.frf import channel_matrix, modal_frf
+from femcal.frfdata import Channel
+from femcal.modal import EigenRequest
+from femcal.model import build_model
+from femcal.sol103 import solve_sol103
+from femcal.structure import assemble
+
+from .calib_decks import PARAMS_TOML, plate_deck
+
+OUTS = [Channel.parse(s) for s in ("28:+Z", "25:+Z", "14:+Y", "21:3", "7:+X")]
+INS = [Channel.parse(s) for s in ("28:+Z", "11:+Y")]
+
+
+@pytest.fixture(scope="module")
+def setup(tmp_path_factory):
+    d = tmp_path_factory.mktemp("sur")
+    (d / "plate.bdf").write_text(plate_deck())
+    (d / "p.toml").write_text(PARAMS_TOML)
+    deck = read_deck(d / "plate.bdf")
+    model = build_model(deck)
+    params = read_parameters(d / "p.toml", model)
+    return deck, model, params
+
+
+def full_frf(deck, model, params, p, f, zeta, n_modes):
+    m = with_values(model, params, [q.value(x) for q, x in zip(params, p, strict=True)])
+    modes, _ = solve_sol103(deck, m, request=EigenRequest(nd=n_modes))
+    C = channel_matrix(m, OUTS)
+    B = channel_matrix(m, INS).T
+    return modal_frf(modes.shapes, modes.radians, C, B, f, zeta, "accelerance"), modes
+
+
+def test_surrogate_at_its_centre_is_the_full_model(setup):
+    deck, model, params = setup
+    p = np.linspace(-0.1, 0.1, len(params))
+    sur, modes = build_surrogate(deck, model, params, p, OUTS, INS, n_modes=40, zeta=0.02)
+    f = np.linspace(5, 300, 80)
+    H_full, _ = full_frf(deck, model, params, p, f, 0.02, 40)
+    np.testing.assert_allclose(sur.frf(p, f), H_full, rtol=1e-8, atol=1e-10 * np.abs(H_full).max())
+    np.testing.assert_allclose(sur.frequencies_hz(p), modes.frequencies_hz, rtol=1e-9)
+
+
+def test_linear_parameters_are_exact_away_from_the_centre(setup):
+    deck, model, params = setup
+    # the surrogate is the Rayleigh-Ritz model on the nominal modes: compare its eigenvalues
+    # with that of the full model's matrices at p on that basis
+    sur, modes0 = build_surrogate(deck, model, params, np.zeros(len(params)), OUTS, INS,
+                                  n_modes=40, zeta=0.02)  # fmt: skip
+    # K and M are linear in each of these and no two of them multiply each other (E and A of
+    # one rod would: its stiffness is E A / L), so K~(p) is the reduced model exactly
+    for group in (["E_steel"], ["A_bar", "I1_bar", "k_bush", "k_spring", "m_tip"]):
+        p = np.array([0.15 if q.name in group else 0.0 for q in params])
+        m = with_values(model, params, [q.value(x) for q, x in zip(params, p, strict=True)])
+        mats = assemble(m)
+        Phi = modes0.shapes
+        lam = sla.eigh(Phi.T @ mats.K @ Phi, Phi.T @ mats.M @ Phi, eigvals_only=True)
+        np.testing.assert_allclose(sur.modes(p)[0], lam, rtol=1e-9)
+
+
+@pytest.mark.parametrize("metric", ["log-magnitude", "complex-log"])
+def test_metric_jacobian_equals_central_differences(setup, metric):
+    deck, model, params = setup
+    sur, _ = build_surrogate(deck, model, params, np.zeros(len(params)), OUTS, INS,
+                             n_modes=30, zeta=0.02)  # fmt: skip
+    f = log_frequencies(10.0, 250.0, 0.02, 2.0)
+    rng = np.random.default_rng(4)
+    p = rng.uniform(-0.15, 0.15, len(params))
+    H_test = sur.frf(np.zeros(len(params)), f) * (1 + 0.05 * rng.normal(size=(5, 2, len(f))))
+    H, dH = sur.frf_and_jacobian(p, f)
+    J = jacobian(H, dH, metric)
+    h = 1e-4  # fourth-order differences: truncation ~h^4, rounding ~1e-16 / h
+    for i in range(len(params)):
+        e = np.zeros(len(params))
+        e[i] = h
+
+        def eps(k, e=e):
+            return residuals(sur.frf(p + k * e, f), H_test, metric)
+
+        fd = (8 * (eps(1) - eps(-1)) - (eps(2) - eps(-2))) / (12 * h)  # fourth order
+        scale = np.abs(fd).max()
+        assert np.abs(J[:, i] - fd).max() < 1e-6 * scale, params[i].name
+
+
+def test_log_frequencies_have_n_samples_per_half_power_bandwidth():
+    f = log_frequencies(10.0, 100.0, 0.01, 3.0)
+    assert f[0] == 10.0 and f[-1] == pytest.approx(100.0)
+    assert np.allclose(f[1:] / f[:-1], f[1] / f[0])
+    assert f[1] / f[0] == pytest.approx(1 + 2 * 0.01 / 3, rel=2e-3)
+    with pytest.raises(ValueError, match="expected 0 < f_lo < f_hi"):
+        log_frequencies(0.0, 10.0, 0.01)
