@@ -53,21 +53,38 @@ def test_surrogate_at_its_centre_is_the_full_model(setup):
     np.testing.assert_allclose(sur.frequencies_hz(p), modes.frequencies_hz, rtol=1e-9)
 
 
-def test_linear_parameters_are_exact_away_from_the_centre(setup):
+def _ritz(model, params, p, Phi):
+    m = with_values(model, params, [q.value(x) for q, x in zip(params, p, strict=True)])
+    mats = assemble(m)
+    return sla.eigh(Phi.T @ mats.K @ Phi, Phi.T @ mats.M @ Phi, eigvals_only=True)
+
+
+def test_exact_surrogate_is_the_ritz_model_anywhere(setup):
     deck, model, params = setup
-    # the surrogate is the Rayleigh-Ritz model on the nominal modes: compare its eigenvalues
-    # with that of the full model's matrices at p on that basis
+    center = np.linspace(0.05, -0.05, len(params))
+    sur, modes0 = build_surrogate(deck, model, params, center, OUTS, INS, n_modes=40,
+                                  zeta=0.02)  # fmt: skip
+    rng = np.random.default_rng(7)
+    for _ in range(3):  # every parameter at once, thickness and products of E, A, T included
+        p = rng.uniform(-0.2, 0.2, len(params))
+        np.testing.assert_allclose(sur.modes(p)[0], _ritz(model, params, p, modes0.shapes),
+                                   rtol=1e-9)  # fmt: skip
+
+
+def test_first_order_surrogate_is_exact_for_one_linear_parameter(setup):
+    deck, model, params = setup
     sur, modes0 = build_surrogate(deck, model, params, np.zeros(len(params)), OUTS, INS,
-                                  n_modes=40, zeta=0.02)  # fmt: skip
+                                  n_modes=40, zeta=0.02, order="first-order")  # fmt: skip
     # K and M are linear in each of these and no two of them multiply each other (E and A of
-    # one rod would: its stiffness is E A / L), so K~(p) is the reduced model exactly
+    # one rod would: its stiffness is E A / L), so FEMCali's first-order K~(p) is exact
     for group in (["E_steel"], ["A_bar", "I1_bar", "k_bush", "k_spring", "m_tip"]):
         p = np.array([0.15 if q.name in group else 0.0 for q in params])
-        m = with_values(model, params, [q.value(x) for q, x in zip(params, p, strict=True)])
-        mats = assemble(m)
-        Phi = modes0.shapes
-        lam = sla.eigh(Phi.T @ mats.K @ Phi, Phi.T @ mats.M @ Phi, eigvals_only=True)
-        np.testing.assert_allclose(sur.modes(p)[0], lam, rtol=1e-9)
+        np.testing.assert_allclose(sur.modes(p)[0], _ritz(model, params, p, modes0.shapes),
+                                   rtol=1e-9)  # fmt: skip
+    # the thickness enters bending cubically: first order is not exact there
+    p = np.array([0.15 if q.name == "t" else 0.0 for q in params])
+    err = np.abs(sur.modes(p)[0] / _ritz(model, params, p, modes0.shapes) - 1).max()
+    assert 1e-4 < err < 0.1
 
 
 @pytest.mark.parametrize("metric", ["log-magnitude", "complex-log"])

@@ -97,10 +97,15 @@ def test_damping_equalisation_keeps_damped_frequencies_and_residues():
     eq = equalize_damping(model, 0.01)
     np.testing.assert_allclose(eq.damping_ratio, 0.01, rtol=1e-12)
     np.testing.assert_allclose(eq.poles.imag, model.poles.imag, rtol=1e-12)
-    # every pole of the system (the residual ones too) carries zeta0 now
-    _, z_all = poles_to_modal(np.linalg.eigvals(eq.system.A))
-    np.testing.assert_allclose(z_all, 0.01, rtol=1e-9)
-    # the equalised FRF is the residues over the new poles
+    # every physical pole of the system carries zeta0 now; the residual poles are kept
+    lam_all = np.linalg.eigvals(eq.system.A)
+    _, z_all = poles_to_modal(lam_all)
+    res_lam = np.linalg.eigvals(model.system.A[model.residual_states][:, model.residual_states])
+    is_res = np.array([np.isclose(res_lam, x, rtol=1e-9).any() for x in lam_all])
+    np.testing.assert_allclose(z_all[~is_res], 0.01, rtol=1e-9)
+    assert is_res.sum() == model.residual_states.sum()
+    # the equalised FRF is the residues over the new poles plus the original model's
+    # residual states and feedthrough, unchanged
     f = np.linspace(16, 99, 57)
     s = 2j * np.pi * f
     k = len(model.poles)
@@ -108,13 +113,18 @@ def test_damping_equalisation_keeps_damped_frequencies_and_residues():
     lam = eq.poles
     phys = np.einsum("kpm,kf->pmf", res, 1 / (s[None] - lam[:, None])) + np.einsum(
         "kpm,kf->pmf", res.conj(), 1 / (s[None] - lam.conj()[:, None]))
-    rest = eq.system
-    n_phys = 2 * k  # residual states and D: compare what is left
+    rest = model.system
+    n_phys = 2 * k
     from femcal.statespace import StateSpace
 
     tail = StateSpace(rest.A[n_phys:, n_phys:], rest.B[n_phys:], rest.C[:, n_phys:], rest.D)
     np.testing.assert_allclose(eq.frf(f).H, phys + frequency_response(tail, f), rtol=1e-9,
                                atol=1e-9 * np.abs(phys).max())  # fmt: skip
+    # and with zeta0 equal to a mode's own damping nothing changes near that mode
+    same = equalize_damping(model, float(model.damping_ratio[0]))
+    near = np.linspace(0.98, 1.02, 5) * model.frequency_hz[0]
+    first = model.frf(near).H
+    assert np.abs(same.frf(near).H - first).max() < 0.05 * np.abs(first).max()
     with pytest.raises(ValueError, match="expected 0 <= zeta0 < 1"):
         equalize_damping(model, 1.5)
 

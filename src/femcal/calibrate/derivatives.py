@@ -19,6 +19,9 @@ solve per mode and no other modes.
 
 from __future__ import annotations
 
+import itertools
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
@@ -132,6 +135,110 @@ def derivative_matrices(model: Model, params: list[Parameter], *,
         out.append((dK, dM))
         if progress is not None:
             progress(k + 1, len(params), par)
+    return out
+
+
+@dataclass(frozen=True)
+class GroupPolynomial:
+    """K and M of one group of elements as an exact polynomial in the scaled offsets
+    ``d_i = p_i - p_c,i`` of the parameters they depend on.
+
+    params : indices (into the parameter list) of the group's parameters.
+    exponents : (n_terms, len(params)) exponent of each d_i in each term (the constant term
+        excluded: it is part of the model at the centre).
+    K, M : per term, the g-set coefficient matrix (CSR).
+    """
+
+    params: tuple[int, ...]
+    exponents: np.ndarray
+    K: list[sp.csr_matrix]
+    M: list[sp.csr_matrix]
+
+
+def element_groups(model: Model, params: list[Parameter]) -> dict[tuple[int, ...], dict]:
+    """Elements grouped by the set of parameters their matrices depend on:
+    (parameter indices) -> {element type: rows}."""
+    marks: dict[str, list[set[int]]] = {t: [set() for _ in range(len(b))]
+                                        for t, b in model.elements.items()}  # fmt: skip
+    for i, par in enumerate(params):
+        rows = affected_elements(model, par)
+        if not rows:
+            raise DerivativeError(f"parameter {par.name} ({par.card} {par.id} {par.field}): "
+                                  "no element depends on it")  # fmt: skip
+        for etype, r in rows.items():
+            for k in r:
+                marks[etype][k].add(i)
+    groups: dict[tuple[int, ...], dict] = {}
+    for etype, sets in marks.items():
+        for k, st in enumerate(sets):
+            if st:
+                groups.setdefault(tuple(sorted(st)), {}).setdefault(etype, []).append(k)
+    return {g: {t: np.array(r) for t, r in d.items()} for g, d in groups.items()}
+
+
+def group_polynomials(model: Model, params: list[Parameter], center: np.ndarray, *,
+                      options: Options | None = None, first_order: bool = False,
+                      progress=None) -> list[GroupPolynomial]:  # fmt: skip
+    """The exact polynomial dependence of K and M on the parameters, group by group, about
+    the scaled point ``center`` (the model given is the nominal one).
+
+    Each group's elements are assembled alone on a tensor grid of (degree + 1) offsets per
+    parameter; the polynomial through those values is the matrices' dependence exactly
+    (checked at the centre, as in :func:`parameter_matrices`). With ``first_order`` only the
+    linear terms are kept (the derivatives at the centre: FEMCali's first-order surrogate).
+    """
+    center = np.asarray(center, float)
+    out: list[GroupPolynomial] = []
+    groups = element_groups(model, params)
+    for n, (idx, rows) in enumerate(groups.items(), start=1):
+        sub = subset(model, rows)
+        pars = [params[i] for i in idx]
+        degrees = [max(p.spec.k_degree, p.spec.m_degree) for p in pars]
+        nodes = [np.linspace(-SPREAD, SPREAD, d + 1) for d in degrees]
+        grid = list(itertools.product(*[range(d + 1) for d in degrees]))
+        Ks, Ms = {}, {}
+        for g in grid:
+            vals = [par.value(center[i] + nodes[k][g[k]]) for k, (i, par)
+                    in enumerate(zip(idx, pars, strict=True))]  # fmt: skip
+            mats = assemble(with_values(sub, pars, vals), options)
+            Ks[g], Ms[g] = mats.K, mats.M
+        # coefficients: apply the inverse Vandermonde matrix along every parameter
+        inv = [np.linalg.inv(np.vander(x, increasing=True)) for x in nodes]
+        exps = list(itertools.product(*[range(d + 1) for d in degrees]))
+        coef_w = {a: {g: float(np.prod([inv[k][a[k], g[k]] for k in range(len(idx))]))
+                      for g in grid} for a in exps}  # fmt: skip
+        at_values = [par.value(center[i]) for i, par in zip(idx, pars, strict=True)]
+        at_c = assemble(with_values(sub, pars, at_values), options)
+        zero = tuple(0 for _ in idx)
+        for name, series, exact in (("stiffness", Ks, at_c.K), ("mass", Ms, at_c.M)):
+            const = _combine([series[g] for g in grid], np.array([coef_w[zero][g] for g in grid]))
+            scale = _max_abs(exact)
+            miss = _max_abs(const - exact)
+            if scale > 0 and miss > DEGREE_CHECK * scale:
+                names = ", ".join(p.name for p in pars)
+                raise DerivativeError(
+                    f"parameters {names}: the {name} of their elements ({', '.join(rows)}) is "
+                    f"not the polynomial of degrees {degrees} in them (misfit "
+                    f"{miss / scale:.1e}); shear-flexible bars (PBAR K1/K2) and other nonlinear "
+                    "dependences are not supported as parameters yet.")  # fmt: skip
+        terms, Kc, Mc = [], [], []
+        for a in exps:
+            if a == zero or (first_order and sum(a) != 1):
+                continue
+            w = np.array([coef_w[a][g] for g in grid])
+            K = _combine([Ks[g] for g in grid], w)
+            M = _combine([Ms[g] for g in grid], w)
+            tol = 1e-11
+            k_zero = _max_abs(K) <= tol * max(_max_abs(at_c.K), 1e-300)
+            m_zero = _max_abs(M) <= tol * max(_max_abs(at_c.M), 1e-300)
+            if k_zero and m_zero:
+                continue  # the field's degree bounds both; this term is rounding
+            terms.append(a)
+            Kc.append(sp.csr_matrix(K.shape) if k_zero else K)
+            Mc.append(sp.csr_matrix(M.shape) if m_zero else M)
+        out.append(GroupPolynomial(idx, np.array(terms, int).reshape(-1, len(idx)), Kc, Mc))
+        if progress is not None:
+            progress(n, len(groups), [p.name for p in pars])
     return out
 
 

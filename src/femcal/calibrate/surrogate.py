@@ -1,14 +1,20 @@
 """The reduced surrogate of the FE model and its FRFs with analytic parameter derivatives.
 
 Around a centre point p_c the FE model is reduced on its own mass-normalised modes Phi
-(n_g, r) there (the study used the first 100 flexible modes)::
+(n_g, r) there (the study used the first 100 flexible modes). FEMCali's surrogate is first
+order::
 
     K~(p) = Lambda + sum_i (p_i - p_c,i) Phi^T dK/dp_i Phi
     M~(p) = I      + sum_i (p_i - p_c,i) Phi^T dM/dp_i Phi
 
-with dK/dp_i, dM/dp_i exact (:mod:`femcal.calibrate.derivatives`); for parameters that K
-and M depend on linearly (moduli, areas, masses) this is the reduced model exactly, for
-thicknesses it is first order. The surrogate's modes come from the small dense problem
+with dK/dp_i, dM/dp_i exact (:mod:`femcal.calibrate.derivatives`): the reduced model exactly
+for one parameter that K and M depend on linearly (moduli, areas, masses), first order for
+thicknesses (bending goes with T^3) and for products (a shell's stiffness goes with E T).
+femcal's default (``order="exact"``) keeps every term instead: each group of elements that
+shares its parameters contributes the exact polynomial in them
+(:func:`femcal.calibrate.derivatives.group_polynomials`), so the surrogate is the full
+model's Rayleigh-Ritz reduction on the basis at any p, and only the basis is approximate.
+The surrogate's modes come from the small dense problem
 ``K~ psi = lam M~ psi``, every mode gets the same modal damping zeta0, and the FRFs at the
 sensor channels C (n_out, r) = C_g Phi and inputs B (n_in, r) are::
 
@@ -36,10 +42,12 @@ from ..modal import EigenRequest
 from ..model.model import Model
 from ..sol103 import solve_sol103
 from ..structure import Options, assemble
-from .derivatives import derivative_matrices
+from .derivatives import group_polynomials
 from .parameters import Parameter, with_values
 
 _POWER = {"receptance": 0, "mobility": 1, "accelerance": 2}
+#: Surrogate orders: every polynomial term, or the first-order terms alone (FEMCali's).
+ORDERS = ("exact", "first-order")
 
 
 @dataclass(frozen=True)
@@ -50,7 +58,8 @@ class Surrogate:
     ----------
     p_center : (n_p,) scaled parameters of the centre.
     K0, M0 : (r, r) reduced stiffness (rad^2/s^2 per unit modal mass) and mass at the centre.
-    dK, dM : (n_p, r, r) their derivatives per unit p.
+    exponents : (n_terms, n_p) exponent of each offset ``p_i - p_c,i`` in each term.
+    Kt, Mt : (n_terms, r, r) the terms' reduced coefficient matrices.
     C : (n_out, r) sensor channels on the basis; B : (n_in, r) inputs on the basis.
     zeta : modal damping ratio of every mode.
     quantity : receptance, mobility or accelerance.
@@ -60,8 +69,9 @@ class Surrogate:
     p_center: np.ndarray
     K0: np.ndarray
     M0: np.ndarray
-    dK: np.ndarray  # noqa: N815 (the matrices' names)
-    dM: np.ndarray  # noqa: N815
+    exponents: np.ndarray
+    Kt: np.ndarray
+    Mt: np.ndarray
     C: np.ndarray
     B: np.ndarray
     zeta: float
@@ -72,12 +82,36 @@ class Surrogate:
     def n_params(self) -> int:
         return len(self.p_center)
 
+    def _weights(self, p: np.ndarray) -> np.ndarray:
+        """(n_terms,) value of each term's monomial at p."""
+        d = np.asarray(p, float) - self.p_center
+        return np.prod(d[None, :] ** self.exponents, axis=1)
+
+    def _weight_derivatives(self, p: np.ndarray) -> np.ndarray:
+        """(n_terms, n_p) derivative of each monomial with respect to each p_i."""
+        d = np.asarray(p, float) - self.p_center
+        E = self.exponents
+        out = np.zeros(E.shape, float)
+        for i in range(self.n_params):
+            has = E[:, i] > 0
+            if not has.any():
+                continue
+            Ei = E[has].copy()
+            Ei[:, i] -= 1
+            out[has, i] = E[has, i] * np.prod(d[None, :] ** Ei, axis=1)
+        return out
+
     def matrices(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """K~(p), M~(p) (r, r)."""
-        dp = np.asarray(p, float) - self.p_center
-        K = self.K0 + np.tensordot(dp, self.dK, axes=1)
-        M = self.M0 + np.tensordot(dp, self.dM, axes=1)
+        w = self._weights(p)
+        K = self.K0 + np.tensordot(w, self.Kt, axes=1)
+        M = self.M0 + np.tensordot(w, self.Mt, axes=1)
         return 0.5 * (K + K.T), 0.5 * (M + M.T)
+
+    def derivatives(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """dK~/dp, dM~/dp (n_p, r, r) at p."""
+        W = self._weight_derivatives(p)
+        return np.tensordot(W.T, self.Kt, axes=1), np.tensordot(W.T, self.Mt, axes=1)
 
     def modes(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Eigenvalues (r,) ascending and M~-normalised eigenvectors (r, r) at p."""
@@ -119,9 +153,10 @@ class Surrogate:
         n_o, n_i, n_f = H.shape
         dH = np.empty((self.n_params, n_o, n_i, n_f), complex)
         SP = np.einsum("oj,ij->oij", S, P).reshape(n_o * n_i, -1)  # (o i, r)
+        dK, dM = self.derivatives(p)
         for i in range(self.n_params):
-            G = psi.T @ self.dK[i] @ psi
-            N = psi.T @ self.dM[i] @ psi
+            G = psi.T @ dK[i] @ psi
+            N = psi.T @ dM[i] @ psi
             dlam = np.diag(G) - lam * np.diag(N)
             Cc = (G - N * lam[None, :]) * inv_gap
             np.fill_diagonal(Cc, -0.5 * np.diag(N))
@@ -134,15 +169,16 @@ class Surrogate:
 
 def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center: np.ndarray,
                     outputs: Sequence, inputs: Sequence, *, n_modes: int = 100,
-                    zeta: float = 0.01, quantity: str = "accelerance",
+                    zeta: float = 0.01, quantity: str = "accelerance", order: str = "exact",
                     options: Options | None = None,
                     progress: Callable[[str], None] | None = None,
                     ) -> tuple[Surrogate, object]:  # fmt: skip
-    """Reduce the model at ``p_center`` on its first ``n_modes`` modes.
+    """Reduce the (nominal) model at ``p_center`` on its first ``n_modes`` modes there.
 
     Parameters
     ----------
     outputs, inputs : channels (``femcal.frfdata.Channel``) of the test data.
+    order : ``exact`` (every polynomial term) or ``first-order`` (FEMCali's).
 
     Returns
     -------
@@ -150,6 +186,8 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
     """
     if quantity not in QUANTITIES:
         raise ValueError(f"quantity must be one of {', '.join(QUANTITIES)}")
+    if order not in ORDERS:
+        raise ValueError(f"order must be one of {', '.join(ORDERS)}, not {order!r}")
     say = progress or (lambda _m: None)
     values = [par.value(p) for par, p in zip(params, p_center, strict=True)]
     model_c = with_values(model, params, values)
@@ -157,20 +195,26 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
     modes, _ = solve_sol103(deck, model_c, matrices=mats,
                             request=EigenRequest(nd=n_modes))  # fmt: skip
     Phi = modes.shapes  # (n_g, r), mass-normalised
-    say(f"surrogate: {Phi.shape[1]} modes up to {modes.frequencies_hz[-1]:.1f} Hz; "
-        f"derivatives of K and M for {len(params)} parameters")
-    ders = derivative_matrices(model_c, params, options=options)
+    say(f"surrogate: {Phi.shape[1]} modes up to {modes.frequencies_hz[-1]:.1f} Hz; the "
+        f"{order} dependence of K and M on {len(params)} parameters")
+    polys = group_polynomials(model, params, p_center, options=options,
+                              first_order=order == "first-order")  # fmt: skip
     r = Phi.shape[1]
-    dK = np.empty((len(params), r, r))
-    dM = np.empty((len(params), r, r))
-    for i, (a, b) in enumerate(ders):
-        dK[i] = Phi.T @ (a @ Phi)
-        dM[i] = Phi.T @ (b @ Phi)
+    exps, Kt, Mt = [], [], []
+    for g in polys:
+        for a, Kc, Mc in zip(g.exponents, g.K, g.M, strict=True):
+            e = np.zeros(len(params), int)
+            e[list(g.params)] = a
+            exps.append(e)
+            Kt.append(Phi.T @ (Kc @ Phi))
+            Mt.append(Phi.T @ (Mc @ Phi))
     Cg = channel_matrix(model, outputs)
     Bg = channel_matrix(model, inputs)
     K0 = Phi.T @ (mats.K @ Phi)
     M0 = Phi.T @ (mats.M @ Phi)
-    sur = Surrogate(np.asarray(p_center, float), 0.5 * (K0 + K0.T), 0.5 * (M0 + M0.T), dK, dM,
+    sur = Surrogate(np.asarray(p_center, float), 0.5 * (K0 + K0.T), 0.5 * (M0 + M0.T),
+                    np.array(exps, int).reshape(-1, len(params)),
+                    np.array(Kt).reshape(-1, r, r), np.array(Mt).reshape(-1, r, r),
                     np.asarray(Cg @ Phi), np.asarray(Bg @ Phi), float(zeta), quantity,
                     modes.frequencies_hz.copy())  # fmt: skip
     return sur, modes

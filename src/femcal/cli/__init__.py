@@ -7,7 +7,7 @@ import sys
 from collections.abc import Sequence
 
 from ..errors import FemcalError
-from . import frf, identify, info, model, solve, synth
+from . import calibrate, frf, identify, info, model, solve, synth
 
 _COMMANDS = {
     "info": info,
@@ -15,6 +15,7 @@ _COMMANDS = {
     "frf": frf,
     "synth-test": synth,
     "identify": identify,
+    "calibrate": calibrate,
     "model": model,
 }
 

@@ -339,19 +339,29 @@ def _result(data: FRFData, model: FixedPoleModel, so: np.ndarray, si: np.ndarray
 
 
 def equalize_damping(model: IdentifiedModel, zeta0: float) -> IdentifiedModel:
-    """The model with every complex pole's damping set to zeta0 and its imaginary part (the
+    """The model with every physical pole's damping set to zeta0 and its imaginary part (the
     damped natural frequency) kept, residues unchanged: the test side of the damping
-    equalisation. Real poles are kept as they are."""
+    equalisation.
+
+    The residual poles are left as they are: they are not modes but stand, together with
+    the feedthrough, for the modes outside the band, and their residues are fitted jointly
+    with D (the far pole's contribution in the band is almost a constant), so changing
+    their damping would undo that fit.
+    """
     if not 0 <= zeta0 < 1:
         raise ValueError(f"zeta0 = {zeta0}: expected 0 <= zeta0 < 1")
     sysm = model.system
-    lam, V = np.linalg.eig(sysm.A)
-    W = np.linalg.inv(V)
+    phys = ~np.asarray(model.residual_states, bool)
+    A = sysm.A.copy()
+    if np.abs(A[np.ix_(phys, ~phys)]).max(initial=0) > 0 or np.abs(
+            A[np.ix_(~phys, phys)]).max(initial=0) > 0:  # fmt: skip
+        raise ValueError("equalize_damping needs the physical and residual states uncoupled")
+    lam, V = np.linalg.eig(A[np.ix_(phys, phys)])
     cplx = np.abs(lam.imag) > 0
     new = lam.copy()
     new[cplx] = lam[cplx].imag * (-zeta0 / np.sqrt(1.0 - zeta0**2) * np.sign(lam[cplx].imag)
                                   + 1j)  # fmt: skip
-    A = (V @ np.diag(new) @ W).real
+    A[np.ix_(phys, phys)] = (V @ np.diag(new) @ np.linalg.inv(V)).real
     system = StateSpace(A, sysm.B, sysm.C, sysm.D)
     poles = model.poles.imag * (-zeta0 / np.sqrt(1.0 - zeta0**2) + 1j)
     fr, z = poles_to_modal(poles)

@@ -1,0 +1,202 @@
+"""The calibration run's configuration file (TOML); paths are relative to the file.
+
+::
+
+    [model]
+    deck = "hammer_frame.bdf"              # NASTRAN deck
+    parameters = "hammer_frame.params.toml" # see femcal.calibrate.parameters
+    units = "mm/s^2/N"                      # units of the model's FRFs (optional)
+
+    [test]
+    frf = "hammer_test.uff"                 # any FRF file femcal reads
+    # model = "identified.npz"              # or an identified model (femcal identify)
+
+    [test.identify]                         # identify the test FRFs first (optional;
+    band = [10.0, 120.0]                    #  without it and without test.model the raw
+    splits = [50.0, 80.0]                   #  FRFs are compared, and zeta0 must be given)
+    orders = "auto"                         # or a number, or a list per part
+    max_order = 24
+    gamma = 1.43
+    beta = 100.0
+
+    [calibration]
+    band = [10.0, 100.0]                    # Hz
+    zeta0 = "median"                        # or a damping ratio
+    samples_per_bandwidth = 3.0
+    metric = "log-magnitude"                # or "complex-log"
+    reduction_modes = 100                   # modes of the surrogate's basis
+    surrogate = "exact"                     # or "first-order" (FEMCali's)
+    starts = 8                              # Latin hypercube starts (the nominal is one)
+    workers = 2                             # parallel processes for the starts
+    seed = 1
+    max_iterations = 30                     # per start and cycle
+    max_cycles = 5                          # surrogate rebuilds
+    settle = 1e-3                           # stop when no informed p moves more than this
+    regularization = 0.0                    # w: adds w p_i / h_i to the residuals (h_i the
+                                            #  bounds' half-width); keeps uninformed
+                                            #  parameters near their nominal
+    noise_sigma = 0.0                       # > 0: sigma of the residuals for the CRLB
+    identifiable_crlb = 0.05                # CRLB (of p) below this: identifiable
+    crlb_bands = [[10.0, 40.0], [40.0, 100.0]]  # also per band (optional)
+    exclude_suspect_channels = true
+
+    [output]
+    pictures = true                         # PNG pictures and mode renderings
+"""
+
+from __future__ import annotations
+
+import os
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .metric import METRICS
+
+
+@dataclass(frozen=True)
+class IdentifySettings:
+    band: tuple[float, float]
+    splits: tuple[float, ...] = ()
+    orders: object = None  # None (automatic), int, or list
+    max_order: int = 24
+    gamma: float = 1.43
+    beta: float = 100.0
+
+
+@dataclass(frozen=True)
+class Config:
+    """A calibration run (see the module docstring for the keys and defaults)."""
+
+    path: Path
+    deck: Path
+    parameters: Path
+    test_frf: Path | None
+    test_model: Path | None
+    identify: IdentifySettings | None
+    band: tuple[float, float]
+    model_units: str | None = "mm/s^2/N"
+    zeta0: float | None = None
+    samples_per_bandwidth: float = 3.0
+    metric: str = "log-magnitude"
+    reduction_modes: int = 100
+    surrogate: str = "exact"
+    starts: int = 8
+    workers: int = 2
+    seed: int = 1
+    max_iterations: int = 30
+    max_cycles: int = 5
+    settle: float = 1e-3
+    regularization: float = 0.0
+    noise_sigma: float | None = None
+    identifiable_crlb: float = 0.05
+    crlb_bands: tuple[tuple[float, float], ...] = ()
+    exclude_suspect_channels: bool = True
+    pictures: bool = True
+    raw: dict = field(default_factory=dict)
+
+
+def _band(v, where: str) -> tuple[float, float]:
+    try:
+        lo, hi = (float(x) for x in v)
+    except (TypeError, ValueError):
+        raise ValueError(f"{where}: expected [f_lo, f_hi] in Hz, found {v!r}") from None
+    if not 0 < lo < hi:
+        raise ValueError(f"{where}: expected 0 < f_lo < f_hi, found {v!r}")
+    return lo, hi
+
+
+def read_config(path: str | os.PathLike[str]) -> Config:
+    """Read and check a configuration file.
+
+    Raises
+    ------
+    ValueError
+        Naming the file and key of anything missing or malformed.
+    FileNotFoundError
+        For the configuration file or a file it names that does not exist.
+    """
+    path = Path(path)
+    try:
+        doc = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as e:
+        raise ValueError(f"{path}: not valid TOML ({e})") from None
+    base = path.parent
+
+    def file(section: dict, key: str, where: str, required: bool = True) -> Path | None:
+        if key not in section:
+            if required:
+                raise ValueError(f"{path}: [{where}] needs {key}")
+            return None
+        p = (base / str(section[key])).resolve()
+        if not p.is_file():
+            raise FileNotFoundError(2, f"[{where}] {key}: no such file", str(p))
+        return p
+
+    model = doc.get("model", {})
+    test = doc.get("test", {})
+    cal = doc.get("calibration", {})
+    out = doc.get("output", {})
+    deck = file(model, "deck", "model")
+    params = file(model, "parameters", "model")
+    test_frf = file(test, "frf", "test", required=False)
+    test_model = file(test, "model", "test", required=False)
+    if test_frf is None and test_model is None:
+        raise ValueError(f"{path}: [test] needs frf (an FRF file) or model (an identified model)")
+    ident = None
+    if "identify" in test:
+        if test_frf is None:
+            raise ValueError(f"{path}: [test.identify] needs [test] frf")
+        t = test["identify"]
+        orders = t.get("orders", "auto")
+        if orders == "auto":
+            orders = None
+        elif isinstance(orders, list):
+            orders = [None if o == "auto" else int(o) for o in orders]
+        else:
+            orders = int(orders)
+        ident = IdentifySettings(_band(t.get("band"), f"{path}: [test.identify] band"),
+                                 tuple(float(x) for x in t.get("splits", [])), orders,
+                                 int(t.get("max_order", 24)), float(t.get("gamma", 1.43)),
+                                 float(t.get("beta", 100.0)))  # fmt: skip
+    if "band" not in cal:
+        raise ValueError(f"{path}: [calibration] needs band = [f_lo, f_hi]")
+    band = _band(cal["band"], f"{path}: [calibration] band")
+    zeta0 = cal.get("zeta0", "median")
+    if zeta0 == "median":
+        if ident is None and test_model is None:
+            raise ValueError(f"{path}: [calibration] zeta0 = \"median\" needs an identified test "
+                             "model ([test.identify] or [test] model); give a number")  # fmt: skip
+        zeta0 = None
+    else:
+        zeta0 = float(zeta0)
+        if not 0 < zeta0 < 1:
+            raise ValueError(f"{path}: [calibration] zeta0 = {zeta0}: expected 0 < zeta0 < 1")
+    metric = str(cal.get("metric", "log-magnitude"))
+    if metric not in METRICS:
+        raise ValueError(f"{path}: [calibration] metric = {metric!r}: expected one of "
+                         f"{', '.join(METRICS)}")  # fmt: skip
+    sigma = cal.get("noise_sigma")
+    surrogate = str(cal.get("surrogate", "exact"))
+    if surrogate not in ("exact", "first-order"):
+        raise ValueError(f"{path}: [calibration] surrogate = {surrogate!r}: expected \"exact\" "
+                         "or \"first-order\"")  # fmt: skip
+    defaults = (("reduction_modes", 100), ("starts", 8), ("workers", 2), ("seed", 1),
+                ("max_iterations", 30), ("max_cycles", 5))
+    ints = {k: int(cal.get(k, d)) for k, d in defaults}
+    for k in ("reduction_modes", "starts", "workers", "max_iterations", "max_cycles"):
+        if ints[k] < 1:
+            raise ValueError(f"{path}: [calibration] {k} must be at least 1")
+    return Config(
+        path=path, deck=deck, parameters=params, test_frf=test_frf, test_model=test_model,
+        identify=ident, band=band, model_units=model.get("units", "mm/s^2/N"), zeta0=zeta0,
+        samples_per_bandwidth=float(cal.get("samples_per_bandwidth", 3.0)), metric=metric,
+        settle=float(cal.get("settle", 1e-3)), surrogate=surrogate,
+        regularization=float(cal.get("regularization", 0.0)),
+        noise_sigma=float(sigma) if sigma else None,
+        identifiable_crlb=float(cal.get("identifiable_crlb", 0.05)),
+        crlb_bands=tuple(_band(b, f"{path}: [calibration] crlb_bands")
+                         for b in cal.get("crlb_bands", [])),
+        exclude_suspect_channels=bool(cal.get("exclude_suspect_channels", True)),
+        pictures=bool(out.get("pictures", True)), raw=doc, **ints,
+    )  # fmt: skip

@@ -1,0 +1,164 @@
+"""Levenberg-Marquardt starts on a surrogate, in parallel processes, with their results
+kept on disk so that a stopped run resumes from the starts it finished."""
+
+from __future__ import annotations
+
+import json
+import os
+import queue as queue_mod
+import time
+from collections.abc import Callable
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..atomic import write_atomic
+from .lm import levenberg_marquardt
+from .metric import jacobian, residuals
+from .surrogate import Surrogate
+
+
+@dataclass(frozen=True)
+class Problem:
+    """What every start minimises: the metric between the surrogate's FRFs and the test's
+    at ``freq`` (n_f,), within the bounds, plus ``(weights p)^2`` (the regularisation rows,
+    zero weights for none)."""
+
+    surrogate: Surrogate
+    freq: np.ndarray
+    H_test: np.ndarray
+    metric: str
+    lower: np.ndarray
+    upper: np.ndarray
+    max_iter: int
+    weights: np.ndarray | None = None
+
+    def fun(self, p: np.ndarray):
+        """Residuals and a callable for their Jacobian (computed for accepted points only)."""
+        H = self.surrogate.frf(p, self.freq)
+        r = residuals(H, self.H_test, self.metric)
+        w = self.weights
+
+        def jac() -> np.ndarray:
+            Hj, dH = self.surrogate.frf_and_jacobian(p, self.freq)
+            J = jacobian(Hj, dH, self.metric)
+            return J if w is None else np.vstack([J, np.diag(w)])
+
+        return (r if w is None else np.concatenate([r, w * p])), jac
+
+    def cost(self, p: np.ndarray) -> float:
+        """|r|^2 / 2 at p, regularisation included."""
+        r = self.fun(p)[0]
+        return 0.5 * float(r @ r)
+
+    def deviation(self, p: np.ndarray) -> float:
+        """The data part alone: eps^T eps."""
+        r = residuals(self.surrogate.frf(p, self.freq), self.H_test, self.metric)
+        return float(r @ r)
+
+
+def run_one(problem: Problem, start: int, p0: np.ndarray,
+            report: Callable[[int, int, float], None] | None = None) -> dict:  # fmt: skip
+    """One LM run; returns a JSON-ready dict (start, p0, p, cost, deviation, iterations,
+    evaluations, history, converged, message, seconds)."""
+    t = time.perf_counter()
+    res = levenberg_marquardt(
+        problem.fun, p0, problem.lower, problem.upper, max_iter=problem.max_iter,
+        callback=(lambda it, p, cost: report(start, it, cost)) if report else None,
+    )  # fmt: skip
+    return {"start": start, "p0": list(map(float, p0)), "p": list(map(float, res.p)),
+            "cost": res.cost, "deviation": problem.deviation(res.p),
+            "iterations": res.iterations,
+            "evaluations": res.evaluations, "history": [2 * h for h in res.history],
+            "converged": res.converged, "message": res.message,
+            "seconds": time.perf_counter() - t}  # fmt: skip
+
+
+_QUEUE = None
+
+
+def _init_worker(q) -> None:
+    global _QUEUE
+    _QUEUE = q
+    try:  # one BLAS thread per worker: the workers are the parallelism
+        from threadpoolctl import threadpool_limits
+
+        threadpool_limits(1)
+    except ImportError:  # pragma: no cover
+        pass
+
+
+def _worker(problem: Problem, start: int, p0: np.ndarray) -> dict:
+    def report(s: int, it: int, cost: float) -> None:
+        if _QUEUE is not None:
+            _QUEUE.put((s, it, 2 * cost))
+
+    return run_one(problem, start, p0, report)
+
+
+def run_starts(problem: Problem, starts: list[np.ndarray], *, workers: int = 1,
+               folder: Path | None = None, fingerprint: str = "",
+               progress: Callable[[str], None] | None = None) -> list[dict]:  # fmt: skip
+    """Run LM from every start point; results in start order.
+
+    With ``folder``, each finished start is written there (``start_NNN.json``, atomically,
+    with ``fingerprint``) and starts already there with the same fingerprint are read
+    instead of run again.
+    """
+    say = progress or (lambda _m: None)
+    results: dict[int, dict] = {}
+    if folder is not None:
+        folder.mkdir(parents=True, exist_ok=True)
+        for k in range(len(starts)):
+            f = folder / f"start_{k + 1:03d}.json"
+            if f.is_file():
+                try:
+                    saved = json.loads(f.read_text())
+                except json.JSONDecodeError:
+                    continue
+                if saved.get("fingerprint") == fingerprint and np.allclose(
+                        saved.get("p0", []), starts[k], rtol=0, atol=1e-12):
+                    results[k] = saved
+                    say(f"start {k + 1}/{len(starts)}: finished earlier, deviation "
+                        f"{saved['deviation']:.5g}")  # fmt: skip
+
+    def keep(res: dict) -> None:
+        k = res["start"]
+        res["fingerprint"] = fingerprint
+        results[k] = res
+        say(f"start {k + 1}/{len(starts)} done: deviation {res['history'][0]:.5g} -> "
+            f"{res['deviation']:.5g} in {res['iterations']} iterations, "
+            f"{res['seconds']:.1f} s ({res['message']})")  # fmt: skip
+        if folder is not None:
+            text = json.dumps(res, indent=1)
+            write_atomic(folder / f"start_{k + 1:03d}.json",
+                         lambda tmp: Path(tmp).write_text(text))  # fmt: skip
+
+    todo = [k for k in range(len(starts)) if k not in results]
+    if workers <= 1 or len(todo) <= 1:
+        for k in todo:
+            def report(s, it, cost, k=k):
+                say(f"start {k + 1}/{len(starts)} iteration {it}: deviation {2 * cost:.5g}")
+
+            keep(run_one(problem, k, starts[k], report))
+    elif todo:
+        import multiprocessing as mp
+
+        ctx = mp.get_context("fork" if os.name == "posix" else "spawn")
+        q = ctx.Manager().Queue()
+        with ProcessPoolExecutor(min(workers, len(todo)), mp_context=ctx, initializer=_init_worker,
+                                 initargs=(q,)) as pool:  # fmt: skip
+            pending = {pool.submit(_worker, problem, k, starts[k]) for k in todo}
+            while pending:
+                done, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
+                while True:
+                    try:
+                        s, it, dev = q.get_nowait()
+                    except queue_mod.Empty:
+                        break
+                    say(f"start {s + 1}/{len(starts)} iteration {it}: deviation {dev:.5g}")
+                for fut in done:
+                    keep(fut.result())
+    return [results[k] for k in range(len(starts))]

@@ -1,0 +1,69 @@
+"""``femcal calibrate CONFIG.toml --out DIR``: the whole calibration (identification, damping
+equalisation, surrogate, multi-start Levenberg-Marquardt, Cramér-Rao bounds, report)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("calibrate", help="calibrate a deck's parameters against test FRFs",
+                       description="Calibrate FE parameters so the model's FRFs match the "
+                       "test's (FEMCali's method). The configuration file is described in "
+                       "femcal.calibrate.config; see the README.")  # fmt: skip
+    p.add_argument("config", type=Path, help="calibration configuration (TOML)")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR",
+                   help="results: report.json, report.html, the calibrated deck, pictures")
+    p.add_argument("--workers", type=int, metavar="N", help="parallel processes for the starts")
+    p.add_argument("--starts", type=int, metavar="N", help="number of starts")
+    p.add_argument("--fresh", action="store_true",
+                   help="ignore starts finished by an earlier run into DIR")
+    p.add_argument("--no-pictures", action="store_true", help="report.json and HTML tables only")
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..calibrate.config import read_config
+    from ..calibrate.workflow import run as calibrate
+
+    t0 = time.perf_counter()
+
+    def progress(msg: str) -> None:
+        print(f"[{time.perf_counter() - t0:7.1f} s] {msg}", file=sys.stderr, flush=True)
+
+    for name, v in (("--workers", args.workers), ("--starts", args.starts)):
+        if v is not None and v < 1:
+            print(f"femcal calibrate: {name} must be at least 1", file=sys.stderr)
+            return 2
+    try:
+        cfg = read_config(args.config)
+        outcome = calibrate(cfg, args.out, fresh=args.fresh, workers=args.workers,
+                            starts=args.starts, progress=progress)  # fmt: skip
+    except (KeyError, ValueError) as e:
+        print(f"femcal calibrate: {str(e).strip(chr(34))}", file=sys.stderr)
+        return 2
+    rep = outcome.report
+    if cfg.pictures and not args.no_pictures:
+        from ..calibrate.report import write_report
+
+        write_report(outcome, args.out, progress=progress)
+    print(f"{'parameter':<10} {'nominal':>12} {'calibrated':>12} {'change %':>9} "
+          f"{'CRLB %':>8} identifiable")
+    for p in rep["parameters"]:
+        crlb = "inf" if p["crlb_p"] is None else f"{100 * p['crlb_p']:.2f}"
+        print(f"{p['name']:<10} {p['nominal']:12.6g} {p['calibrated']:12.6g} "
+              f"{100 * p['p']:+9.2f} {crlb:>8} {'yes' if p['identifiable'] else 'no'}"
+              f"{' (at bound)' if p['at_bound'] else ''}")
+    print(f"{'test Hz':>9} {'FE before':>10} {'FE after':>10} {'MAC before':>11} {'MAC after':>10}")
+    for m in rep["modes"]:
+        def fmt(v, spec):
+            return format(v, spec) if v is not None else "-"
+
+        print(f"{m['test_hz']:9.3f} {fmt(m['fe_before_hz'], '10.3f')} "
+              f"{fmt(m['fe_after_hz'], '10.3f')} {fmt(m['mac_before'], '11.4f')} "
+              f"{fmt(m['mac_after'], '10.4f')}")
+    d = rep["deviation"]
+    print(f"deviation: {d['before']:.6g} before, {d['after']:.6g} after")
+    return 0
