@@ -97,7 +97,7 @@ def test_metric_jacobian_equals_central_differences(setup, metric):
     p = rng.uniform(-0.15, 0.15, len(params))
     H_test = sur.frf(np.zeros(len(params)), f) * (1 + 0.05 * rng.normal(size=(5, 2, len(f))))
     H, dH = sur.frf_and_jacobian(p, f)
-    J = jacobian(H, dH, metric)
+    J = jacobian(H, dH, metric, H_test)
     h = 1e-4  # fourth-order differences: truncation ~h^4, rounding ~1e-16 / h
     for i in range(len(params)):
         e = np.zeros(len(params))

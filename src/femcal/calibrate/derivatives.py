@@ -145,7 +145,7 @@ class GroupPolynomial:
 
     params : indices (into the parameter list) of the group's parameters.
     exponents : (n_terms, len(params)) exponent of each d_i in each term (the constant term
-        excluded: it is part of the model at the centre).
+        only if asked for).
     K, M : per term, the g-set coefficient matrix (CSR).
     """
 
@@ -178,14 +178,15 @@ def element_groups(model: Model, params: list[Parameter]) -> dict[tuple[int, ...
 
 def group_polynomials(model: Model, params: list[Parameter], center: np.ndarray, *,
                       options: Options | None = None, first_order: bool = False,
-                      progress=None) -> list[GroupPolynomial]:  # fmt: skip
+                      constant: bool = False, progress=None) -> list[GroupPolynomial]:  # fmt: skip
     """The exact polynomial dependence of K and M on the parameters, group by group, about
     the scaled point ``center`` (the model given is the nominal one).
 
     Each group's elements are assembled alone on a tensor grid of (degree + 1) offsets per
     parameter; the polynomial through those values is the matrices' dependence exactly
     (checked at the centre, as in :func:`parameter_matrices`). With ``first_order`` only the
-    linear terms are kept (the derivatives at the centre: FEMCali's first-order surrogate).
+    linear terms are kept (the derivatives at the centre: FEMCali's first-order surrogate);
+    with ``constant`` the constant term (the group's matrices at the centre) is kept too.
     """
     center = np.asarray(center, float)
     out: list[GroupPolynomial] = []
@@ -223,7 +224,7 @@ def group_polynomials(model: Model, params: list[Parameter], center: np.ndarray,
                     "dependences are not supported as parameters yet.")  # fmt: skip
         terms, Kc, Mc = [], [], []
         for a in exps:
-            if a == zero or (first_order and sum(a) != 1):
+            if (a == zero and not constant) or (first_order and sum(a) > 1):
                 continue
             w = np.array([coef_w[a][g] for g in grid])
             K = _combine([Ks[g] for g in grid], w)
@@ -231,7 +232,7 @@ def group_polynomials(model: Model, params: list[Parameter], center: np.ndarray,
             tol = 1e-11
             k_zero = _max_abs(K) <= tol * max(_max_abs(at_c.K), 1e-300)
             m_zero = _max_abs(M) <= tol * max(_max_abs(at_c.M), 1e-300)
-            if k_zero and m_zero:
+            if k_zero and m_zero and a != zero:
                 continue  # the field's degree bounds both; this term is rounding
             terms.append(a)
             Kc.append(sp.csr_matrix(K.shape) if k_zero else K)

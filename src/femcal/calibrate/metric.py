@@ -2,9 +2,12 @@
 
 ``delta = eps^H eps`` with ``eps(p) = log10 vect(H_A(p)) - log10 vect(H_X)`` over all output
 and input pairs and the selected frequencies: magnitudes by default (``log10 |H|``), or the
-complex logarithm (``complex-log``), whose imaginary part is the phase difference / ln 10
-(wrapped to +-pi) and so weighs phase too. The Jacobian of the magnitude form is
-``Re(dH/dp / H) / ln 10``, of the phase part ``Im(dH/dp / H) / ln 10``.
+complex logarithm (``complex-log``), whose imaginary part is the phase difference over
+ln 10 and so weighs phase too. The phase difference enters as ``2 sin(dphi / 2)``, which is
+dphi for small differences but, unlike the principal value of dphi, does not jump by 2 pi
+where the two FRFs are in opposite phase (near antiresonances): a metric with such jumps
+defeats Levenberg-Marquardt. The Jacobian of the magnitude form is
+``Re(dH/dp / H) / ln 10``, of the phase part ``cos(dphi / 2) Im(dH/dp / H) / ln 10``.
 
 Frequencies are sampled at equal logarithmic steps with ``n`` samples per half-power
 bandwidth ``2 zeta0 w``: ``f_{k+1} = f_k (1 + 2 zeta0 / n)``.
@@ -40,17 +43,22 @@ def residuals(H_model: np.ndarray, H_test: np.ndarray, metric: str = "log-magnit
     mag = np.log10(np.abs(ratio)).ravel()
     if metric == "log-magnitude":
         return mag
-    return np.concatenate([mag, (np.angle(ratio) / _LN10).ravel()])
+    return np.concatenate([mag, (2.0 * np.sin(np.angle(ratio) / 2.0) / _LN10).ravel()])
 
 
-def jacobian(H_model: np.ndarray, dH: np.ndarray, metric: str = "log-magnitude") -> np.ndarray:
-    """d eps / dp as (n_residuals, n_p) from H (n_out, n_in, n_f) and dH (n_p, ...)."""
+def jacobian(H_model: np.ndarray, dH: np.ndarray, metric: str = "log-magnitude",
+             H_test: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
+    """d eps / dp as (n_residuals, n_p) from H (n_out, n_in, n_f) and dH (n_p, ...); the
+    complex-log form needs H_test too."""
     rel = dH / H_model[None]
     n_p = dH.shape[0]
     mag = (rel.real / _LN10).reshape(n_p, -1).T
     if metric == "log-magnitude":
         return mag
-    return np.concatenate([mag, (rel.imag / _LN10).reshape(n_p, -1).T])
+    if H_test is None:
+        raise ValueError("the complex-log Jacobian needs the test FRFs")
+    half = np.cos(np.angle(H_model / H_test) / 2.0)
+    return np.concatenate([mag, (half[None] * rel.imag / _LN10).reshape(n_p, -1).T])
 
 
 def deviation(eps: np.ndarray) -> float:

@@ -204,7 +204,11 @@ def write_html(path: Path, report: dict, pictures: dict[str, str], mode_pictures
               _f(m["frequency_error_before_pct"], "+.2f"),
               _f(m["frequency_error_after_pct"], "+.2f"), _f(m["mac_before"], ".4f"),
               _f(m["mac_after"], ".4f")] for m in report["modes"]]  # fmt: skip
-    cyc = [[c["cycle"], c["best_start"], f"{c['deviation']:.6g}", f"{c['moved']:.2e}"]
+    cyc = [[c["cycle"], "multi-start" if c["cycle"] == 1 else
+            ("kept" if c["accepted"] else "rejected"),
+            _f(c.get("exact_deviation_at_candidate", c.get("exact_deviation_at_center")), ".6g"),
+            _f(c.get("rho"), ".2f"), _f(c.get("radius"), ".3g"),
+            _f(c.get("moved_informed", c.get("moved")), ".2e")]
            for c in report["cycles"]]  # fmt: skip
     starts = [[s["start"] + 1, f"{s['history'][0]:.6g}", f"{s['deviation']:.6g}",
                s["iterations"], f"{s['seconds']:.1f}", s["message"]]
@@ -237,7 +241,11 @@ Run time {report['seconds']:.0f} s.</p>
 {100 * report['crlb']['identifiable_below']:g} % of the nominal.</p>
 <h2>Modes</h2>{_table(modes, ["test Hz", "FE before Hz", "FE after Hz", "error before %",
  "error after %", "MAC before", "MAC after"])}
-<h2>Runs</h2>{_table(cyc, ["cycle", "best start", "deviation (surrogate)", "largest change"])}
+<h2>Runs</h2><p>Cycle 1 runs Levenberg-Marquardt from every start on the nominal model's
+surrogate; each later cycle rebuilds the surrogate at the candidate point, where it is the full
+model, keeps the step if the full model's cost fell (trust region) and runs LM again inside the
+trust radius.</p>{_table(cyc, ["cycle", "step", "full-model deviation at the candidate",
+ "actual / predicted fall", "trust radius", "largest change (informed parameters)"])}
 {_table(starts, ["start", "deviation at start", "deviation", "iterations", "seconds", "stop"])}
 {imgs}<h2>Paired modes after calibration</h2>{mimgs}
 </body></html>
@@ -258,20 +266,23 @@ def write_report(outcome, out: str | os.PathLike[str], *,
     chans = list(dict.fromkeys([*order[:2], *np.linspace(0, len(order) - 1, 4).astype(int)]))
     pairs = [(int(o), i) for o in chans[:3] for i in range(len(outcome.inputs))][:6]
     pictures = {"FRFs: test, FE before and after": frf_comparison(pics / "frf.png", outcome, pairs),
-                "MAC matrices": mac_matrices(pics / "mac.png", outcome),
                 "Parameter changes and Cramér-Rao bounds": crlb_plot(pics / "crlb.png", outcome),
                 "Deviation history": history_plot(pics / "history.png", outcome)}  # fmt: skip
-    vp = vector_plot(pics / "vectors.png", outcome)
-    if vp is not None:
-        pictures["Paired shapes, component against component"] = vp
+    if len(outcome.test_hz):  # test modes to correlate (an identified test model)
+        pictures["MAC matrices"] = mac_matrices(pics / "mac.png", outcome)
+        vp = vector_plot(pics / "vectors.png", outcome)
+        if vp is not None:
+            pictures["Paired shapes, component against component"] = vp
     say("rendering the calibrated model's paired modes")
     from ..frf import channel_matrix
     from ..viz import render_modes
 
     fe = np.asarray(channel_matrix(outcome.model, outcome.outputs) @ outcome.modes_after.shapes)
-    pairs_after = pair_modes(outcome.test_shapes, outcome.test_hz, fe,
-                             outcome.modes_after.frequencies_hz)  # fmt: skip
-    which = sorted({p.fe for p in pairs_after})
+    which: list[int] = []
+    if len(outcome.test_hz):
+        pairs_after = pair_modes(outcome.test_shapes, outcome.test_hz, fe,
+                                 outcome.modes_after.frequencies_hz)  # fmt: skip
+        which = sorted({p.fe for p in pairs_after})
     mode_pngs = []
     if which:
         mode_pngs = render_modes(outcome.modes_after, outcome.model, pics / "modes",

@@ -43,7 +43,7 @@ class Problem:
 
         def jac() -> np.ndarray:
             Hj, dH = self.surrogate.frf_and_jacobian(p, self.freq)
-            J = jacobian(Hj, dH, self.metric)
+            J = jacobian(Hj, dH, self.metric, self.H_test)
             return J if w is None else np.vstack([J, np.diag(w)])
 
         return (r if w is None else np.concatenate([r, w * p])), jac

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from math import comb
 
 import numpy as np
 import scipy.linalg as sla
@@ -42,7 +43,7 @@ from ..modal import EigenRequest
 from ..model.model import Model
 from ..sol103 import solve_sol103
 from ..structure import Options, assemble
-from .derivatives import group_polynomials
+from .derivatives import GroupPolynomial, group_polynomials
 from .parameters import Parameter, with_values
 
 _POWER = {"receptance": 0, "mobility": 1, "accelerance": 2}
@@ -167,10 +168,40 @@ class Surrogate:
         return H, dH
 
 
+def _reexpand(polys: list[GroupPolynomial], Phi: np.ndarray, center: np.ndarray, n_p: int, *,
+              first_order: bool) -> tuple[list, list, list]:  # fmt: skip
+    """Reduce each group's terms about p = 0 on the basis and re-expand them about the
+    centre: ``C'_b = sum_{a >= b} C_a prod_i binom(a_i, b_i) c_i^(a_i - b_i)``; returns
+    exponents (n_p,), reduced K and M of the non-constant terms (first order only if asked)."""
+    exps, Kt, Mt = [], [], []
+    for g in polys:
+        idx = list(g.params)
+        red = {tuple(a): (Phi.T @ (Kc @ Phi), Phi.T @ (Mc @ Phi))
+               for a, Kc, Mc in zip(g.exponents, g.K, g.M, strict=True)}  # fmt: skip
+        c = center[idx]
+        for b in red:
+            if sum(b) == 0 or (first_order and sum(b) > 1):
+                continue
+            Kb = np.zeros_like(red[b][0])
+            Mb = np.zeros_like(red[b][1])
+            for a, (Ka, Ma) in red.items():
+                if all(ai >= bi for ai, bi in zip(a, b, strict=True)):
+                    w = float(np.prod([comb(ai, bi) * ci ** (ai - bi)
+                                       for ai, bi, ci in zip(a, b, c, strict=True)]))  # fmt: skip
+                    Kb += w * Ka
+                    Mb += w * Ma
+            e = np.zeros(n_p, int)
+            e[idx] = b
+            exps.append(e)
+            Kt.append(Kb)
+            Mt.append(Mb)
+    return exps, Kt, Mt
+
+
 def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center: np.ndarray,
                     outputs: Sequence, inputs: Sequence, *, n_modes: int = 100,
                     zeta: float = 0.01, quantity: str = "accelerance", order: str = "exact",
-                    options: Options | None = None,
+                    polynomials: list | None = None, options: Options | None = None,
                     progress: Callable[[str], None] | None = None,
                     ) -> tuple[Surrogate, object]:  # fmt: skip
     """Reduce the (nominal) model at ``p_center`` on its first ``n_modes`` modes there.
@@ -179,6 +210,10 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
     ----------
     outputs, inputs : channels (``femcal.frfdata.Channel``) of the test data.
     order : ``exact`` (every polynomial term) or ``first-order`` (FEMCali's).
+    polynomials : the model's group polynomials about p = 0 with their constant terms
+        (:func:`femcal.calibrate.derivatives.group_polynomials` with ``constant=True``);
+        computed here if not given. They do not depend on the centre, so a run computes
+        them once and reduces them on each new basis.
 
     Returns
     -------
@@ -197,17 +232,12 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
     Phi = modes.shapes  # (n_g, r), mass-normalised
     say(f"surrogate: {Phi.shape[1]} modes up to {modes.frequencies_hz[-1]:.1f} Hz; the "
         f"{order} dependence of K and M on {len(params)} parameters")
-    polys = group_polynomials(model, params, p_center, options=options,
-                              first_order=order == "first-order")  # fmt: skip
+    if polynomials is None:
+        polynomials = group_polynomials(model, params, np.zeros(len(params)), options=options,
+                                        constant=True)  # fmt: skip
+    exps, Kt, Mt = _reexpand(polynomials, Phi, np.asarray(p_center, float), len(params),
+                             first_order=order == "first-order")  # fmt: skip
     r = Phi.shape[1]
-    exps, Kt, Mt = [], [], []
-    for g in polys:
-        for a, Kc, Mc in zip(g.exponents, g.K, g.M, strict=True):
-            e = np.zeros(len(params), int)
-            e[list(g.params)] = a
-            exps.append(e)
-            Kt.append(Phi.T @ (Kc @ Phi))
-            Mt.append(Phi.T @ (Mc @ Phi))
     Cg = channel_matrix(model, outputs)
     Bg = channel_matrix(model, inputs)
     K0 = Phi.T @ (mats.K @ Phi)

@@ -36,6 +36,7 @@ from ..identify import Settings, equalize_damping, identify
 from ..identify.io import read_model, write_model, write_summary
 from ..model import build_model
 from .config import Config
+from .derivatives import group_polynomials
 from .fisher import fisher
 from .lm import latin_hypercube
 from .metric import deviation, jacobian, log_frequencies, residuals
@@ -126,7 +127,8 @@ def _test_frfs(data: FRFData | None, ident, keep: np.ndarray, zeta0: float,
 def _jac_res(problem: Problem, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(J, r) of the data part of the problem at p."""
     H, dH = problem.surrogate.frf_and_jacobian(p, problem.freq)
-    return jacobian(H, dH, problem.metric), residuals(H, problem.H_test, problem.metric)
+    return (jacobian(H, dH, problem.metric, problem.H_test),
+            residuals(H, problem.H_test, problem.metric))
 
 
 def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | None = None,
@@ -183,11 +185,16 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
         starts0 += list(latin_hypercube(n_starts - 1, lo, hi, rng))
     weights = cfg.regularization / ((hi - lo) / 2.0) if cfg.regularization > 0 else None
 
+    say(f"the exact dependence of K and M on the {len(params)} parameters, element group by "
+        "element group")
+    polys = group_polynomials(model, params, np.zeros(len(params)), constant=True)
+
     def surrogate_at(p: np.ndarray):
         say(f"surrogate at p = [{', '.join(f'{x:+.4f}' for x in p)}]")
         return build_surrogate(deck, model, params, p, outputs, inputs,
                                n_modes=cfg.reduction_modes, zeta=zeta0, quantity=quantity,
-                               order=cfg.surrogate, progress=say)  # fmt: skip
+                               order=cfg.surrogate, polynomials=polys,
+                               progress=say)  # fmt: skip
 
     def starts_in(c: int, problem: Problem, pts: list[np.ndarray], center: np.ndarray):
         folder = out / "starts" / f"cycle{c}"

@@ -1,0 +1,140 @@
+"""The calibration workflow end to end on a small deck: a noise-free test made from a
+perturbed model is calibrated back to its parameters; report, calibrated deck, resume, CLI,
+configuration errors."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from femcal.calibrate.config import read_config
+from femcal.calibrate.parameters import current_value, read_parameters, with_values
+from femcal.calibrate.workflow import run
+from femcal.cli import main
+from femcal.deck import read_deck
+from femcal.frf import channel_matrix, modal_frf
+from femcal.frfdata import Channel, FRFData, write_npz
+from femcal.modal import EigenRequest
+from femcal.model import build_model
+from femcal.sol103 import solve_sol103
+
+from .calib_decks import PARAMS_TOML, plate_deck
+
+TRUE_P = np.array([0.08, -0.05, 0.06, 0.1, -0.1, 0.12, 0.2, -0.15, 0.1])
+OUTS = [*(f"{g}:+Z" for g in (3, 5, 7, 10, 12, 14, 17, 19, 21, 24, 26, 28)), "28:+X", "14:+Y"]
+INS = ["28:+Z", "11:+Y"]
+CONFIG = """
+[model]
+deck = "plate.bdf"
+parameters = "p.toml"
+
+[test]
+frf = "test.npz"
+
+[calibration]
+band = [10.0, 350.0]
+zeta0 = 0.02
+reduction_modes = 40
+starts = 10
+workers = 2
+seed = 1
+max_cycles = 8
+noise_sigma = 0.01
+identifiable_crlb = 0.01
+"""
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory):
+    d = tmp_path_factory.mktemp("study")
+    (d / "plate.bdf").write_text(plate_deck())
+    (d / "p.toml").write_text(PARAMS_TOML)
+    deck = read_deck(d / "plate.bdf")
+    model = build_model(deck)
+    params = read_parameters(d / "p.toml", model)
+    true_model = with_values(model, params, [p.value(x) for p, x in zip(params, TRUE_P,
+                                                                        strict=True)])  # fmt: skip
+    modes, _ = solve_sol103(deck, true_model, request=EigenRequest(nd=40))
+    outs = [Channel.parse(s) for s in OUTS]
+    ins = [Channel.parse(s) for s in INS]
+    f = np.arange(2.0, 400.0, 0.25)
+    H = modal_frf(modes.shapes, modes.radians, channel_matrix(true_model, outs),
+                  channel_matrix(true_model, ins).T, f, 0.02, "accelerance")  # fmt: skip
+    write_npz(d / "test.npz", FRFData(f, H, tuple(outs), tuple(ins), "accelerance", "mm/s^2/N"))
+    (d / "cal.toml").write_text(CONFIG)
+    lines: list[str] = []
+    outcome = run(read_config(d / "cal.toml"), d / "out", progress=lines.append)
+    return d, params, outcome, lines
+
+
+def test_noise_free_test_is_calibrated_back_to_its_parameters(study):
+    _, params, outcome, _ = study
+    rep = outcome.report
+    for par, row, true in zip(params, rep["parameters"], TRUE_P, strict=True):
+        assert row["identifiable"], par.name  # every parameter is informed here
+        assert abs(row["calibrated"] / par.value(true) - 1) < 1e-3, par.name
+    assert rep["deviation"]["after"] < 1e-6 * rep["deviation"]["before"]
+    assert rep["settled"]
+
+
+def test_report_holds_what_the_issue_asks(study):
+    d, params, _, _ = study
+    rep = json.loads((d / "out" / "report.json").read_text())
+    for row in rep["parameters"]:
+        assert {"name", "nominal", "calibrated", "lower", "upper", "crlb"} <= set(row)
+        assert row["crlb"] > 0
+    for row in rep["modes"]:
+        assert {"test_hz", "fe_before_hz", "fe_after_hz", "mac_before", "mac_after"} <= set(row)
+    assert set(rep["deviation"]) >= {"before", "after"}
+    assert len(rep["starts"]) == 10
+    # without an identified model there are no test modes to pair
+    assert rep["modes"] == []
+    # the calibrated deck carries the calibrated values
+    back = build_model(read_deck(d / "out" / rep["calibrated_deck"]))
+    for par, row in zip(params, rep["parameters"], strict=True):
+        assert current_value(back, par.card, par.id, par.field) == pytest.approx(
+            row["calibrated"], rel=1e-12)
+
+
+def test_a_second_run_resumes_from_the_finished_starts(study):
+    d, _, outcome, _ = study
+    lines: list[str] = []
+    again = run(read_config(d / "cal.toml"), d / "out", progress=lines.append)
+    # the ten starts of cycle 1, and the later cycles' single starts
+    assert sum("start" in line and "finished earlier" in line and "/10:" in line
+               for line in lines) == 10  # fmt: skip
+    assert not any("iteration" in line for line in lines)  # nothing was run again
+    np.testing.assert_allclose(again.p_final, outcome.p_final, rtol=0, atol=1e-12)
+
+
+def test_report_pictures_and_page(study):
+    from femcal.calibrate.report import write_report
+
+    d, _, outcome, _ = study
+    page = write_report(outcome, d / "out")
+    text = page.read_text()
+    assert "Parameters" in text and "Cramér-Rao" in text
+    for name in ("frf.png", "crlb.png", "history.png"):
+        assert (d / "out" / "pictures" / name).stat().st_size > 1000
+
+
+def test_cli_and_configuration_errors(study, tmp_path, capsys):
+    d, _, _, _ = study
+    assert main(["calibrate", str(d / "cal.toml"), "--out", str(d / "out"), "--no-pictures"]) == 0
+    printed = capsys.readouterr().out
+    assert "deviation:" in printed and "E_steel" in printed
+    bad = tmp_path / "bad.toml"
+    bad.write_text(CONFIG.replace('deck = "plate.bdf"', f'deck = "{d / "plate.bdf"}"')
+                   .replace('parameters = "p.toml"', f'parameters = "{d / "p.toml"}"')
+                   .replace('frf = "test.npz"', f'frf = "{d / "test.npz"}"')
+                   .replace("band = [10.0, 350.0]\n", ""))  # fmt: skip
+    assert main(["calibrate", str(bad), "--out", str(tmp_path / "o")]) == 2
+    assert "[calibration] needs band" in capsys.readouterr().err
+    bad.write_text(bad.read_text().replace("zeta0 = 0.02", 'band = [10.0, 350.0]\nzeta0 = "median"'))
+    with pytest.raises(ValueError, match="needs an identified test model"):
+        read_config(bad)
+    bad.write_text(CONFIG.replace('frf = "test.npz"', 'frf = "nothere.npz"'))
+    with pytest.raises(FileNotFoundError):
+        read_config(bad)
