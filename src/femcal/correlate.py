@@ -90,8 +90,8 @@ def pseudo_orthogonality(test_shapes: np.ndarray, fe_shapes: np.ndarray,
                          reduced_mass: np.ndarray) -> np.ndarray:  # fmt: skip
     """Pseudo-orthogonality ``Phi_T^T M_s Phi_FE`` (kt, kf) with test shapes made real and
     scaled to unit modal mass in the reduced mass M_s (p, p), FE shapes as given
-    (mass-normalised); close to the identity for well-correlated, well-scaled modes (up to
-    the sign of each test shape, which is chosen to make the diagonal positive)."""
+    (mass-normalised); close to the identity, up to the sign of each test shape, for
+    well-correlated modes."""
     T = real_shapes(test_shapes)
     mt = np.einsum("pk,pq,qk->k", T, reduced_mass, T)
     T = T / np.sqrt(np.where(mt > 0, mt, 1.0))[None, :]

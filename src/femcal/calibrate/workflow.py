@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ..atomic import write_atomic
-from ..correlate import mac, pair_modes
+from ..correlate import mac, pair_modes, pseudo_orthogonality, serep_mass
 from ..deck import read_deck
 from ..frf import channel_matrix, modal_frf
 from ..frfdata import FRFData, convert_units, read_frf
@@ -303,6 +303,12 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
                                                 modes0.frequencies_hz)}  # fmt: skip
     pairs_a = {pp.test: pp for pp in pair_modes(test_shapes, test_hz, fe_after,
                                                 modes_after.frequencies_hz)}  # fmt: skip
+    # pseudo-orthogonality after calibration: mass reduced to the sensors by SEREP on the FE
+    # modes up to 1.5 times the band's top (at most one less than the sensors)
+    f_after = modes_after.frequencies_hz
+    serep = np.flatnonzero(f_after <= 1.5 * band[1])[: max(len(outputs) - 1, 1)]
+    poc = (pseudo_orthogonality(test_shapes, fe_after[:, serep], serep_mass(fe_after[:, serep]))
+           if len(test_hz) else np.zeros((0, len(serep))))  # fmt: skip
     mode_rows = []
     for k, f in enumerate(test_hz):
         b, a = pairs_b.get(k), pairs_a.get(k)
@@ -316,6 +322,8 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
             "mac_after": a.mac if a else None,
             "frequency_error_before_pct": b.frequency_difference if b else None,
             "frequency_error_after_pct": a.frequency_difference if a else None,
+            "pseudo_orthogonality_after": float(abs(poc[k, list(serep).index(a.fe)]))
+            if a and a.fe in serep else None,
         })  # fmt: skip
     param_rows = []
     for i, par in enumerate(params):

@@ -102,13 +102,22 @@ def _stack(X: np.ndarray) -> np.ndarray:
     return np.concatenate([X.real, X.imag], axis=0)
 
 
-def lsfd(s: np.ndarray, H: np.ndarray, poles: np.ndarray, *,
-         feedthrough: bool = True) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def _lstsq(X: np.ndarray, Y: np.ndarray) -> np.ndarray:
+    """Least squares with the columns of X scaled to unit norm first (and the solution
+    scaled back): columns of far poles are orders of magnitude smaller than those of
+    in-band ones, and an unscaled solve would cut them off as rank deficiency."""
+    norms = np.linalg.norm(X, axis=0)
+    norms = np.where(norms > 0, norms, 1.0)
+    return np.linalg.lstsq(X / norms, Y, rcond=None)[0] / norms[:, None]
+
+
+def lsfd(s: np.ndarray, H: np.ndarray, poles: np.ndarray, *, feedthrough: bool = True,
+         weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """Unconstrained residues of every pole pair and the real feedthrough.
 
     Parameters
     ----------
-    s : (K,) i w. H : (p, m, K). poles : (k,) Im > 0.
+    s : (K,) i w. H : (p, m, K). poles : (k,) Im > 0. weights : (K,) per frequency.
 
     Returns
     -------
@@ -116,12 +125,13 @@ def lsfd(s: np.ndarray, H: np.ndarray, poles: np.ndarray, *,
     """
     p, m, K = H.shape
     k = len(poles)
+    w = np.ones(K) if weights is None else np.asarray(weights, float)
     G = _pole_regressors(s, poles)  # (K, 2k)
-    X = _stack(G)
     if feedthrough:
-        X = np.concatenate([X, np.concatenate([np.ones((K, 1)), np.zeros((K, 1))])], axis=1)
-    Y = _stack(H.reshape(p * m, K).T)  # (2K, p m)
-    sol = np.linalg.lstsq(X, Y, rcond=None)[0]
+        G = np.concatenate([G, np.ones((K, 1))], axis=1)
+    X = _stack(G * w[:, None])
+    Y = _stack(H.reshape(p * m, K).T * w[:, None])  # (2K, p m)
+    sol = _lstsq(X, Y)
     a, b = sol[:k], sol[k : 2 * k]
     residues = (a + 1j * b).reshape(k, p, m)
     D = sol[2 * k].reshape(p, m) if feedthrough else np.zeros((p, m))
@@ -152,27 +162,31 @@ def response(model: FixedPoleModel, s: np.ndarray) -> np.ndarray:
     return np.einsum("pn,knm->pmk", model.C, F) + model.D[:, :, None]
 
 
-def fit_c(R: Resolvent, B: np.ndarray, H: np.ndarray, feedthrough: bool
-          ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
-    """C (p, n) and D (p, m) minimising the cost for fixed A (in R) and B."""
+def fit_c(R: Resolvent, B: np.ndarray, H: np.ndarray, feedthrough: bool,
+          weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """C (p, n) and D (p, m) minimising the (weighted) cost for fixed A (in R) and B."""
     p, m, K = H.shape
-    F = R.times(B)  # (K, n, m)
+    w = np.ones(K) if weights is None else np.asarray(weights, float)
+    F = R.times(B) * w[:, None, None]  # (K, n, m)
     n = F.shape[1]
     X = np.transpose(F, (0, 2, 1)).reshape(K * m, n)  # rows (k, i)
     if feedthrough:
-        X = np.concatenate([X, np.tile(np.eye(m), (K, 1))], axis=1)
-    Y = np.transpose(H, (2, 1, 0)).reshape(K * m, p)  # rows (k, i), columns outputs
-    sol = np.linalg.lstsq(_stack(X), _stack(Y), rcond=None)[0].real
+        X = np.concatenate([X, np.kron(w[:, None], np.eye(m))], axis=1)
+    Y = np.transpose(H * w[None, None, :], (2, 1, 0)).reshape(K * m, p)  # rows (k, i)
+    sol = _lstsq(_stack(X), _stack(Y)).real
     C = sol[:n].T
     D = sol[n:].T if feedthrough else np.zeros((p, m))
     return C, D
 
 
 def fit_b(R: Resolvent, B: np.ndarray, C: np.ndarray, D: np.ndarray, H: np.ndarray,
-          free: np.ndarray, feedthrough: bool) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
-    """B (free rows re-estimated, the others kept) and D minimising the cost for fixed A
-    (in R) and C. D is eliminated by centring the real parts over frequency."""
+          free: np.ndarray, feedthrough: bool,
+          weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """B (free rows re-estimated, the others kept) and D minimising the (weighted) cost for
+    fixed A (in R) and C. D is eliminated by centring the real parts over frequency with
+    the weights."""
     p, m, K = H.shape
+    w = np.ones(K) if weights is None else np.asarray(weights, float)
     G = R.left(C)  # (K, p, n)
     fixed = ~free
     target = np.transpose(H, (2, 0, 1)).astype(complex)  # (K, p, m)
@@ -181,32 +195,39 @@ def fit_b(R: Resolvent, B: np.ndarray, C: np.ndarray, D: np.ndarray, H: np.ndarr
     Gf = G[:, :, free]
     Xr, Xi = Gf.real, Gf.imag
     Yr, Yi = target.real, target.imag
-    if feedthrough:  # D[o, i] adds to the real part only: centre the real rows over k
-        Xr = Xr - Xr.mean(axis=0)
-        Yr = Yr - Yr.mean(axis=0)
+    w2 = w**2 / np.sum(w**2)
+    if feedthrough:  # D[o, i] adds to the real part only: centre the real rows (weighted)
+        Xr = Xr - np.tensordot(w2, Xr, axes=1)
+        Yr = Yr - np.tensordot(w2, Yr, axes=1)
     nf = int(free.sum())
-    X = np.concatenate([Xr.reshape(K * p, nf), Xi.reshape(K * p, nf)])
-    Y = np.concatenate([Yr.reshape(K * p, m), Yi.reshape(K * p, m)])
-    Bf = np.linalg.lstsq(X, Y, rcond=None)[0]
+    ww = w[:, None, None]
+    X = np.concatenate([(Xr * ww).reshape(K * p, nf), (Xi * ww).reshape(K * p, nf)])
+    Y = np.concatenate([(Yr * ww).reshape(K * p, m), (Yi * ww).reshape(K * p, m)])
+    Bf = _lstsq(X, Y)
     B = B.copy()
     B[free] = Bf
     if feedthrough:
-        D = (target.real - np.einsum("kpn,nm->kpm", Gf, Bf).real).mean(axis=0)
+        resid = target.real - np.einsum("kpn,nm->kpm", Gf, Bf).real
+        D = np.tensordot(w2, resid, axes=1)
     else:
         D = np.zeros((p, m))
     return B, D
 
 
-def cost(R: Resolvent, B: np.ndarray, C: np.ndarray, D: np.ndarray, H: np.ndarray) -> float:
-    """``sum |C (sI - A)^-1 B + D - H|^2`` over channels and frequencies."""
+def cost(R: Resolvent, B: np.ndarray, C: np.ndarray, D: np.ndarray, H: np.ndarray,
+         weights: np.ndarray | None = None) -> float:  # fmt: skip
+    """``sum w_k^2 |C (s_k I - A)^-1 B + D - H_k|^2`` over channels and frequencies."""
     F = R.times(B)
     E = np.einsum("pn,knm->pmk", C, F) + D[:, :, None] - H
+    if weights is not None:
+        E = E * np.asarray(weights, float)[None, None, :]
     return float(np.vdot(E, E).real)
 
 
 def fit_fixed_poles(s: np.ndarray, H: np.ndarray, poles: np.ndarray,
                     residual_poles: np.ndarray | None = None, *,
                     feedthrough: bool = True, max_iter: int = 50, tol: float = 1e-7,
+                    weights: np.ndarray | None = None,
                     ) -> tuple[FixedPoleModel, list[float]]:  # fmt: skip
     """The model with the given poles that fits H best: LSFD residues of all poles (the
     residual ones included), rank-one cut and realisation, then alternating B and (C, D)
@@ -226,19 +247,19 @@ def fit_fixed_poles(s: np.ndarray, H: np.ndarray, poles: np.ndarray,
     if (poles.imag <= 0).any() or (residual_poles.imag <= 0).any():
         raise ValueError("poles must be given by their member with positive imaginary part")
     everything = np.concatenate([poles, residual_poles])
-    residues, D0 = lsfd(s, H, everything, feedthrough=feedthrough)
+    residues, D0 = lsfd(s, H, everything, feedthrough=feedthrough, weights=weights)
     model = realize(poles, residues[: len(poles)], residual_poles, p, m, D0)
     R = Resolvent(model.A, s)
     B = model.B
     free = ~model.residual
-    C, D = fit_c(R, B, H, feedthrough)
-    history = [cost(R, B, C, D, H)]
+    C, D = fit_c(R, B, H, feedthrough, weights)
+    history = [cost(R, B, C, D, H, weights)]
     for _ in range(max_iter):
         if not free.any():
             break
-        B, D = fit_b(R, B, C, D, H, free, feedthrough)
-        C, D = fit_c(R, B, H, feedthrough)
-        history.append(cost(R, B, C, D, H))
+        B, D = fit_b(R, B, C, D, H, free, feedthrough, weights)
+        C, D = fit_c(R, B, H, feedthrough, weights)
+        history.append(cost(R, B, C, D, H, weights))
         if history[-2] - history[-1] <= tol * history[-2]:
             break
     out = FixedPoleModel(model.A, B, C, D, model.residual, poles, residual_poles)

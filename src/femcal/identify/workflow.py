@@ -5,8 +5,9 @@ For a band [f_lo, f_hi] split into parts at chosen frequencies (e.g. 10-60, 60-1
 
 1. Channels are scaled to unit RMS over the band (outputs and inputs), so that no sensor
    dominates the fits by its units or position; the scaling is undone at the end. Channels
-   the others do not explain (:mod:`femcal.identify.channels`) are left out of the pole
-   estimation and flagged.
+   the others do not explain (:mod:`femcal.identify.channels`) may be broken, or the only
+   sensors of some mode: the identification is run with and without them, and the model
+   that fits the other channels better is kept.
 2. Each part is identified by the frequency-domain subspace method
    (:mod:`femcal.identify.subspace`) at its order, given or the automatic order of its
    stabilisation diagram (:mod:`femcal.identify.stabilization`). Its physical poles are
@@ -63,6 +64,10 @@ class Settings:
     exclude_suspects : identify again without the suspect channels (their C and D are
         still estimated, so their fit error is reported), so that a broken sensor does not
         spoil the poles.
+    frequency_weighting : weight each frequency of the least-squares fits by 1 / (RMS of
+        |H| over the channels there), so the fit is close to a relative one: the low
+        levels between and below resonances (which a log-FRF calibration metric weighs as
+        much as the peaks) are fitted as well as the peaks.
     """
 
     gamma: float = 1.43
@@ -78,6 +83,7 @@ class Settings:
     suspect_factor: float = 4.0
     suspect_floor: float = 0.1
     exclude_suspects: bool = True
+    frequency_weighting: bool = True
 
 
 @dataclass(frozen=True)
@@ -240,21 +246,35 @@ def identify(data: FRFData, band: tuple[float, float], *,
     so, si = _scales(data.H[:, :, sel])
     Hs = data.H[:, :, sel] / so[:, None, None] / si[None, :, None]
     consistency = consistency_error(Hs)
-    use = ~outliers(consistency, s.suspect_factor, s.suspect_floor)
-    if not use.all():
-        bad = [data.outputs[i].label for i in np.flatnonzero(~use)]
-        say(f"channels {', '.join(bad)} are not consistent with the others (leave-one-out "
-            "error " + ", ".join(f"{e:.2f}" for e in consistency[~use])
-            + "): left out of the pole estimation")  # fmt: skip
+    odd = outliers(consistency, s.suspect_factor, s.suspect_floor)
+    use = np.ones(len(odd), bool)
     result = _identify_pass(data, f, Hs, so, si, edges, part_orders, use, s, say)
-    result = replace(result, consistency=consistency,
-                     suspect=result.suspect | ~use)  # fmt: skip
+    if odd.any() and (~odd).sum() >= 2:
+        # a channel the others do not explain is either broken, or the one sensor that sees
+        # some mode: identify without such channels too, and keep the model that fits the
+        # other channels better
+        bad = [data.outputs[i].label for i in np.flatnonzero(odd)]
+        say(f"channels {', '.join(bad)} are not consistent with the others (leave-one-out "
+            "error " + ", ".join(f"{e:.2f}" for e in consistency[odd])
+            + "): identifying without them as well")  # fmt: skip
+        screened = _identify_pass(data, f, Hs, so, si, edges, part_orders, ~odd, s, say)
+        if np.median(screened.fit_error[~odd]) < np.median(result.fit_error[~odd]):
+            say("the model without them fits the other channels better: kept")
+            result, use = screened, ~odd
+        else:
+            say("the model of all channels fits the others as well: kept")
+    result = replace(result, consistency=consistency)
     if s.exclude_suspects and (result.suspect & use).any() and (~result.suspect).sum() >= 2:
         bad = [data.outputs[i].label for i in np.flatnonzero(result.suspect)]
         say(f"suspect channels {', '.join(bad)}: identified again without them")
         again = _identify_pass(data, f, Hs, so, si, edges, part_orders, ~result.suspect, s,
                                say)  # fmt: skip
-        result = replace(again, consistency=consistency, suspect=again.suspect | result.suspect)
+        if np.median(again.fit_error[~result.suspect]) <= np.median(
+                result.fit_error[~result.suspect]):  # fmt: skip
+            result = replace(again, consistency=consistency,
+                             suspect=again.suspect | result.suspect)  # fmt: skip
+        else:
+            say("the other channels fit better with them: the first model kept")
     return result
 
 
@@ -301,11 +321,15 @@ def _identify_pass(data: FRFData, f: np.ndarray, Hs: np.ndarray, so: np.ndarray,
     poles = _dedupe(found)
     lo, hi = edges[0], edges[-1]
     sk = 2j * np.pi * f
+    w = None
+    if s.frequency_weighting:  # each frequency weighted by 1 / (RMS of |H| there)
+        level = np.sqrt(np.mean(np.abs(Hu) ** 2, axis=(0, 1)))
+        w = 1.0 / np.where(level > 0, level, level[level > 0].min() if (level > 0).any() else 1)
     model, history = fit_fixed_poles(sk, Hu, poles, _residual_poles((lo, hi), s),
                                      feedthrough=s.feedthrough, max_iter=s.max_iter,
-                                     tol=s.tol)  # fmt: skip
+                                     tol=s.tol, weights=w)  # fmt: skip
     if not use.all():  # C and D of every channel for the B of the channels used
-        C, D = fit_c(Resolvent(model.A, sk), model.B, Hs, s.feedthrough)
+        C, D = fit_c(Resolvent(model.A, sk), model.B, Hs, s.feedthrough, w)
         model = replace(model, C=C, D=D)
     say(f"whole band {lo:g}-{hi:g} Hz: {len(poles)} poles, B, C, D refined in "
         f"{len(history) - 1} alternating steps (cost {history[0]:.4g} -> {history[-1]:.4g})")
