@@ -80,12 +80,7 @@ def frf_overlay(
         axes[2 * r + 1, c].set_visible(False)
     if title:
         fig.suptitle(title)
-    fig.tight_layout()
-    try:
-        write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110))
-    finally:
-        plt.close(fig)
-    return fig
+    return save_figure(fig, path)
 
 
 def stabilization_diagram(path: str | os.PathLike[str], diagram, data: FRFData | None = None,
@@ -128,9 +123,16 @@ def stabilization_diagram(path: str | os.PathLike[str], diagram, data: FRFData |
                  f"order chosen {diagram.auto_order}", fontsize=10)  # fmt: skip
     ax.set_zorder(3)
     ax.patch.set_visible(False)
+    return save_figure(fig, path)
+
+
+def save_figure(fig, path: str | os.PathLike[str], dpi: int = 110):
+    """Lay out, write atomically as PNG and close a matplotlib figure; returns it."""
+    import matplotlib.pyplot as plt
+
     fig.tight_layout()
     try:
-        write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110))
+        write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=dpi))
     finally:
         plt.close(fig)
     return fig

@@ -24,12 +24,10 @@ def _plt():
 
 
 def _save(fig, path: Path) -> Path:
-    plt = _plt()
-    try:
-        fig.tight_layout()
-        return write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=100))
-    finally:
-        plt.close(fig)
+    from ..plots import save_figure
+
+    save_figure(fig, path, dpi=100)
+    return path
 
 
 def frf_comparison(path: Path, outcome, pairs: list[tuple[int, int]]) -> Path:
