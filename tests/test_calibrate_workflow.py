@@ -135,6 +135,16 @@ def test_cli_and_configuration_errors(study, tmp_path, capsys):
     bad.write_text(bad.read_text().replace("zeta0 = 0.02", 'band = [10.0, 350.0]\nzeta0 = "median"'))
     with pytest.raises(ValueError, match="needs an identified test model"):
         read_config(bad)
+    bad.write_text(CONFIG.replace("starts = 10", 'starts = "many"'))
+    (tmp_path / "plate.bdf").write_text(plate_deck())
+    (tmp_path / "p.toml").write_text(PARAMS_TOML.replace("id = 300", 'id = "tip"'))
+    (tmp_path / "test.npz").write_bytes((d / "test.npz").read_bytes())
+    with pytest.raises(ValueError, match=r"\[calibration\] starts = 'many': expected a whole"):
+        read_config(bad)
+    bad.write_text(CONFIG)
+    assert main(["calibrate", str(bad), "--out", str(tmp_path / "o")]) == 2
+    assert "p.toml: parameter m_tip: id = 'tip': expected a whole number" in (
+        capsys.readouterr().err)
     bad.write_text(CONFIG.replace('frf = "test.npz"', 'frf = "nothere.npz"'))
     with pytest.raises(FileNotFoundError):
         read_config(bad)

@@ -122,3 +122,14 @@ def test_unit_conversion_refuses_other_quantities():
         convert_units(d, "mm/N")
     with pytest.raises(ValueError, match="'furlong/N' is not one of"):
         convert_units(d, "furlong/N")
+
+
+def test_files_that_are_not_what_their_suffix_says_are_named(tmp_path):
+    for name in ("g.npz", "g.mat"):
+        (tmp_path / name).write_text("not an FRF file")
+        with pytest.raises(ValueError, match=rf"{name}: not an? "):
+            read_frf(tmp_path / name)
+    np.save(tmp_path / "one.npy", np.zeros(3))
+    (tmp_path / "one.npy").rename(tmp_path / "one.npz")
+    with pytest.raises(ValueError, match=r"one\.npz: not an NPZ archive"):
+        read_frf(tmp_path / "one.npz")

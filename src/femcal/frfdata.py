@@ -14,6 +14,7 @@ import errno
 import io
 import os
 import re
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -146,7 +147,13 @@ def write_npz(path: str | os.PathLike[str], data: FRFData) -> Path:
 
 def read_npz(path: str | os.PathLike[str]) -> FRFData:
     """Read what :func:`write_npz` writes (``units`` optional); KeyError names a missing key."""
-    with np.load(path, allow_pickle=False) as z:
+    try:
+        z = np.load(path, allow_pickle=False)
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile):
+        raise ValueError(f"{path}: not an NPZ archive of arrays") from None
+    if not hasattr(z, "files"):  # a single .npy array, not an archive
+        raise ValueError(f"{path}: not an NPZ archive of arrays")
+    with z:
         missing = {"frequency_hz", "H", "input_labels", "output_labels", "quantity"} - set(z)
         if missing:
             raise KeyError(f"{path}: missing {', '.join(sorted(missing))}")
@@ -430,4 +437,12 @@ def read_frf(path: str | os.PathLike[str]) -> FRFData:
                          f"{', '.join(READERS)}")  # fmt: skip
     if not path.is_file():
         raise FileNotFoundError(errno.ENOENT, os.strerror(errno.ENOENT), str(path))
-    return reader(path)
+    from scipy.io.matlab import MatReadError
+
+    try:
+        return reader(path)
+    except (KeyError, ValueError) as e:  # the readers' own errors mostly name the file
+        msg = str(e).strip('"')
+        raise ValueError(msg if str(path) in msg else f"{path}: {msg}") from None
+    except (OSError, EOFError, zipfile.BadZipFile, MatReadError) as e:
+        raise ValueError(f"{path}: not a readable {path.suffix} FRF file ({e})") from None

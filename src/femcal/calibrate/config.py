@@ -106,6 +106,18 @@ def _band(v, where: str) -> tuple[float, float]:
     return lo, hi
 
 
+def _number(section: dict, key: str, default, kind, where: str):
+    """section[key] (or default) as int or float; ValueError naming the key otherwise."""
+    value = section.get(key, default)
+    if kind is int and isinstance(value, float) and not value.is_integer():
+        raise ValueError(f"{where} {key} = {value!r}: expected a whole number")
+    try:
+        return kind(value)
+    except (TypeError, ValueError):
+        what = "a whole number" if kind is int else "a number"
+        raise ValueError(f"{where} {key} = {value!r}: expected {what}") from None
+
+
 def read_config(path: str | os.PathLike[str]) -> Config:
     """Read and check a configuration file.
 
@@ -136,6 +148,7 @@ def read_config(path: str | os.PathLike[str]) -> Config:
     model = doc.get("model", {})
     test = doc.get("test", {})
     cal = doc.get("calibration", {})
+    where = f"{path}: [calibration]"
     out = doc.get("output", {})
     deck = file(model, "deck", "model")
     params = file(model, "parameters", "model")
@@ -148,17 +161,24 @@ def read_config(path: str | os.PathLike[str]) -> Config:
         if test_frf is None:
             raise ValueError(f"{path}: [test.identify] needs [test] frf")
         t = test["identify"]
+        where = f"{path}: [test.identify]"
         orders = t.get("orders", "auto")
         if orders == "auto":
             orders = None
         elif isinstance(orders, list):
-            orders = [None if o == "auto" else int(o) for o in orders]
+            orders = [None if o == "auto" else _number({"orders": o}, "orders", None, int, where)
+                      for o in orders]  # fmt: skip
         else:
-            orders = int(orders)
-        ident = IdentifySettings(_band(t.get("band"), f"{path}: [test.identify] band"),
-                                 tuple(float(x) for x in t.get("splits", [])), orders,
-                                 int(t.get("max_order", 24)), float(t.get("gamma", 1.43)),
-                                 float(t.get("beta", 100.0)))  # fmt: skip
+            orders = _number(t, "orders", None, int, where)
+        splits = t.get("splits", [])
+        if not isinstance(splits, list):
+            raise ValueError(f"{where} splits = {splits!r}: expected a list of frequencies")
+        ident = IdentifySettings(_band(t.get("band"), f"{where} band"),
+                                 tuple(_number({"splits": x}, "splits", None, float, where)
+                                       for x in splits), orders,
+                                 _number(t, "max_order", 24, int, where),
+                                 _number(t, "gamma", 1.43, float, where),
+                                 _number(t, "beta", 100.0, float, where))  # fmt: skip
     if "band" not in cal:
         raise ValueError(f"{path}: [calibration] needs band = [f_lo, f_hi]")
     band = _band(cal["band"], f"{path}: [calibration] band")
@@ -169,32 +189,32 @@ def read_config(path: str | os.PathLike[str]) -> Config:
                              "model ([test.identify] or [test] model); give a number")  # fmt: skip
         zeta0 = None
     else:
-        zeta0 = float(zeta0)
+        zeta0 = _number(cal, "zeta0", None, float, where)
         if not 0 < zeta0 < 1:
             raise ValueError(f"{path}: [calibration] zeta0 = {zeta0}: expected 0 < zeta0 < 1")
     metric = str(cal.get("metric", "log-magnitude"))
     if metric not in METRICS:
         raise ValueError(f"{path}: [calibration] metric = {metric!r}: expected one of "
                          f"{', '.join(METRICS)}")  # fmt: skip
-    sigma = cal.get("noise_sigma")
+    sigma = _number(cal, "noise_sigma", 0.0, float, where)
     surrogate = str(cal.get("surrogate", "exact"))
     if surrogate not in ("exact", "first-order"):
         raise ValueError(f"{path}: [calibration] surrogate = {surrogate!r}: expected \"exact\" "
                          "or \"first-order\"")  # fmt: skip
     defaults = (("reduction_modes", 100), ("starts", 8), ("workers", 2), ("seed", 1),
                 ("max_iterations", 30), ("max_cycles", 5))
-    ints = {k: int(cal.get(k, d)) for k, d in defaults}
+    ints = {k: _number(cal, k, d, int, where) for k, d in defaults}
     for k in ("reduction_modes", "starts", "workers", "max_iterations", "max_cycles"):
         if ints[k] < 1:
             raise ValueError(f"{path}: [calibration] {k} must be at least 1")
     return Config(
         path=path, deck=deck, parameters=params, test_frf=test_frf, test_model=test_model,
         identify=ident, band=band, model_units=model.get("units", "mm/s^2/N"), zeta0=zeta0,
-        samples_per_bandwidth=float(cal.get("samples_per_bandwidth", 3.0)), metric=metric,
-        settle=float(cal.get("settle", 1e-3)), surrogate=surrogate,
-        regularization=float(cal.get("regularization", 0.0)),
+        samples_per_bandwidth=_number(cal, "samples_per_bandwidth", 3.0, float, where),
+        metric=metric, settle=_number(cal, "settle", 1e-3, float, where), surrogate=surrogate,
+        regularization=_number(cal, "regularization", 0.0, float, where),
         noise_sigma=float(sigma) if sigma else None,
-        identifiable_crlb=float(cal.get("identifiable_crlb", 0.05)),
+        identifiable_crlb=_number(cal, "identifiable_crlb", 0.05, float, where),
         crlb_bands=tuple(_band(b, f"{path}: [calibration] crlb_bands")
                          for b in cal.get("crlb_bands", [])),
         exclude_suspect_channels=bool(cal.get("exclude_suspect_channels", True)),

@@ -164,6 +164,17 @@ def current_value(model: Model, card: str, ident: int, field: str) -> float:
     return float(box[spec.column][row])
 
 
+def _value(item: dict, key: str, kind, where: str):
+    """item[key] as int or float; ValueError naming the parameter and key otherwise."""
+    try:
+        if kind is int and isinstance(item[key], float):
+            raise ValueError
+        return kind(item[key])
+    except (TypeError, ValueError):
+        what = "a whole number" if kind is int else "a number"
+        raise ValueError(f"{where}: {key} = {item[key]!r}: expected {what}") from None
+
+
 def read_parameters(path: str | os.PathLike[str], model: Model) -> list[Parameter]:
     """Parameters of a TOML file (see the module docstring), nominal values from the model.
 
@@ -195,7 +206,7 @@ def read_parameters(path: str | os.PathLike[str], model: Model) -> list[Paramete
             known = ", ".join(f"{c} {f}" for c, f in FIELDS)
             raise ValueError(f"{where}: {card} {field} is not a parameter field femcal "
                              f"calibrates ({known})")  # fmt: skip
-        ident = int(item["id"])
+        ident = _value(item, "id", int, where)
         try:
             nominal = current_value(model, card, ident, field)
         except ValueError as e:
@@ -203,13 +214,14 @@ def read_parameters(path: str | os.PathLike[str], model: Model) -> list[Paramete
         if not np.isfinite(nominal) or nominal == 0:
             raise ValueError(f"{where}: {card} {ident} {field} is {nominal} in the deck; a "
                              "parameter needs a nonzero nominal value")  # fmt: skip
-        if "nominal" in item and not np.isclose(float(item["nominal"]), nominal, rtol=1e-9):
+        if "nominal" in item and not np.isclose(_value(item, "nominal", float, where), nominal,
+                                                rtol=1e-9):  # fmt: skip
             raise ValueError(f"{where}: nominal {item['nominal']} but the deck has {nominal}")
         if "lower" in item and "upper" in item:
-            lo, hi = float(item["lower"]), float(item["upper"])
+            lo, hi = _value(item, "lower", float, where), _value(item, "upper", float, where)
         elif "lower_rel" in item and "upper_rel" in item:
-            lo = nominal * (1.0 + float(item["lower_rel"]))
-            hi = nominal * (1.0 + float(item["upper_rel"]))
+            lo = nominal * (1.0 + _value(item, "lower_rel", float, where))
+            hi = nominal * (1.0 + _value(item, "upper_rel", float, where))
         else:
             raise ValueError(f"{where}: give bounds as lower and upper (absolute) or lower_rel "
                              "and upper_rel (fractions of the nominal)")  # fmt: skip
