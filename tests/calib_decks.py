@@ -3,7 +3,7 @@ a tip mass, a bush and a spring, every kind of calibration parameter in a few hu
 
 from __future__ import annotations
 
-import numpy as np
+from pathlib import Path
 
 
 def plate_deck(nx: int = 6, ny: int = 3, *, lx: float = 600.0, ly: float = 300.0) -> str:
@@ -111,4 +111,17 @@ lower_rel = -0.5
 upper_rel = 0.5
 """
 
-__all__ = ["PARAMS_TOML", "np", "plate_deck"]
+
+
+def write_plate(folder: Path):
+    """Write ``plate.bdf`` and ``p.toml`` (all nine parameters) into ``folder``; return the
+    deck, its model and the parameters."""
+    from femcal.calibrate.parameters import read_parameters
+    from femcal.deck import read_deck
+    from femcal.model import build_model
+
+    (folder / "plate.bdf").write_text(plate_deck())
+    (folder / "p.toml").write_text(PARAMS_TOML)
+    deck = read_deck(folder / "plate.bdf")
+    model = build_model(deck)
+    return deck, model, read_parameters(folder / "p.toml", model)

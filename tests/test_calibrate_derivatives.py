@@ -25,19 +25,14 @@ from femcal.deck import read_deck
 from femcal.model import build_model
 from femcal.structure import assemble
 
-from .calib_decks import PARAMS_TOML, plate_deck
+from .calib_decks import PARAMS_TOML, plate_deck, write_plate
 
 
 @pytest.fixture(scope="module")
 def plate(tmp_path_factory):
     d = tmp_path_factory.mktemp("plate")
-    deck_path = d / "plate.bdf"
-    deck_path.write_text(plate_deck())
-    (d / "params.toml").write_text(PARAMS_TOML)
-    deck = read_deck(deck_path)
-    model = build_model(deck)
-    params = read_parameters(d / "params.toml", model)
-    return deck_path, deck, model, params
+    deck, model, params = write_plate(d)
+    return d / "plate.bdf", deck, model, params
 
 
 def _rel(A, B) -> float:

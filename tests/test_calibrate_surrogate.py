@@ -8,17 +8,15 @@ import pytest
 import scipy.linalg as sla
 
 from femcal.calibrate.metric import jacobian, log_frequencies, residuals
-from femcal.calibrate.parameters import read_parameters, with_values
+from femcal.calibrate.parameters import with_values
 from femcal.calibrate.surrogate import build_surrogate
-from femcal.deck import read_deck
 from femcal.frf import channel_matrix, modal_frf
 from femcal.frfdata import Channel
 from femcal.modal import EigenRequest
-from femcal.model import build_model
 from femcal.sol103 import solve_sol103
 from femcal.structure import assemble
 
-from .calib_decks import PARAMS_TOML, plate_deck
+from .calib_decks import write_plate
 
 OUTS = [Channel.parse(s) for s in ("28:+Z", "25:+Z", "14:+Y", "21:3", "7:+X")]
 INS = [Channel.parse(s) for s in ("28:+Z", "11:+Y")]
@@ -26,13 +24,7 @@ INS = [Channel.parse(s) for s in ("28:+Z", "11:+Y")]
 
 @pytest.fixture(scope="module")
 def setup(tmp_path_factory):
-    d = tmp_path_factory.mktemp("sur")
-    (d / "plate.bdf").write_text(plate_deck())
-    (d / "p.toml").write_text(PARAMS_TOML)
-    deck = read_deck(d / "plate.bdf")
-    model = build_model(deck)
-    params = read_parameters(d / "p.toml", model)
-    return deck, model, params
+    return write_plate(tmp_path_factory.mktemp("sur"))
 
 
 def full_frf(deck, model, params, p, f, zeta, n_modes):

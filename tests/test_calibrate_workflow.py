@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from femcal.calibrate.config import read_config
-from femcal.calibrate.parameters import current_value, read_parameters, with_values
+from femcal.calibrate.parameters import current_value, with_values
 from femcal.calibrate.workflow import run
 from femcal.cli import main
 from femcal.deck import read_deck
@@ -20,7 +20,7 @@ from femcal.modal import EigenRequest
 from femcal.model import build_model
 from femcal.sol103 import solve_sol103
 
-from .calib_decks import PARAMS_TOML, plate_deck
+from .calib_decks import PARAMS_TOML, plate_deck, write_plate
 
 TRUE_P = np.array([0.08, -0.05, 0.06, 0.1, -0.1, 0.12, 0.2, -0.15, 0.1])
 OUTS = [*(f"{g}:+Z" for g in (3, 5, 7, 10, 12, 14, 17, 19, 21, 24, 26, 28)), "28:+X", "14:+Y"]
@@ -49,11 +49,7 @@ identifiable_crlb = 0.01
 @pytest.fixture(scope="module")
 def study(tmp_path_factory):
     d = tmp_path_factory.mktemp("study")
-    (d / "plate.bdf").write_text(plate_deck())
-    (d / "p.toml").write_text(PARAMS_TOML)
-    deck = read_deck(d / "plate.bdf")
-    model = build_model(deck)
-    params = read_parameters(d / "p.toml", model)
+    deck, model, params = write_plate(d)
     true_model = with_values(model, params, [p.value(x) for p, x in zip(params, TRUE_P,
                                                                         strict=True)])  # fmt: skip
     modes, _ = solve_sol103(deck, true_model, request=EigenRequest(nd=40))
