@@ -6,12 +6,15 @@
    damping by default) with its damped frequency kept, and every FE mode gets modal damping
    zeta0, so mass and stiffness parameters are calibrated without pairing modes;
 3. frequencies at equal logarithmic steps, a few per half-power bandwidth 2 zeta0 w;
-4. the FE model is reduced on its modes at the current point, with exact parameter
-   derivatives of K and M (:mod:`femcal.calibrate.surrogate`);
+4. the FE model is reduced on its modes at the current point, with the exact polynomial
+   dependence of K and M on the parameters (or FEMCali's first-order form)
+   (:mod:`femcal.calibrate.surrogate`);
 5. Levenberg-Marquardt within the bounds on the log-FRF deviation, from Latin hypercube
    starts (the nominal among them) in parallel processes; the best minimum wins;
-6. the surrogate is rebuilt at the new point and LM run again from there until no
-   parameter moves more than ``settle`` (cycles);
+6. trust-region cycles: the surrogate is rebuilt at the candidate, where it is the full
+   model; the step is kept if the full model's cost fell, and LM runs again within the trust
+   radius, until the parameters the CRLB calls informed move less than ``settle`` (or the
+   radius falls below it, or ``max_cycles`` is reached);
 7. the calibrated model is solved in full; frequencies, MAC and the deviation before and
    after, the Cramér-Rao bounds at the solution, and the calibrated deck are written.
 """
