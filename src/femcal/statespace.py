@@ -91,8 +91,17 @@ def from_modes(
 
 
 def frequency_response(ss: StateSpace, freq_hz: np.ndarray) -> np.ndarray:
-    """``C (i w I - A)^-1 B + D`` as (n_out, n_in, n_freq) at freq_hz (n_freq,), Hz."""
+    """``C (i w I - A)^-1 B + D`` as (n_out, n_in, n_freq) at freq_hz (n_freq,), Hz.
+
+    Through A's eigen-decomposition (one modal sum for all frequencies) when A is well
+    diagonalisable, else one linear solve per frequency."""
     w = 2.0 * np.pi * np.asarray(freq_hz, float)
+    if ss.n_states:
+        lam, V = np.linalg.eig(ss.A)
+        if np.linalg.cond(V) < 1e8:
+            q = 1.0 / (1j * w[None, :] - lam[:, None])  # (n, n_freq)
+            return (np.einsum("pn,nk,nm->pmk", ss.C @ V, q, np.linalg.solve(V, ss.B),
+                              optimize=True) + ss.D[:, :, None])  # fmt: skip
     eye = np.eye(ss.n_states)
     H = np.empty((ss.C.shape[0], ss.B.shape[1], len(w)), complex)
     for f, wf in enumerate(w):

@@ -38,7 +38,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..frfdata import Channel, FRFData
-from ..statespace import StateSpace, poles_to_modal
+from ..statespace import StateSpace, frequency_response, poles_to_modal
 from .channels import consistency_error, outliers
 from .lsq import FixedPoleModel, Resolvent, fit_c, fit_fixed_poles, response
 from .stabilization import Stabilization, physical_poles, poles_at_modes, stabilization
@@ -144,16 +144,6 @@ class IdentifiedModel:
         H = frequency_response(self.system, freq_hz)
         return FRFData(np.asarray(freq_hz, float), H, self.outputs, self.inputs,
                        self.quantity, self.units)  # fmt: skip
-
-
-def frequency_response(system: StateSpace, freq_hz: np.ndarray) -> np.ndarray:
-    """H (p, m, K) of a (diagonalisable) state-space model through its eigenvalues."""
-    s = 2j * np.pi * np.asarray(freq_hz, float)
-    lam, V = np.linalg.eig(system.A)
-    CV = system.C @ V
-    WB = np.linalg.solve(V, system.B)
-    q = 1.0 / (s[None, :] - lam[:, None])  # (n, K)
-    return np.einsum("pn,nk,nm->pmk", CV, q, WB, optimize=True) + system.D[:, :, None]
 
 
 def residual_pole(freq_hz: float, zeta: float) -> complex:
