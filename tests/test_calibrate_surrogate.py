@@ -110,3 +110,31 @@ def test_log_frequencies_have_n_samples_per_half_power_bandwidth():
     assert f[1] / f[0] == pytest.approx(1 + 2 * 0.01 / 3, rel=2e-3)
     with pytest.raises(ValueError, match="expected 0 < f_lo < f_hi"):
         log_frequencies(0.0, 10.0, 0.01)
+
+
+def test_enriched_basis_makes_the_jacobian_at_the_centre_that_of_the_full_model(setup):
+    """Static eigenvector-derivative vectors in the basis: the surrogate is still the full
+    model at its centre (its n_modes lowest modes make the FRFs), and its Jacobian there is
+    closer to central differences of the full model than the modes-only surrogate's, whose
+    eigenvector derivatives are truncated to the basis."""
+    deck, model, params = setup
+    n = len(params)
+    c = np.linspace(0.05, -0.05, n)
+    f = log_frequencies(10.0, 250.0, 0.02, 2.0)
+    h = 1e-5
+    J_full = np.array([(full_frf(deck, model, params, c + h * e, f, 0.02, 20)[0]
+                        - full_frf(deck, model, params, c - h * e, f, 0.02, 20)[0]) / (2 * h)
+                       for e in np.eye(n)])  # fmt: skip
+    H_full, modes = full_frf(deck, model, params, c, f, 0.02, 20)
+    worst = {}
+    for enrich in (None, 250.0):
+        sur, _ = build_surrogate(deck, model, params, c, OUTS, INS, n_modes=20, zeta=0.02,
+                                 enrich_hz=enrich)  # fmt: skip
+        H, dH = sur.frf_and_jacobian(c, f)
+        np.testing.assert_allclose(H, H_full, rtol=1e-6, atol=1e-8 * np.abs(H_full).max())
+        np.testing.assert_allclose(sur.frequencies_hz(c)[:20], modes.frequencies_hz, rtol=1e-9)
+        worst[enrich] = max(np.abs(dH[i] - J_full[i]).max() / np.abs(J_full[i]).max()
+                            for i in range(n))  # fmt: skip
+        if enrich:
+            assert sur.K0.shape[0] > 20  # the basis did grow
+    assert worst[250.0] < 0.3 * worst[None]

@@ -379,11 +379,10 @@ def _singular_blocks(model: Model, red: Reduction, K_aa: sp.csr_matrix) -> np.nd
         idx[inv, comp[sel] % 3] = sel
         present = idx >= 0
         blocks = np.zeros((len(nodes), 3, 3))
-        for i in range(3):
-            for j in range(3):
-                both = present[:, i] & present[:, j]
-                if both.any():
-                    blocks[both, i, j] = np.asarray(K_aa[idx[both, i], idx[both, j]]).ravel()
+        both = present[:, :, None] & present[:, None, :]  # (node, i, j): both components in a
+        b, i, j = np.nonzero(both)
+        # one look-up of every block entry (scipy's element indexing, called once)
+        blocks[b, i, j] = np.asarray(K_aa[idx[b, i], idx[b, j]]).ravel()
         scale = np.abs(blocks).max(axis=(1, 2))
         # missing components: make them stiff so they never look singular
         for i in range(3):

@@ -26,6 +26,10 @@
     metric = "log-magnitude"                # or "complex-log"
     reduction_modes = 100                   # modes of the surrogate's basis
     surrogate = "exact"                     # or "first-order" (FEMCali's)
+    enrich_hz = 150.0                       # static eigenvector-derivative vectors of the
+                                            #  modes up to this frequency join the basis
+                                            #  (default 1.5 x the band's top; 0: none)
+    enrich_vectors = 100                    # at most this many (default reduction_modes)
     starts = 8                              # Latin hypercube starts (the nominal is one)
     workers = 2                             # parallel processes for the starts
     seed = 1
@@ -81,6 +85,8 @@ class Config:
     metric: str = "log-magnitude"
     reduction_modes: int = 100
     surrogate: str = "exact"
+    enrich_hz: float = 0.0
+    enrich_vectors: int = 100
     starts: int = 8
     workers: int = 2
     seed: int = 1
@@ -204,14 +210,21 @@ def read_config(path: str | os.PathLike[str]) -> Config:
     defaults = (("reduction_modes", 100), ("starts", 8), ("workers", 2), ("seed", 1),
                 ("max_iterations", 30), ("max_cycles", 5))
     ints = {k: _number(cal, k, d, int, where) for k, d in defaults}
-    for k in ("reduction_modes", "starts", "workers", "max_iterations", "max_cycles"):
+    ints["enrich_vectors"] = _number(cal, "enrich_vectors", ints["reduction_modes"], int, where)
+    for k in ("reduction_modes", "starts", "workers", "max_iterations", "max_cycles",
+              "enrich_vectors"):
         if ints[k] < 1:
             raise ValueError(f"{path}: [calibration] {k} must be at least 1")
+    enrich_hz = _number(cal, "enrich_hz", 1.5 * band[1], float, where)
+    if enrich_hz < 0:
+        raise ValueError(f"{path}: [calibration] enrich_hz = {enrich_hz}: expected a frequency "
+                         "in Hz, or 0 for no enrichment")  # fmt: skip
     return Config(
         path=path, deck=deck, parameters=params, test_frf=test_frf, test_model=test_model,
         identify=ident, band=band, model_units=model.get("units", "mm/s^2/N"), zeta0=zeta0,
         samples_per_bandwidth=_number(cal, "samples_per_bandwidth", 3.0, float, where),
         metric=metric, settle=_number(cal, "settle", 1e-3, float, where), surrogate=surrogate,
+        enrich_hz=enrich_hz,
         regularization=_number(cal, "regularization", 0.0, float, where),
         noise_sigma=float(sigma) if sigma else None,
         identifiable_crlb=_number(cal, "identifiable_crlb", 0.05, float, where),

@@ -39,6 +39,7 @@ import scipy.linalg as sla
 
 from ..deck.deck import Deck
 from ..frf import QUANTITIES, channel_matrix
+from ..linalg import factorize
 from ..modal import EigenRequest
 from ..model.model import Model
 from ..sol103 import solve_sol103
@@ -64,7 +65,11 @@ class Surrogate:
     C : (n_out, r) sensor channels on the basis; B : (n_in, r) inputs on the basis.
     zeta : modal damping ratio of every mode.
     quantity : receptance, mobility or accelerance.
-    basis_hz : (r,) frequencies of the basis modes at the centre.
+    basis_hz : (n_modes,) frequencies of the basis modes at the centre.
+    n_frf : how many of the lowest surrogate modes make the FRFs (0: all r). With an
+        enriched basis (static eigenvector-derivative vectors after the modes) the FRFs sum
+        the n_modes lowest modes, as the unenriched surrogate and the full model's modal
+        FRFs do; the extra vectors serve the eigenvector derivatives.
     """
 
     p_center: np.ndarray
@@ -78,6 +83,7 @@ class Surrogate:
     zeta: float
     quantity: str
     basis_hz: np.ndarray
+    n_frf: int = 0
 
     @property
     def n_params(self) -> int:
@@ -126,9 +132,14 @@ class Surrogate:
     def frf(self, p: np.ndarray, freq_hz: np.ndarray) -> np.ndarray:
         """H (n_out, n_in, n_f) at p."""
         lam, psi = self.modes(p)
+        lam, psi = lam[: self._n_frf], psi[:, : self._n_frf]
         q = self._q(lam, freq_hz)[0]
         S, P = self.C @ psi, self.B @ psi
         return np.einsum("oj,ij,jf->oif", S, P, q, optimize=True)
+
+    @property
+    def _n_frf(self) -> int:
+        return self.n_frf or self.K0.shape[0]
 
     def _q(self, lam: np.ndarray, freq_hz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Modal factors q (r, n_f) and dq/dlam (r, n_f)."""
@@ -144,24 +155,28 @@ class Surrogate:
     def frf_and_jacobian(self, p: np.ndarray, freq_hz: np.ndarray
                          ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
         """H (n_out, n_in, n_f) and dH/dp (n_p, n_out, n_in, n_f) at p."""
-        lam, psi = self.modes(p)
+        lam_all, psi_all = self.modes(p)
+        m = self._n_frf  # the FRF's modes: j < m; their derivatives use all r modes k
+        lam, psi = lam_all[:m], psi_all[:, :m]
         q, dq = self._q(lam, freq_hz)
-        S, P = self.C @ psi, self.B @ psi  # (n_out, r), (n_in, r)
+        S_all, P_all = self.C @ psi_all, self.B @ psi_all  # (n_out, r), (n_in, r)
+        S, P = S_all[:, :m], P_all[:, :m]
         H = np.einsum("oj,ij,jf->oif", S, P, q, optimize=True)
-        gap = lam[None, :] - lam[:, None]  # [k, j] = lam_j - lam_k
-        tiny = 1e-12 * max(float(np.abs(lam).max()), 1.0)
+        gap = lam[None, :] - lam_all[:, None]  # [k, j] = lam_j - lam_k, (r, m)
+        tiny = 1e-12 * max(float(np.abs(lam_all).max()), 1.0)
         inv_gap = np.where(np.abs(gap) > tiny, 1.0 / np.where(np.abs(gap) > tiny, gap, 1.0), 0.0)
         n_o, n_i, n_f = H.shape
         dH = np.empty((self.n_params, n_o, n_i, n_f), complex)
-        SP = np.einsum("oj,ij->oij", S, P).reshape(n_o * n_i, -1)  # (o i, r)
+        SP = np.einsum("oj,ij->oij", S, P).reshape(n_o * n_i, -1)  # (o i, m)
         dK, dM = self.derivatives(p)
+        diag = np.arange(m)
         for i in range(self.n_params):
-            G = psi.T @ dK[i] @ psi
-            N = psi.T @ dM[i] @ psi
-            dlam = np.diag(G) - lam * np.diag(N)
+            G = psi_all.T @ (dK[i] @ psi)  # (r, m)
+            N = psi_all.T @ (dM[i] @ psi)
+            dlam = G[diag, diag] - lam * N[diag, diag]
             Cc = (G - N * lam[None, :]) * inv_gap
-            np.fill_diagonal(Cc, -0.5 * np.diag(N))
-            dS, dP = S @ Cc, P @ Cc
+            Cc[diag, diag] = -0.5 * N[diag, diag]
+            dS, dP = S_all @ Cc, P_all @ Cc
             shape_part = (np.einsum("oj,ij->oij", dS, P) + np.einsum("oj,ij->oij", S, dP))
             dH[i] = (shape_part.reshape(n_o * n_i, -1) @ q
                      + (SP * dlam[None, :]) @ dq).reshape(n_o, n_i, n_f)  # fmt: skip
@@ -198,10 +213,108 @@ def _reexpand(polys: list[GroupPolynomial], Phi: np.ndarray, center: np.ndarray,
     return exps, Kt, Mt
 
 
+#: The negative shift (rad^2/s^2 per unit modal mass) of the static solves: K - SHIFT M is
+#: positive definite for free-free models too (their rigid-body modes are in the basis).
+STATIC_SHIFT = -((2 * np.pi) ** 2)
+#: Derivative vectors whose own eigenvalue is above this times the basis's largest are
+#: dropped (frequencies 100 times the basis's top).
+STIFF_CUTOFF = 1e4
+
+
+def _polynomial_derivative(polys: list[GroupPolynomial], center: np.ndarray, j: int,
+                           X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """dK/dp_j X and dM/dp_j X (n_g, m) at ``center`` from the group polynomials about 0."""
+    dKX = np.zeros(X.shape)
+    dMX = np.zeros(X.shape)
+    for g in polys:
+        if j not in g.params:
+            continue
+        idx = list(g.params)
+        k = idx.index(j)
+        c = center[idx]
+        for a, Kc, Mc in zip(g.exponents, g.K, g.M, strict=True):
+            if a[k] == 0:
+                continue
+            rest = np.delete(np.arange(len(idx)), k)
+            w = a[k] * c[k] ** (a[k] - 1) * float(np.prod(c[rest] ** a[rest]))
+            if w == 0.0:
+                continue
+            if Kc.nnz:
+                dKX += w * (Kc @ X)
+            if Mc.nnz:
+                dMX += w * (Mc @ X)
+    return dKX, dMX
+
+
+def derivative_vectors(polys: list[GroupPolynomial], center: np.ndarray, K: object,
+                       M: object, red: object, Phi: np.ndarray, lam_basis: np.ndarray,
+                       m: int, n_keep: int, depth: int = 2) -> np.ndarray:  # fmt: skip
+    """Static eigenvector-derivative vectors to enrich a modal basis.
+
+    The part of a mode's derivative dphi_i/dp_j outside the basis Phi is, up to terms in
+    lam_i / lam_k of the modes k not in the basis, ``(K - s M)^-1 (dK_j - lam_i dM_j) phi_i``
+    (s a small negative shift). These vectors for the given modes ``lam`` (m,) and every
+    parameter, M-orthogonalised against Phi (n_g, r) and compressed to the ``n_keep``
+    strongest directions of the unit-normalised set, make the Rayleigh-Ritz surrogate's
+    eigenvector derivatives (and so its FRF Jacobian) right at the centre, where the modes
+    alone truncate them.
+
+    Parameters
+    ----------
+    K, M : g-set matrices at the centre (sparse). red : the constraint reduction
+        (:class:`femcal.constraints.Reduction`): the solves are on its a-set.
+    Phi : (n_g, r) M-normalised modes at the centre, lam_basis (r,) their eigenvalues; the
+        first m of them get derivative vectors.
+
+    Returns
+    -------
+    (n_g, q) M-orthonormal vectors, M-orthogonal to Phi, q <= n_keep.
+    """
+    lam = lam_basis[:m]
+    Ka, Ma = red.reduce(K), red.reduce(M)
+    solve, _ = factorize((Ka - STATIC_SHIFT * Ma).tocsc())
+    Tt = red.T.T.tocsr()
+    cols = []
+    for j in range(center.size):
+        dKX, dMX = _polynomial_derivative(polys, center, j, Phi[:, :m])
+        F = Tt @ (dKX - dMX * lam[None, :])
+        if not np.any(F):
+            continue
+        Y = solve(F)
+        cols.append(red.T @ Y)
+        for _ in range(1, depth):  # (K - lam M)^-1 = K^-1 + lam K^-1 M K^-1 + ...
+            Y = solve(Ma @ Y)
+            cols.append(red.T @ Y)
+    if not cols:
+        return np.zeros((Phi.shape[0], 0))
+    X = np.hstack(cols)
+    for _ in range(2):  # M-orthogonal to the basis (twice: rounding)
+        X -= Phi @ (Phi.T @ (M @ X))
+    MX = M @ X
+    norms = np.sqrt(np.maximum(np.einsum("nk,nk->k", X, MX), 0.0))
+    big = norms > 1e-12 * max(float(norms.max()), 1e-300)
+    X, MX = X[:, big] / norms[big], MX[:, big] / norms[big]
+    w, V = np.linalg.eigh(X.T @ MX)
+    order = np.argsort(w)[::-1]
+    w, V = w[order], V[:, order]
+    keep = w > 1e-10 * w[0]
+    keep[n_keep:] = False
+    Q = X @ (V[:, keep] / np.sqrt(w[keep]))
+    Q -= Phi @ (Phi.T @ (M @ Q))
+    # the vectors' own modes (K- and M-orthogonal); those far above the basis (stiff
+    # directions: axial bars, springs, drilling) are dropped: they add ~lam_i / theta to the
+    # derivatives and would spoil the small eigenproblem's accuracy (its error is ~eps times
+    # its largest eigenvalue)
+    theta, U = sla.eigh(Q.T @ (K @ Q), Q.T @ (M @ Q))
+    keep = theta <= STIFF_CUTOFF * float(np.max(np.abs(lam_basis)))
+    return Q @ U[:, keep]
+
+
 def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center: np.ndarray,
                     outputs: Sequence, inputs: Sequence, *, n_modes: int = 100,
                     zeta: float = 0.01, quantity: str = "accelerance", order: str = "exact",
                     polynomials: list | None = None, options: Options | None = None,
+                    enrich_hz: float | None = None, n_enrich: int | None = None,
                     progress: Callable[[str], None] | None = None,
                     ) -> tuple[Surrogate, object]:  # fmt: skip
     """Reduce the (nominal) model at ``p_center`` on its first ``n_modes`` modes there.
@@ -214,6 +327,11 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
         (:func:`femcal.calibrate.derivatives.group_polynomials` with ``constant=True``);
         computed here if not given. They do not depend on the centre, so a run computes
         them once and reduces them on each new basis.
+    enrich_hz : with it, the basis gets static eigenvector-derivative vectors of the modes
+        up to this frequency (:func:`derivative_vectors`), at most ``n_enrich`` of them
+        (default ``n_modes``); the FRFs still sum the ``n_modes`` lowest modes. This makes
+        the Jacobian right at the centre (the modes alone truncate the eigenvector
+        derivatives), which the trust-region cycles near the solution need.
 
     Returns
     -------
@@ -227,14 +345,24 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
     values = [par.value(p) for par, p in zip(params, p_center, strict=True)]
     model_c = with_values(model, params, values)
     mats = assemble(model_c, options)
-    modes, _ = solve_sol103(deck, model_c, matrices=mats,
-                            request=EigenRequest(nd=n_modes))  # fmt: skip
+    modes, red = solve_sol103(deck, model_c, matrices=mats,
+                              request=EigenRequest(nd=n_modes))  # fmt: skip
     Phi = modes.shapes  # (n_g, r), mass-normalised
+    n_frf = Phi.shape[1]
     say(f"surrogate: {Phi.shape[1]} modes up to {modes.frequencies_hz[-1]:.1f} Hz; the "
         f"{order} dependence of K and M on {len(params)} parameters")
     if polynomials is None:
         polynomials = group_polynomials(model, params, np.zeros(len(params)), options=options,
                                         constant=True)  # fmt: skip
+    if enrich_hz is not None:
+        m = int(np.searchsorted(modes.frequencies_hz, enrich_hz, side="right"))
+        if m:
+            extra = derivative_vectors(polynomials, np.asarray(p_center, float), mats.K,
+                                       mats.M, red, Phi, modes.eigenvalues, m,
+                                       n_enrich or n_modes)  # fmt: skip
+            Phi = np.hstack([Phi, extra])
+            say(f"surrogate basis enriched: {extra.shape[1]} static eigenvector-derivative "
+                f"vectors of the {m} modes up to {enrich_hz:g} Hz (the stiffer ones dropped)")
     exps, Kt, Mt = _reexpand(polynomials, Phi, np.asarray(p_center, float), len(params),
                              first_order=order == "first-order")  # fmt: skip
     r = Phi.shape[1]
@@ -246,5 +374,5 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
                     np.array(exps, int).reshape(-1, len(params)),
                     np.array(Kt).reshape(-1, r, r), np.array(Mt).reshape(-1, r, r),
                     np.asarray(Cg @ Phi), np.asarray(Bg @ Phi), float(zeta), quantity,
-                    modes.frequencies_hz.copy())  # fmt: skip
+                    modes.frequencies_hz.copy(), n_frf)  # fmt: skip
     return sur, modes

@@ -73,6 +73,11 @@ class Outcome:
     test_shapes: np.ndarray
 
 
+#: Changes whenever the surrogate's construction does, so that finished starts of an older
+#: version are not resumed.
+SURROGATE_VERSION = 2
+
+
 def _fingerprint(cfg: Config, extra: str) -> str:
     text = json.dumps(cfg.raw, sort_keys=True, default=str) + extra
     for f in (cfg.deck, cfg.parameters, cfg.test_frf, cfg.test_model):
@@ -179,7 +184,8 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
     say(f"metric: {cfg.metric} over {band[0]:g}-{band[1]:g} Hz, {len(freq)} frequencies "
         f"({cfg.samples_per_bandwidth:g} per half-power bandwidth at zeta0 = {zeta0:.4f}), "
         f"{len(outputs)} outputs x {len(inputs)} inputs")  # fmt: skip
-    fp = _fingerprint(cfg, f"{n_starts}" + hashlib.sha256(freq.tobytes() + H_test.tobytes()
+    fp = _fingerprint(cfg, f"{n_starts}-{SURROGATE_VERSION}-{cfg.enrich_hz}-"
+                      f"{cfg.enrich_vectors}" + hashlib.sha256(freq.tobytes() + H_test.tobytes()
                                                           ).hexdigest())  # fmt: skip
     state_path = out / "starts" / "cycles.json"
     rng = np.random.default_rng(cfg.seed)
@@ -197,7 +203,8 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
         return build_surrogate(deck, model, params, p, outputs, inputs,
                                n_modes=cfg.reduction_modes, zeta=zeta0, quantity=quantity,
                                order=cfg.surrogate, polynomials=polys,
-                               progress=say)  # fmt: skip
+                               enrich_hz=cfg.enrich_hz or None,
+                               n_enrich=cfg.enrich_vectors, progress=say)  # fmt: skip
 
     def starts_in(c: int, problem: Problem, pts: list[np.ndarray], center: np.ndarray):
         folder = out / "starts" / f"cycle{c}"
@@ -360,7 +367,8 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
         "starts": [{k: v for k, v in s.items() if k != "fingerprint"}
                    for s in cycles[0]["starts"]],
         "settled": settled, "reduction_modes": cfg.reduction_modes,
-        "surrogate": cfg.surrogate,
+        "surrogate": cfg.surrogate, "enrich_hz": cfg.enrich_hz,
+        "enrich_vectors": cfg.enrich_vectors,
         "model_dof": model.n_dof, "seconds": time.perf_counter() - t0,
         "calibrated_deck": f"{cfg.deck.stem}_calibrated.bdf",
     }  # fmt: skip
