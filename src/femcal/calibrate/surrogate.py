@@ -183,6 +183,16 @@ class Surrogate:
         return H, dH
 
 
+def _shift_weight(a, b, c) -> float:
+    """Weight of the term ``prod d_i^a_i`` (about p = 0) in the term ``prod (d_i - c_i)^b_i``
+    about c: ``prod_i binom(a_i, b_i) c_i^(a_i - b_i)`` (0 unless a >= b). With b a unit
+    vector it is the monomial's derivative at c."""
+    if any(ai < bi for ai, bi in zip(a, b, strict=True)):
+        return 0.0
+    return float(np.prod([comb(int(ai), int(bi)) * ci ** (ai - bi)
+                          for ai, bi, ci in zip(a, b, c, strict=True)]))  # fmt: skip
+
+
 def _reexpand(polys: list[GroupPolynomial], Phi: np.ndarray, center: np.ndarray, n_p: int, *,
               first_order: bool) -> tuple[list, list, list]:  # fmt: skip
     """Reduce each group's terms about p = 0 on the basis and re-expand them about the
@@ -200,9 +210,8 @@ def _reexpand(polys: list[GroupPolynomial], Phi: np.ndarray, center: np.ndarray,
             Kb = np.zeros_like(red[b][0])
             Mb = np.zeros_like(red[b][1])
             for a, (Ka, Ma) in red.items():
-                if all(ai >= bi for ai, bi in zip(a, b, strict=True)):
-                    w = float(np.prod([comb(ai, bi) * ci ** (ai - bi)
-                                       for ai, bi, ci in zip(a, b, c, strict=True)]))  # fmt: skip
+                w = _shift_weight(a, b, c)
+                if w:
                     Kb += w * Ka
                     Mb += w * Ma
             e = np.zeros(n_p, int)
@@ -230,13 +239,11 @@ def _polynomial_derivative(polys: list[GroupPolynomial], center: np.ndarray, j: 
         if j not in g.params:
             continue
         idx = list(g.params)
-        k = idx.index(j)
+        unit = np.zeros(len(idx), int)
+        unit[idx.index(j)] = 1
         c = center[idx]
         for a, Kc, Mc in zip(g.exponents, g.K, g.M, strict=True):
-            if a[k] == 0:
-                continue
-            rest = np.delete(np.arange(len(idx)), k)
-            w = a[k] * c[k] ** (a[k] - 1) * float(np.prod(c[rest] ** a[rest]))
+            w = _shift_weight(a, unit, c)
             if w == 0.0:
                 continue
             if Kc.nnz:
@@ -253,11 +260,12 @@ def derivative_vectors(polys: list[GroupPolynomial], center: np.ndarray, K: obje
 
     The part of a mode's derivative dphi_i/dp_j outside the basis Phi is, up to terms in
     lam_i / lam_k of the modes k not in the basis, ``(K - s M)^-1 (dK_j - lam_i dM_j) phi_i``
-    (s a small negative shift). These vectors for the given modes ``lam`` (m,) and every
-    parameter, M-orthogonalised against Phi (n_g, r) and compressed to the ``n_keep``
-    strongest directions of the unit-normalised set, make the Rayleigh-Ritz surrogate's
-    eigenvector derivatives (and so its FRF Jacobian) right at the centre, where the modes
-    alone truncate them.
+    (s a small negative shift); ``depth`` terms of the series
+    ``(K - lam M)^-1 = K^-1 + lam K^-1 M K^-1 + ...`` are taken. These vectors for the first
+    m modes and every parameter, M-orthogonalised against Phi (n_g, r) and compressed to
+    the ``n_keep`` strongest directions of the unit-normalised set, make the Rayleigh-Ritz
+    surrogate's eigenvector derivatives (and so its FRF Jacobian) right at the centre, where
+    the modes alone truncate them.
 
     Parameters
     ----------
