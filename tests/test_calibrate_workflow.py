@@ -174,3 +174,19 @@ def test_identified_test_modes_are_paired_before_and_after(study):
     for name in ("t", "E_steel", "rho_steel", "m_tip"):  # mass and plate stiffness
         k = [q.name for q in params].index(name)
         assert abs(out.p_final[k] - TRUE_P[k]) < 0.04, name
+
+
+def test_a_bad_calibration_key_is_named_in_its_own_section_beside_test_identify(study,
+                                                                                 tmp_path):
+    d, _, _, _ = study
+    bad = tmp_path / "bad.toml"
+    for name in ("plate.bdf", "p.toml", "test.npz"):
+        (tmp_path / name).write_bytes((d / name).read_bytes())
+    bad.write_text(CONFIG.replace("[calibration]", "[test.identify]\nband = [10.0, 700.0]\n\n"
+                                  "[calibration]").replace("starts = 10", 'starts = "many"'))
+    with pytest.raises(ValueError, match=r"\[calibration\] starts = 'many': expected a whole"):
+        read_config(bad)
+    bad.write_text(CONFIG.replace("[calibration]", "[test.identify]\nband = [10.0, 700.0]\n"
+                                  "gamma = \"x\"\n\n[calibration]"))  # fmt: skip
+    with pytest.raises(ValueError, match=r"\[test.identify\] gamma = 'x': expected a number"):
+        read_config(bad)

@@ -167,24 +167,24 @@ def read_config(path: str | os.PathLike[str]) -> Config:
         if test_frf is None:
             raise ValueError(f"{path}: [test.identify] needs [test] frf")
         t = test["identify"]
-        where = f"{path}: [test.identify]"
+        at = f"{path}: [test.identify]"
         orders = t.get("orders", "auto")
         if orders == "auto":
             orders = None
         elif isinstance(orders, list):
-            orders = [None if o == "auto" else _number({"orders": o}, "orders", None, int, where)
+            orders = [None if o == "auto" else _number({"orders": o}, "orders", None, int, at)
                       for o in orders]  # fmt: skip
         else:
-            orders = _number(t, "orders", None, int, where)
+            orders = _number(t, "orders", None, int, at)
         splits = t.get("splits", [])
         if not isinstance(splits, list):
-            raise ValueError(f"{where} splits = {splits!r}: expected a list of frequencies")
-        ident = IdentifySettings(_band(t.get("band"), f"{where} band"),
-                                 tuple(_number({"splits": x}, "splits", None, float, where)
+            raise ValueError(f"{at} splits = {splits!r}: expected a list of frequencies")
+        ident = IdentifySettings(_band(t.get("band"), f"{at} band"),
+                                 tuple(_number({"splits": x}, "splits", None, float, at)
                                        for x in splits), orders,
-                                 _number(t, "max_order", 24, int, where),
-                                 _number(t, "gamma", 1.43, float, where),
-                                 _number(t, "beta", 100.0, float, where))  # fmt: skip
+                                 _number(t, "max_order", 24, int, at),
+                                 _number(t, "gamma", 1.43, float, at),
+                                 _number(t, "beta", 100.0, float, at))  # fmt: skip
     if "band" not in cal:
         raise ValueError(f"{path}: [calibration] needs band = [f_lo, f_hi]")
     band = _band(cal["band"], f"{path}: [calibration] band")
