@@ -138,3 +138,49 @@ def test_enriched_basis_makes_the_jacobian_at_the_centre_that_of_the_full_model(
         if enrich:
             assert sur.K0.shape[0] > 20  # the basis did grow
     assert worst[250.0] < 0.3 * worst[None]
+
+
+def test_derivative_vectors_lumped_mass_shortcut_and_reused_factor_change_nothing(setup,
+                                                                                 monkeypatch):
+    """With a diagonal (lumped) M the derivative vectors' M-products run over the rows with
+    mass only, and the eigen solution's factor of K - sigma M may serve their solves: the
+    vectors span the same space as the general path's with their own factorisation."""
+    from femcal.calibrate import surrogate as S
+    from femcal.calibrate.derivatives import group_polynomials
+    from femcal.linalg import factorize
+
+    deck, model, params = setup
+    c = np.linspace(0.05, -0.05, len(params))
+    m = with_values(model, params, [q.value(x) for q, x in zip(params, c, strict=True)])
+    mats = assemble(m)
+    assert S._mass_root(mats.M) is not None  # the plate's mass is lumped
+    modes, red = solve_sol103(deck, m, matrices=mats, request=EigenRequest(nd=20))
+    polys = group_polynomials(model, params, np.zeros(len(params)), constant=True)
+    args = (polys, c, mats.K, mats.M, red, modes.shapes, modes.eigenvalues, 12, 30)
+    Ka, Ma = red.reduce(mats.K), red.reduce(mats.M)
+    solve, _ = factorize((Ka - S.STATIC_SHIFT * Ma).tocsc())
+    Q_lumped = S.derivative_vectors(*args, solve=solve)
+    monkeypatch.setattr(S, "_mass_root", lambda M: None)
+    Q_general = S.derivative_vectors(*args)
+    assert Q_lumped.shape == Q_general.shape and Q_lumped.shape[1] > 10
+    cosines = np.linalg.svd(Q_lumped.T @ (mats.M @ Q_general), compute_uv=False)
+    np.testing.assert_allclose(cosines, 1.0, atol=1e-8)
+    # M-orthonormal and M-orthogonal to the modes
+    np.testing.assert_allclose(Q_lumped.T @ (mats.M @ Q_lumped), np.eye(Q_lumped.shape[1]),
+                               atol=1e-10)  # fmt: skip
+    assert np.abs(modes.shapes.T @ (mats.M @ Q_lumped)).max() < 1e-10
+
+
+def test_gram_and_mass_root():
+    from femcal.calibrate.surrogate import _gram, _mass_root
+
+    rng = np.random.default_rng(3)
+    Y = rng.standard_normal((50, 7))
+    np.testing.assert_allclose(_gram(Y), Y.T @ Y, rtol=1e-13, atol=1e-12)
+    import scipy.sparse as sp
+
+    d = np.array([2.0, 0.0, 3.0, 0.5])
+    R = _mass_root(sp.diags(d))
+    np.testing.assert_allclose((R.T @ R).toarray(), np.diag(d))
+    assert R.shape == (3, 4)
+    assert _mass_root(sp.csr_matrix(np.array([[1.0, 0.1], [0.1, 1.0]]))) is None

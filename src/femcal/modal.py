@@ -21,6 +21,8 @@ from .linalg import NotPositiveDefinite, factorize
 
 #: Below this a-set size the dense solver is used.
 DENSE_LIMIT = 600
+#: |sigma| of the default negative shift, sigma = -(2 pi DEFAULT_SHIFT_HZ)^2.
+DEFAULT_SHIFT_HZ = 1.0
 
 
 @dataclass(frozen=True)
@@ -70,9 +72,10 @@ def solve_modes(
     M: sp.spmatrix,
     request: EigenRequest,
     *,
-    shift_hz: float = 1.0,
+    shift_hz: float = DEFAULT_SHIFT_HZ,
     backend: str = "auto",
     progress: Callable[[str], None] | None = None,
+    on_factor: Callable[[Callable[[np.ndarray], np.ndarray], float], None] | None = None,
 ) -> EigenResult:
     """Lowest eigenpairs of K phi = lambda M phi satisfying the request.
 
@@ -83,6 +86,9 @@ def solve_modes(
     shift_hz : |sigma| of the negative shift, sigma = -(2 pi shift_hz)^2.
     backend : factorisation for the sparse path ("auto", "cholmod", "superlu").
     progress : called with short status lines during long solves.
+    on_factor : called as ``on_factor(solve, sigma)`` with the sparse path's factor of
+        K - sigma M (``solve(b)`` for b (n,) or (n, k)), for callers that solve with the
+        same matrix afterwards (not called on the dense path).
 
     Raises
     ------
@@ -102,7 +108,8 @@ def solve_modes(
     if n <= DENSE_LIMIT:
         lam, vec, name = _dense(K, M, sigma)
     else:
-        lam, vec, name = _lanczos(K, M, sigma, request, lam_lo, lam_hi, backend, progress)
+        lam, vec, name = _lanczos(K, M, sigma, request, lam_lo, lam_hi, backend, progress,
+                                  on_factor)
     keep = (lam >= lam_lo) & (lam <= lam_hi)
     lam, vec = lam[keep], vec[:, keep]
     if request.nd is not None:
@@ -151,9 +158,11 @@ def _dense(K, M, sigma):
     return lam, vec, "dense"
 
 
-def _lanczos(K, M, sigma, request, lam_lo, lam_hi, backend, progress):
+def _lanczos(K, M, sigma, request, lam_lo, lam_hi, backend, progress, on_factor=None):
     n = K.shape[0]
     solve, name = _shifted_factor(K, M, sigma, backend)
+    if on_factor is not None:
+        on_factor(solve, sigma)
     op = spla.LinearOperator((n, n), matvec=solve, dtype=float)
     want = request.nd if request.nd is not None else 20
     k = min(max(want + 2, 12), n - 2)

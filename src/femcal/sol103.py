@@ -139,11 +139,13 @@ def solve_sol103(
     matrices: Matrices | None = None,
     request: EigenRequest | None = None,
     progress: Callable[[str], None] | None = None,
+    on_factor: Callable | None = None,
 ) -> tuple[Modes, Reduction]:
     """Normal modes of a deck's model, as NASTRAN SOL 103 computes them.
 
     PARAM AUTOSPC (default YES) is honoured; DOF with neither stiffness nor mass are always
-    removed. Returns the modes and the constraint reduction used.
+    removed. Returns the modes and the constraint reduction used. ``on_factor`` receives the
+    factor of the a-set's K - sigma M (see :func:`femcal.modal.solve_modes`).
     """
     say = progress or (lambda s: None)
     check_supported(deck)
@@ -157,7 +159,7 @@ def solve_sol103(
         K_aa, M_aa = red.reduce(mats.K), red.reduce(mats.M)
     req = request or eigen_request(deck)
     say(f"a-set {len(red.a_dofs)} DOF; solving for modes")
-    res: EigenResult = solve_modes(K_aa, M_aa, req, progress=progress)
+    res: EigenResult = solve_modes(K_aa, M_aa, req, progress=progress, on_factor=on_factor)
     shapes = red.expand(res.vectors)
     node = np.searchsorted(model.dof_start, red.autospc, side="right") - 1
     comp = red.autospc - model.dof_start[node] + np.where(model.is_grid[node], 1, 0)

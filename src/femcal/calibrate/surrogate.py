@@ -36,11 +36,12 @@ from math import comb
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sp
 
 from ..deck.deck import Deck
 from ..frf import QUANTITIES, channel_matrix
 from ..linalg import factorize
-from ..modal import EigenRequest
+from ..modal import DEFAULT_SHIFT_HZ, EigenRequest
 from ..model.model import Model
 from ..sol103 import solve_sol103
 from ..structure import Options, assemble
@@ -193,6 +194,15 @@ def _shift_weight(a, b, c) -> float:
                           for ai, bi, ci in zip(a, b, c, strict=True)]))  # fmt: skip
 
 
+def _touched_rows(mats: list) -> np.ndarray:
+    """Sorted indices of the rows with a stored entry in any of the CSR matrices (symmetric
+    matrices: the same indices are their columns)."""
+    hit = np.zeros(mats[0].shape[0], bool)
+    for A in mats:
+        hit[np.flatnonzero(np.diff(A.indptr))] = True
+    return np.flatnonzero(hit)
+
+
 def _reexpand(polys: list[GroupPolynomial], Phi: np.ndarray, center: np.ndarray, n_p: int, *,
               first_order: bool) -> tuple[list, list, list]:  # fmt: skip
     """Reduce each group's terms about p = 0 on the basis and re-expand them about the
@@ -201,7 +211,14 @@ def _reexpand(polys: list[GroupPolynomial], Phi: np.ndarray, center: np.ndarray,
     exps, Kt, Mt = [], [], []
     for g in polys:
         idx = list(g.params)
-        red = {tuple(a): (Phi.T @ (Kc @ Phi), Phi.T @ (Mc @ Phi))
+        # a group's matrices touch only its elements' DOF: reduce on those rows of Phi
+        rows = _touched_rows(g.K + g.M)
+        P = np.ascontiguousarray(Phi[rows])
+
+        def on_basis(A, rows=rows, P=P) -> np.ndarray:
+            return P.T @ (A[rows][:, rows] @ P) if A.nnz else np.zeros((P.shape[1],) * 2)
+
+        red = {tuple(a): (on_basis(Kc), on_basis(Mc))
                for a, Kc, Mc in zip(g.exponents, g.K, g.M, strict=True)}  # fmt: skip
         c = center[idx]
         for b in red:
@@ -224,7 +241,8 @@ def _reexpand(polys: list[GroupPolynomial], Phi: np.ndarray, center: np.ndarray,
 
 #: The negative shift (rad^2/s^2 per unit modal mass) of the static solves: K - SHIFT M is
 #: positive definite for free-free models too (their rigid-body modes are in the basis).
-STATIC_SHIFT = -((2 * np.pi) ** 2)
+#: It is the eigen solution's shift, so that solution's factor serves the static solves.
+STATIC_SHIFT = -((2 * np.pi * DEFAULT_SHIFT_HZ) ** 2)
 #: Derivative vectors whose own eigenvalue is above this times the basis's largest are
 #: dropped (frequencies 100 times the basis's top).
 STIFF_CUTOFF = 1e4
@@ -253,9 +271,28 @@ def _polynomial_derivative(polys: list[GroupPolynomial], center: np.ndarray, j: 
     return dKX, dMX
 
 
+def _mass_root(M) -> sp.csr_matrix | None:
+    """R (n_m, n) with R^T R = M when M is diagonal (lumped mass): the n_m rows with mass,
+    scaled by the root of their mass. None when M has off-diagonal terms."""
+    M = sp.csr_matrix(M)
+    d = M.diagonal()
+    if (d < 0).any() or M.count_nonzero() != np.count_nonzero(d):
+        return None
+    rows = np.flatnonzero(d)
+    return sp.csr_matrix((np.sqrt(d[rows]), (np.arange(len(rows)), rows)),
+                         shape=(len(rows), M.shape[0]))  # fmt: skip
+
+
+def _gram(Y: np.ndarray) -> np.ndarray:
+    """Y^T Y (k, k) of Y (n, k) by a symmetric rank-k update (half a general product)."""
+    upper = sla.blas.dsyrk(1.0, np.asfortranarray(Y.T) if not Y.T.flags.f_contiguous else Y.T)
+    return np.triu(upper) + np.triu(upper, 1).T
+
+
 def derivative_vectors(polys: list[GroupPolynomial], center: np.ndarray, K: object,
                        M: object, red: object, Phi: np.ndarray, lam_basis: np.ndarray,
-                       m: int, n_keep: int, depth: int = 2) -> np.ndarray:  # fmt: skip
+                       m: int, n_keep: int, depth: int = 2,
+                       solve: Callable | None = None) -> np.ndarray:  # fmt: skip
     """Static eigenvector-derivative vectors to enrich a modal basis.
 
     The part of a mode's derivative dphi_i/dp_j outside the basis Phi is, up to terms in
@@ -273,6 +310,8 @@ def derivative_vectors(polys: list[GroupPolynomial], center: np.ndarray, K: obje
         (:class:`femcal.constraints.Reduction`): the solves are on its a-set.
     Phi : (n_g, r) M-normalised modes at the centre, lam_basis (r,) their eigenvalues; the
         first m of them get derivative vectors.
+    solve : a factor of the a-set's K - STATIC_SHIFT M if one is at hand (the eigen
+        solution's, :func:`femcal.modal.solve_modes` ``on_factor``); factored here if not.
 
     Returns
     -------
@@ -280,7 +319,8 @@ def derivative_vectors(polys: list[GroupPolynomial], center: np.ndarray, K: obje
     """
     lam = lam_basis[:m]
     Ka, Ma = red.reduce(K), red.reduce(M)
-    solve, _ = factorize((Ka - STATIC_SHIFT * Ma).tocsc())
+    if solve is None:
+        solve, _ = factorize((Ka - STATIC_SHIFT * Ma).tocsc())
     Tt = red.T.T.tocsr()
     cols = []
     for j in range(center.size):
@@ -296,18 +336,41 @@ def derivative_vectors(polys: list[GroupPolynomial], center: np.ndarray, K: obje
     if not cols:
         return np.zeros((Phi.shape[0], 0))
     X = np.hstack(cols)
-    for _ in range(2):  # M-orthogonal to the basis (twice: rounding)
-        X -= Phi @ (Phi.T @ (M @ X))
-    MX = M @ X
-    norms = np.sqrt(np.maximum(np.einsum("nk,nk->k", X, MX), 0.0))
+    del cols
+    # X' = X - Phi C, M-orthogonal to the basis (two passes: the static vectors lie mostly in
+    # the basis, so one pass leaves rounding behind), and the Gram matrix X'^T M X'
+    R = _mass_root(M)
+    if R is not None:  # lumped mass: the M-products run over the rows with mass only
+        Y, P = R @ X, R @ Phi
+        C = np.zeros((Phi.shape[1], X.shape[1]))
+        for _ in range(2):
+            D = P.T @ Y
+            Y -= P @ D
+            C += D
+        del P
+        norms = np.sqrt(np.einsum("nk,nk->k", Y, Y))
+        G = _gram(Y)
+        del Y
+    else:
+        C = None
+        for _ in range(2):
+            X -= Phi @ (Phi.T @ (M @ X))
+        MX = M @ X
+        norms = np.sqrt(np.maximum(np.einsum("nk,nk->k", X, MX), 0.0))
+        G = X.T @ MX
+        del MX
+    # the strongest directions of the unit-normalised set
     big = norms > 1e-12 * max(float(norms.max()), 1e-300)
-    X, MX = X[:, big] / norms[big], MX[:, big] / norms[big]
-    w, V = np.linalg.eigh(X.T @ MX)
+    G = G[np.ix_(big, big)] / np.outer(norms[big], norms[big])
+    w, V = np.linalg.eigh(0.5 * (G + G.T))
     order = np.argsort(w)[::-1]
     w, V = w[order], V[:, order]
     keep = w > 1e-10 * w[0]
     keep[n_keep:] = False
-    Q = X @ (V[:, keep] / np.sqrt(w[keep]))
+    W = V[:, keep] / np.sqrt(w[keep]) / norms[big][:, None]
+    Q = X[:, big] @ W
+    if C is not None:
+        Q -= Phi @ (C[:, big] @ W)
     Q -= Phi @ (Phi.T @ (M @ Q))
     # the vectors' own modes (K- and M-orthogonal); those far above the basis (stiff
     # directions: axial bars, springs, drilling) are dropped: they add ~lam_i / theta to the
@@ -353,8 +416,14 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
     values = [par.value(p) for par, p in zip(params, p_center, strict=True)]
     model_c = with_values(model, params, values)
     mats = assemble(model_c, options)
-    modes, red = solve_sol103(deck, model_c, matrices=mats,
-                              request=EigenRequest(nd=n_modes))  # fmt: skip
+    factor: dict = {}
+
+    def keep_factor(solve: Callable, sigma: float) -> None:
+        if abs(sigma - STATIC_SHIFT) <= 1e-12 * abs(STATIC_SHIFT):
+            factor["solve"] = solve
+
+    modes, red = solve_sol103(deck, model_c, matrices=mats, request=EigenRequest(nd=n_modes),
+                              on_factor=keep_factor if enrich_hz is not None else None)  # fmt: skip
     Phi = modes.shapes  # (n_g, r), mass-normalised
     n_frf = Phi.shape[1]
     say(f"surrogate: {Phi.shape[1]} modes up to {modes.frequencies_hz[-1]:.1f} Hz; the "
@@ -367,7 +436,8 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
         if m:
             extra = derivative_vectors(polynomials, np.asarray(p_center, float), mats.K,
                                        mats.M, red, Phi, modes.eigenvalues, m,
-                                       n_enrich or n_modes)  # fmt: skip
+                                       n_enrich or n_modes,
+                                       solve=factor.get("solve"))  # fmt: skip
             Phi = np.hstack([Phi, extra])
             say(f"surrogate basis enriched: {extra.shape[1]} static eigenvector-derivative "
                 f"vectors of the {m} modes up to {enrich_hz:g} Hz (the stiffer ones dropped)")
