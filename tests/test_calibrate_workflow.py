@@ -190,3 +190,39 @@ def test_a_bad_calibration_key_is_named_in_its_own_section_beside_test_identify(
                                   "gamma = \"x\"\n\n[calibration]"))  # fmt: skip
     with pytest.raises(ValueError, match=r"\[test.identify\] gamma = 'x': expected a number"):
         read_config(bad)
+
+
+def test_a_synthetic_tests_truth_sets_each_error_against_its_crlb(study, tmp_path):
+    """[test] truth (the hidden values of a synthetic test) adds each parameter's true value,
+    its error and |error| / CRLB to the report; it does not change the run (the finished
+    starts are resumed)."""
+    from femcal.calibrate.parameters import read_truth
+    from femcal.calibrate.report import write_report
+
+    d, params, outcome, _ = study
+    lines = ["# the plate's hidden values"]
+    for par, x in zip(params, TRUE_P, strict=True):
+        lines += ["[[parameter]]", f'name = "{par.name}"', f'card = "{par.card}"',
+                  f"id = {par.id}", f"true = {float(par.value(x))!r}", ""]  # fmt: skip
+    (d / "truth.toml").write_text("\n".join(lines))
+    (d / "truth_cal.toml").write_text(CONFIG.replace('frf = "test.npz"',
+                                                     'frf = "test.npz"\ntruth = "truth.toml"'))
+    again = run(read_config(d / "truth_cal.toml"), d / "out")
+    np.testing.assert_allclose(again.p_final, outcome.p_final, rtol=0, atol=1e-12)
+    rep = again.report
+    assert rep["truth"] == str(d / "truth.toml")
+    for par, row, x in zip(params, rep["parameters"], TRUE_P, strict=True):
+        assert row["true"] == pytest.approx(par.value(x), rel=1e-14)
+        assert row["true_p"] == pytest.approx(x, abs=1e-12)
+        assert row["error_pct"] == pytest.approx(100 * (row["calibrated"] / row["true"] - 1))
+        assert abs(row["error_pct"]) < 0.1
+        assert row["error_over_crlb"] == pytest.approx(abs(row["p"] - x) / row["crlb_p"])
+    assert "|error| / CRLB" in write_report(again, d / "out").read_text()
+    # a truth file that does not cover the parameters, or names another field
+    bad = tmp_path / "t.toml"
+    bad.write_text("\n".join(lines[: 1 + 6 * 3]))
+    with pytest.raises(ValueError, match=rf"t.toml: parameter {params[3].name}: not in the file"):
+        read_truth(bad, params)
+    bad.write_text("\n".join(lines).replace(f'card = "{params[0].card}"', 'card = "PBAR"', 1))
+    with pytest.raises(ValueError, match=rf"parameter {params[0].name}: card = 'PBAR'"):
+        read_truth(bad, params)

@@ -10,6 +10,9 @@
     [test]
     frf = "hammer_test.uff"                 # any FRF file femcal reads
     # model = "identified.npz"              # or an identified model (femcal identify)
+    # truth = "hammer_test.truth.toml"      # a synthetic test's true parameter values
+                                            #  (optional): the report sets each
+                                            #  parameter's error against its CRLB
 
     [test.identify]                         # identify the test FRFs first (optional;
     band = [10.0, 120.0]                    #  without it and without test.model the raw
@@ -98,6 +101,7 @@ class Config:
     identifiable_crlb: float = 0.05
     crlb_bands: tuple[tuple[float, float], ...] = ()
     exclude_suspect_channels: bool = True
+    test_truth: Path | None = None
     pictures: bool = True
     raw: dict = field(default_factory=dict)
 
@@ -160,6 +164,7 @@ def read_config(path: str | os.PathLike[str]) -> Config:
     params = file(model, "parameters", "model")
     test_frf = file(test, "frf", "test", required=False)
     test_model = file(test, "model", "test", required=False)
+    test_truth = file(test, "truth", "test", required=False)
     if test_frf is None and test_model is None:
         raise ValueError(f"{path}: [test] needs frf (an FRF file) or model (an identified model)")
     ident = None
@@ -231,5 +236,6 @@ def read_config(path: str | os.PathLike[str]) -> Config:
         crlb_bands=tuple(_band(b, f"{path}: [calibration] crlb_bands")
                          for b in cal.get("crlb_bands", [])),
         exclude_suspect_channels=bool(cal.get("exclude_suspect_channels", True)),
+        test_truth=test_truth,
         pictures=bool(out.get("pictures", True)), raw=doc, **ints,
     )  # fmt: skip

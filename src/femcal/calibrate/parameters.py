@@ -239,6 +239,41 @@ def read_parameters(path: str | os.PathLike[str], model: Model) -> list[Paramete
     return out
 
 
+def read_truth(path: str | os.PathLike[str], params: list[Parameter]) -> np.ndarray:
+    """The known values of a synthetic test's parameters (femcal's hidden-truth TOML, e.g.
+    models/truck_frame/hammer_test.truth.toml): ``[[parameter]]`` tables with ``name`` and
+    ``true`` (the field's value); ``card``, ``id`` and ``field``, where given, must be the
+    parameter's. Returns the true values (n_p,) in the parameters' order.
+
+    Raises
+    ------
+    ValueError
+        Naming the file and parameter: not TOML, a parameter missing, a ``true`` that is not
+        a number, a card/id/field that is not the parameter's.
+    """
+    path = Path(path)
+    try:
+        doc = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as e:
+        raise ValueError(f"{path}: not valid TOML ({e})") from None
+    items = {str(t.get("name")): t for t in doc.get("parameter", []) if isinstance(t, dict)}
+    out = np.empty(len(params))
+    for i, par in enumerate(params):
+        where = f"{path}: parameter {par.name}"
+        if par.name not in items:
+            raise ValueError(f"{where}: not in the file (it needs a [[parameter]] with "
+                             "name and true for every calibrated parameter)")  # fmt: skip
+        item = items[par.name]
+        for key, mine in (("card", par.card), ("id", par.id), ("field", par.field)):
+            if key in item and str(item[key]).upper() != str(mine).upper():
+                raise ValueError(f"{where}: {key} = {item[key]!r}, but the parameter's is "
+                                 f"{mine!r}")  # fmt: skip
+        if "true" not in item:
+            raise ValueError(f"{where}: missing true (the parameter's true value)")
+        out[i] = _value(item, "true", float, where)
+    return out
+
+
 def with_values(model: Model, params: list[Parameter], values: np.ndarray) -> Model:
     """A copy of the model with the parameters set to ``values`` (P, not p); the original
     model and the deck behind it are not changed (the tables that change are copied)."""

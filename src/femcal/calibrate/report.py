@@ -198,6 +198,14 @@ def write_html(path: Path, report: dict, pictures: dict[str, str], mode_pictures
             _f(None if p["crlb_p"] is None else 100 * p["crlb_p"], ".2f"),
             ("yes" if p["identifiable"] else "no") + (" (at a bound)" if p["at_bound"] else "")]
            for p in report["parameters"]]  # fmt: skip
+    prm_head = ["name", "description", "field", "nominal", "calibrated", "change %", "bounds",
+                "CRLB", "CRLB %", "identifiable"]  # fmt: skip
+    truth = report.get("truth")
+    if truth:  # a synthetic test: each parameter's error against its known value and CRLB
+        for row, p in zip(prm, report["parameters"], strict=True):
+            row += [_f(p["true"], ".6g"), _f(p["error_pct"], "+.2f"),
+                    _f(p["error_over_crlb"], ".1f")]  # fmt: skip
+        prm_head += ["true", "error %", "|error| / CRLB"]
     modes = [[f"{m['test_hz']:.3f}", _f(m["fe_before_hz"], ".3f"), _f(m["fe_after_hz"], ".3f"),
               _f(m["frequency_error_before_pct"], "+.2f"),
               _f(m["frequency_error_after_pct"], "+.2f"), _f(m["mac_before"], ".4f"),
@@ -232,11 +240,11 @@ Run time {report['seconds']:.0f} s.</p>
 <h2>Deviation</h2><p>before {dev['before']:.6g}, after {dev['after']:.6g}
 (full model, log10 FRF residuals squared and summed){'' if report['settled'] else
 '; the parameters had not settled when the cycles ran out'}.</p>
-<h2>Parameters</h2>{_table(prm, ["name", "description", "field", "nominal", "calibrated",
- "change %", "bounds", "CRLB", "CRLB %", "identifiable"])}
+<h2>Parameters</h2>{_table(prm, prm_head)}
 <p>CRLB: Cramér-Rao lower bound (one standard deviation) with sigma = {report['crlb']['sigma']:.4g}
 ({'given' if report['crlb']['sigma_given'] else 'from the residual'}); identifiable: CRLB below
-{100 * report['crlb']['identifiable_below']:g} % of the nominal.</p>
+{100 * report['crlb']['identifiable_below']:g} % of the nominal.{
+f" True values: {html.escape(truth)} (a synthetic test)." if truth else ""}</p>
 <h2>Modes</h2>{_table(modes, ["test Hz", "FE before Hz", "FE after Hz", "error before %",
  "error after %", "MAC before", "MAC after"])}
 <h2>Runs</h2><p>Cycle 1 runs Levenberg-Marquardt from every start on the nominal model's

@@ -44,7 +44,7 @@ from .derivatives import group_polynomials
 from .fisher import fisher
 from .lm import latin_hypercube
 from .metric import deviation, jacobian, log_frequencies, residuals
-from .parameters import Parameter, read_parameters, write_calibrated_deck
+from .parameters import Parameter, read_parameters, read_truth, write_calibrated_deck
 from .starts import Problem, run_starts
 from .surrogate import build_surrogate
 
@@ -80,7 +80,9 @@ SURROGATE_VERSION = 2
 
 
 def _fingerprint(cfg: Config, extra: str) -> str:
-    text = json.dumps(cfg.raw, sort_keys=True, default=str) + extra
+    raw = {k: v for k, v in cfg.raw.items() if k != "test"}
+    raw["test"] = {k: v for k, v in cfg.raw.get("test", {}).items() if k != "truth"}
+    text = json.dumps(raw, sort_keys=True, default=str) + extra  # (the truth is report only)
     for f in (cfg.deck, cfg.parameters, cfg.test_frf, cfg.test_model):
         if f is not None:
             text += hashlib.sha256(Path(f).read_bytes()).hexdigest()
@@ -336,6 +338,7 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
             "pseudo_orthogonality_after": float(abs(poc[k, list(serep).index(a.fe)]))
             if a and a.fe in serep else None,
         })  # fmt: skip
+    truth = read_truth(cfg.test_truth, params) if cfg.test_truth is not None else None
     param_rows = []
     for i, par in enumerate(params):
         crlb_p = float(fi.crlb[i])
@@ -349,9 +352,18 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
             "at_bound": bool(np.isclose(p_final[i], lo[i], atol=1e-9)
                              or np.isclose(p_final[i], hi[i], atol=1e-9)),
         })  # fmt: skip
+        if truth is not None:  # a synthetic test: the error against the known value
+            p_true = truth[i] / par.nominal - 1.0
+            param_rows[-1].update({
+                "true": float(truth[i]), "true_p": float(p_true),
+                "error_pct": float(100 * (values[i] / truth[i] - 1.0)),
+                "error_over_crlb": float(abs(p_final[i] - p_true) / crlb_p)
+                if np.isfinite(crlb_p) and crlb_p > 0 else None,
+            })  # fmt: skip
     report = {
         "deck": str(cfg.deck), "parameters_file": str(cfg.parameters),
         "test": str(cfg.test_frf or cfg.test_model),
+        "truth": str(cfg.test_truth) if cfg.test_truth is not None else None,
         "band_hz": list(band), "zeta0": zeta0, "metric": cfg.metric,
         "n_frequencies": len(freq), "outputs": [c.label for c in outputs],
         "inputs": [c.label for c in inputs],
