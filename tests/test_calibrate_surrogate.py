@@ -145,7 +145,7 @@ def test_derivative_vectors_lumped_mass_shortcut_and_reused_factor_change_nothin
     """With a diagonal (lumped) M the derivative vectors' M-products run over the rows with
     mass only, and the eigen solution's factor of K - sigma M may serve their solves: the
     vectors span the same space as the general path's with their own factorisation."""
-    from femcal.calibrate import surrogate as S
+    from femcal.calibrate import surrogate as sur_mod
     from femcal.calibrate.derivatives import group_polynomials
     from femcal.linalg import factorize
 
@@ -153,15 +153,15 @@ def test_derivative_vectors_lumped_mass_shortcut_and_reused_factor_change_nothin
     c = np.linspace(0.05, -0.05, len(params))
     m = with_values(model, params, [q.value(x) for q, x in zip(params, c, strict=True)])
     mats = assemble(m)
-    assert S._mass_root(mats.M) is not None  # the plate's mass is lumped
+    assert sur_mod._mass_root(mats.M) is not None  # the plate's mass is lumped
     modes, red = solve_sol103(deck, m, matrices=mats, request=EigenRequest(nd=20))
     polys = group_polynomials(model, params, np.zeros(len(params)), constant=True)
     args = (polys, c, mats.K, mats.M, red, modes.shapes, modes.eigenvalues, 12, 30)
     Ka, Ma = red.reduce(mats.K), red.reduce(mats.M)
-    solve, _ = factorize((Ka - S.STATIC_SHIFT * Ma).tocsc())
-    Q_lumped = S.derivative_vectors(*args, solve=solve)
+    solve, _ = factorize((Ka - sur_mod.STATIC_SHIFT * Ma).tocsc())
+    Q_lumped = sur_mod.derivative_vectors(*args, solve=solve)
     monkeypatch.setattr(S, "_mass_root", lambda M: None)
-    Q_general = S.derivative_vectors(*args)
+    Q_general = sur_mod.derivative_vectors(*args)
     assert Q_lumped.shape == Q_general.shape and Q_lumped.shape[1] > 10
     cosines = np.linalg.svd(Q_lumped.T @ (mats.M @ Q_general), compute_uv=False)
     np.testing.assert_allclose(cosines, 1.0, atol=1e-8)
