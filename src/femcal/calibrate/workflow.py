@@ -265,8 +265,8 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
                 f"predicted fall {rho:.2f}); the informed parameters moved {moved:.2e}")
             if moved < cfg.settle:
                 settled = True
-        else:
-            radius /= 4.0
+        else:  # a quarter of the rejected step (of the radius, if the step filled it)
+            radius = min(radius, float(step.max())) / 4.0
             moved = 0.0
             say(f"cycle {c}: step rejected (full-model cost {cost_new:.5g} against "
                 f"{cost_c:.5g}); trust radius {radius:.3g}")  # fmt: skip
