@@ -90,7 +90,8 @@ def demo() -> None:
     table(rep, truth())
 
 
-def noise_free(max_cycles: int = 40, near: float | None = None) -> None:
+def noise_free(max_cycles: int = 40, near: float | None = None, residual: bool = False,
+               enrich_hz: float | None = None) -> None:  # fmt: skip
     from femcal.calibrate.config import read_config
     from femcal.calibrate.parameters import read_parameters, with_values
     from femcal.calibrate.workflow import run
@@ -110,8 +111,16 @@ def noise_free(max_cycles: int = 40, near: float | None = None) -> None:
     modes, _ = solve_sol103(deck, m, request=EigenRequest(nd=100))
     shipped = read_frf(FRAME / "hammer_test.mat")  # its channels and frequencies
     f = shipped.frequency_hz
-    H = modal_frf(modes.shapes, modes.radians, channel_matrix(m, shipped.outputs),
-                  channel_matrix(m, shipped.inputs).T, f, 0.01, "accelerance")  # fmt: skip
+    if residual:  # the same FRF definition as the calibration's: + residual flexibility
+        from femcal.calibrate.surrogate import build_surrogate
+
+        p_true = np.array([true_v[q.name] / q.nominal - 1.0 for q in params])
+        sur, _ = build_surrogate(deck, model, params, p_true, shipped.outputs, shipped.inputs,
+                                 n_modes=100, zeta=0.01, residual=True)  # fmt: skip
+        H = sur.frf(p_true, f)
+    else:
+        H = modal_frf(modes.shapes, modes.radians, channel_matrix(m, shipped.outputs),
+                      channel_matrix(m, shipped.inputs).T, f, 0.01, "accelerance")  # fmt: skip
     write_npz(WORK / "noise_free_test.npz", FRFData(f, H, shipped.outputs, shipped.inputs,
                                                     "accelerance", "mm/s^2/N"))  # fmt: skip
     deck_path, params_path, name = (FRAME / "hammer_frame.bdf",
@@ -134,6 +143,12 @@ def noise_free(max_cycles: int = 40, near: float | None = None) -> None:
     cfg = head + tail.replace("settle = 2e-3", "settle = 1e-5")
     if near is not None:
         cfg = cfg.replace("starts = 24", "starts = 1")  # the check is local convergence
+    extra = ("residual = true\n" if residual else "") + (
+        f"enrich_hz = {enrich_hz}\n" if enrich_hz is not None else "")
+    cfg = cfg.replace("[calibration]\n", "[calibration]\n" + extra)
+    if residual or enrich_hz is not None:
+        name += "_residual" if residual else ""
+        name += f"_enrich{enrich_hz:g}" if enrich_hz is not None else ""
     (WORK / f"{name}.toml").write_text(cfg)
     t = time.perf_counter()
     o = run(read_config(WORK / f"{name}.toml"), WORK / f"calibration_{name}", fresh=True,
@@ -177,15 +192,19 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--part", choices=("demo", "noise-free", "near-truth", "all"),
                     default="all")
+    ap.add_argument("--residual", action="store_true",
+                    help="noise-free parts: FRFs with the residual flexibility (test and model)")
+    ap.add_argument("--enrich-hz", type=float, default=None,
+                    help="noise-free parts: the enrichment frequency (0: none)")
     ap.add_argument("--max-cycles", type=int, default=40,
                     help="trust-region cycles of the noise-free part (default 40)")
     a = ap.parse_args(argv)
     if a.part in ("demo", "all"):
         demo()
     if a.part in ("noise-free", "all"):
-        noise_free(a.max_cycles)
+        noise_free(a.max_cycles, residual=a.residual, enrich_hz=a.enrich_hz)
     if a.part in ("near-truth", "all"):
-        noise_free(a.max_cycles, near=0.03)
+        noise_free(a.max_cycles, near=0.03, residual=a.residual, enrich_hz=a.enrich_hz)
     return 0
 
 

@@ -212,3 +212,39 @@ def test_surrogate_soft_modes_are_accurate_beside_stiff_directions():
     # M~-normalised and ascending
     np.testing.assert_allclose(psi.T @ psi, np.eye(r), atol=1e-8)
     assert np.all(np.diff(lam0) > 0)
+
+
+def test_residual_flexibility_surrogate_is_the_full_model_at_its_centre_with_its_jacobian(setup):
+    """residual=True: the FRFs add the residual flexibility of the modes beyond n_modes. At
+    the centre the surrogate is the full model's modal sum plus femcal.frf's residual
+    flexibility; its Jacobian matches central differences of the full model (the static
+    responses in the basis hold nearly massless directions with eigenvalues ~1e17: a repeated
+    -pair threshold relative to those dropped the coupling of the two lowest modes)."""
+    from femcal.frf import residual_flexibility
+
+    deck, model, params = setup
+
+    def full(p, f):
+        m = with_values(model, params, [q.value(x) for q, x in zip(params, p, strict=True)])
+        modes, red = solve_sol103(deck, m, request=EigenRequest(nd=20))
+        C, B = channel_matrix(m, OUTS), channel_matrix(m, INS).T
+        R = residual_flexibility(red.reduce(assemble(m).K), red.T, C, B, modes.shapes,
+                                 modes.radians)  # fmt: skip
+        return modal_frf(modes.shapes, modes.radians, C, B, f, 0.02, "accelerance", residual=R)
+
+    c = np.linspace(0.05, -0.05, len(params))
+    f = log_frequencies(10.0, 250.0, 0.02, 2.0)
+    sur, _ = build_surrogate(deck, model, params, c, OUTS, INS, n_modes=20, zeta=0.02,
+                             residual=True)  # fmt: skip
+    H_full = full(c, f)
+    H, dH = sur.frf_and_jacobian(c, f)
+    np.testing.assert_allclose(H, H_full, rtol=1e-8, atol=1e-9 * np.abs(H_full).max())
+    np.testing.assert_allclose(sur.frf(c, f), H, rtol=1e-12, atol=1e-14 * np.abs(H).max())
+    without = full_frf(deck, model, params, c, f, 0.02, 20)[0]
+    assert (np.abs(without - H_full) / np.abs(H_full)).max() > 0.05  # it does matter
+    h = 1e-5
+    for i in range(len(params)):
+        e = np.zeros(len(params))
+        e[i] = h
+        fd = (full(c + e, f) - full(c - e, f)) / (2 * h)
+        assert np.abs(dH[i] - fd).max() < 1e-4 * np.abs(fd).max(), params[i].name

@@ -226,3 +226,15 @@ def test_a_synthetic_tests_truth_sets_each_error_against_its_crlb(study, tmp_pat
     bad.write_text("\n".join(lines).replace(f'card = "{params[0].card}"', 'card = "PBAR"', 1))
     with pytest.raises(ValueError, match=rf"parameter {params[0].name}: card = 'PBAR'"):
         read_truth(bad, params)
+
+
+def test_the_residual_flag_must_be_a_boolean(study, tmp_path):
+    d, _, _, _ = study
+    for name in ("plate.bdf", "p.toml", "test.npz"):
+        (tmp_path / name).write_bytes((d / name).read_bytes())
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(CONFIG.replace("[calibration]", "[calibration]\nresidual = true"))
+    assert read_config(cfg).residual is True
+    cfg.write_text(CONFIG.replace("[calibration]", '[calibration]\nresidual = "yes"'))
+    with pytest.raises(ValueError, match=r"\[calibration\] residual = 'yes': expected true or"):
+        read_config(cfg)

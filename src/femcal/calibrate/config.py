@@ -33,6 +33,9 @@
                                             #  modes up to this frequency join the basis
                                             #  (default 1.5 x the band's top; 0: none)
     enrich_vectors = 100                    # at most this many (default reduction_modes)
+    residual = false                        # true: the FE FRFs add the residual flexibility
+                                            #  of the modes beyond reduction_modes (needs
+                                            #  a restrained model)
     starts = 8                              # Latin hypercube starts (the nominal is one)
     workers = 2                             # parallel processes for the starts
     seed = 1
@@ -90,6 +93,7 @@ class Config:
     surrogate: str = "exact"
     enrich_hz: float = 0.0
     enrich_vectors: int = 100
+    residual: bool = False
     starts: int = 8
     workers: int = 2
     seed: int = 1
@@ -126,6 +130,14 @@ def _number(section: dict, key: str, default, kind, where: str):
     except (TypeError, ValueError):
         what = "a whole number" if kind is int else "a number"
         raise ValueError(f"{where} {key} = {value!r}: expected {what}") from None
+
+
+def _flag(section: dict, key: str, default: bool, where: str) -> bool:
+    """section[key] (or default) as a TOML boolean; ValueError naming the key otherwise."""
+    value = section.get(key, default)
+    if not isinstance(value, bool):
+        raise ValueError(f"{where} {key} = {value!r}: expected true or false")
+    return value
 
 
 def read_config(path: str | os.PathLike[str]) -> Config:
@@ -236,6 +248,7 @@ def read_config(path: str | os.PathLike[str]) -> Config:
         crlb_bands=tuple(_band(b, f"{path}: [calibration] crlb_bands")
                          for b in cal.get("crlb_bands", [])),
         exclude_suspect_channels=bool(cal.get("exclude_suspect_channels", True)),
+        residual=_flag(cal, "residual", False, where),
         test_truth=test_truth,
         pictures=bool(out.get("pictures", True)), raw=doc, **ints,
     )  # fmt: skip

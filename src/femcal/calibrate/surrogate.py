@@ -40,7 +40,7 @@ import scipy.sparse as sp
 
 from ..deck.deck import Deck
 from ..frf import QUANTITIES, channel_matrix
-from ..linalg import factorize
+from ..linalg import NotPositiveDefinite, factorize
 from ..modal import DEFAULT_SHIFT_HZ, EigenRequest
 from ..model.model import Model
 from ..sol103 import solve_sol103
@@ -71,6 +71,11 @@ class Surrogate:
         enriched basis (static eigenvector-derivative vectors after the modes) the FRFs sum
         the n_modes lowest modes, as the unenriched surrogate and the full model's modal
         FRFs do; the extra vectors serve the eigenvector derivatives.
+    residual : the FRFs add the residual flexibility of the modes beyond the n_frf lowest,
+        ``C K~^-1 B^T - sum_{j < n_frf} (C psi_j)(B psi_j)^T / lam_j``, which is the sum
+        over the other Ritz modes (no cancellation). The basis then holds the static
+        responses to the inputs, so at the centre this is the full model's residual
+        flexibility (:func:`femcal.frf.residual_flexibility`).
     """
 
     p_center: np.ndarray
@@ -85,6 +90,7 @@ class Surrogate:
     quantity: str
     basis_hz: np.ndarray
     n_frf: int = 0
+    residual: bool = False
 
     @property
     def n_params(self) -> int:
@@ -134,9 +140,12 @@ class Surrogate:
             mu, psi = sla.eigh(M, K - STATIC_SHIFT * M)
         except np.linalg.LinAlgError:  # K~ - s M~ not positive definite (far outside the box)
             return sla.eigh(K, M)
-        if mu[0] <= 0:  # M~ not positive definite: let the direct solver say so
-            return sla.eigh(K, M)
         mu, psi = mu[::-1], psi[:, ::-1]  # psi^T (K~ - s M~) psi = 1, so psi^T M~ psi = mu
+        if not mu[0] > 0:  # M~ not positive semi-definite: let the direct solver say so
+            return sla.eigh(K, M)
+        # directions with (almost) no mass (static responses through massless rotations):
+        # eigenvalues 1e13 times the softest stand for infinite ones
+        mu = np.maximum(mu, 1e-13 * mu[0])
         return STATIC_SHIFT + 1.0 / mu, psi / np.sqrt(mu)
 
     def frequencies_hz(self, p: np.ndarray) -> np.ndarray:
@@ -145,11 +154,21 @@ class Surrogate:
 
     def frf(self, p: np.ndarray, freq_hz: np.ndarray) -> np.ndarray:
         """H (n_out, n_in, n_f) at p."""
-        lam, psi = self.modes(p)
-        lam, psi = lam[: self._n_frf], psi[:, : self._n_frf]
+        lam_all, psi_all = self.modes(p)
+        m = self._n_frf
+        lam, psi = lam_all[:m], psi_all[:, :m]
         q = self._q(lam, freq_hz)[0]
         S, P = self.C @ psi, self.B @ psi
-        return np.einsum("oj,ij,jf->oif", S, P, q, optimize=True)
+        H = np.einsum("oj,ij,jf->oif", S, P, q, optimize=True)
+        if self.residual:  # K~^-1 = Psi Lam^-1 Psi^T: the Ritz modes beyond the m lowest
+            rest = psi_all[:, m:]
+            R = ((self.C @ rest) / lam_all[m:]) @ (self.B @ rest).T
+            H = H + R[:, :, None] * self._static_factor(freq_hz)[None, None, :]
+        return H
+
+    def _static_factor(self, freq_hz: np.ndarray) -> np.ndarray:
+        """(i w)^a (n_f,): a static receptance as this quantity."""
+        return (2j * np.pi * np.asarray(freq_hz, float)) ** _POWER[self.quantity]
 
     @property
     def _n_frf(self) -> int:
@@ -177,13 +196,21 @@ class Surrogate:
         S, P = S_all[:, :m], P_all[:, :m]
         H = np.einsum("oj,ij,jf->oif", S, P, q, optimize=True)
         gap = lam[None, :] - lam_all[:, None]  # [k, j] = lam_j - lam_k, (r, m)
-        tiny = 1e-12 * max(float(np.abs(lam_all).max()), 1.0)
+        # a pair counts as repeated relative to its own eigenvalues (not the basis's largest,
+        # which stiff or massless directions make huge)
+        tiny = 1e-12 * np.maximum(np.maximum(np.abs(lam)[None, :], np.abs(lam_all)[:, None]), 1.0)
         inv_gap = np.where(np.abs(gap) > tiny, 1.0 / np.where(np.abs(gap) > tiny, gap, 1.0), 0.0)
         n_o, n_i, n_f = H.shape
         dH = np.empty((self.n_params, n_o, n_i, n_f), complex)
         SP = np.einsum("oj,ij->oij", S, P).reshape(n_o * n_i, -1)  # (o i, m)
         dK, dM = self.derivatives(p)
         diag = np.arange(m)
+        if self.residual:  # K~^-1 = Psi Lam^-1 Psi^T
+            KiB = psi_all @ (P_all.T / lam_all[:, None])  # (r, n_in)
+            CKi = (S_all / lam_all) @ psi_all.T  # (n_out, r)
+            R = (S_all[:, m:] / lam_all[m:]) @ P_all[:, m:].T
+            stat = self._static_factor(freq_hz)
+            H = H + R[:, :, None] * stat[None, None, :]
         for i in range(self.n_params):
             G = psi_all.T @ (dK[i] @ psi)  # (r, m)
             N = psi_all.T @ (dM[i] @ psi)
@@ -194,6 +221,11 @@ class Surrogate:
             shape_part = (np.einsum("oj,ij->oij", dS, P) + np.einsum("oj,ij->oij", S, dP))
             dH[i] = (shape_part.reshape(n_o * n_i, -1) @ q
                      + (SP * dlam[None, :]) @ dq).reshape(n_o, n_i, n_f)  # fmt: skip
+            if self.residual:  # d(C K~^-1 B^T) less the m modes' static part
+                dR = (-CKi @ dK[i] @ KiB
+                      - (shape_part.reshape(n_o * n_i, -1) @ (1.0 / lam)).reshape(n_o, n_i)
+                      + (SP * (dlam / lam**2)[None, :]).sum(axis=1).reshape(n_o, n_i))
+                dH[i] += dR[:, :, None] * stat[None, None, :]
         return H, dH
 
 
@@ -321,8 +353,8 @@ def derivative_vectors(polys: list[GroupPolynomial], center: np.ndarray, K: obje
     ----------
     K, M : g-set matrices at the centre (sparse). red : the constraint reduction
         (:class:`femcal.constraints.Reduction`): the solves are on its a-set.
-    Phi : (n_g, r) M-normalised modes at the centre, lam_basis (r,) their eigenvalues; the
-        first m of them get derivative vectors.
+    Phi : (n_g, r) M-orthonormal basis at the centre whose first len(lam_basis) columns are
+        the modes, lam_basis their eigenvalues; the first m modes get derivative vectors.
     solve : a factor of the a-set's K - STATIC_SHIFT M if one is at hand (the eigen
         solution's, :func:`femcal.modal.solve_modes` ``on_factor``); factored here if not.
 
@@ -394,12 +426,54 @@ def derivative_vectors(polys: list[GroupPolynomial], center: np.ndarray, K: obje
     return Q @ U[:, keep]
 
 
+def static_vectors(polys: list[GroupPolynomial], center: np.ndarray, K: object, red: object,
+                   Bg: object) -> np.ndarray:  # fmt: skip
+    """The static responses to the inputs, X = K^-1 B_g^T (n_g, n_in), and their parameter
+    derivatives ``-K^-1 dK/dp_j X`` for every parameter: (n_g, n_in (1 + n_p)) at most.
+
+    Raises
+    ------
+    ValueError
+        When K is singular (a free model has no static flexibility).
+    """
+    Ka = red.reduce(K)
+    try:
+        solve, _ = factorize(Ka.tocsc())
+    except NotPositiveDefinite:
+        raise ValueError("the residual flexibility needs a restrained model (K is singular: "
+                         "free-free, or a mechanism)") from None  # fmt: skip
+    Tt = red.T.T.tocsr()
+    B = np.asarray(sp.csr_matrix(Bg).T.todense())  # (n_g, n_in)
+    X = red.T @ solve(Tt @ B)
+    cols = [X]
+    for j in range(center.size):
+        dKX, _ = _polynomial_derivative(polys, center, j, X)
+        if np.any(dKX):
+            cols.append(red.T @ solve(Tt @ dKX))
+    return np.hstack(cols)
+
+
+def _m_orthonormal(X: np.ndarray, M, Phi: np.ndarray) -> np.ndarray:
+    """The columns of X (n_g, k) made M-orthogonal to the M-orthonormal Phi and
+    M-orthonormal among themselves (two passes); vanishing directions (relative 1e-10 of the
+    unit-normalised set) are dropped."""
+    for _ in range(2):
+        X = X - Phi @ (Phi.T @ (M @ X))
+    norms = np.sqrt(np.maximum(np.einsum("nk,nk->k", X, M @ X), 0.0))
+    X = X[:, norms > 1e-12 * max(float(norms.max()), 1e-300)]
+    X = X / np.sqrt(np.einsum("nk,nk->k", X, M @ X))
+    w, V = np.linalg.eigh(X.T @ (M @ X))
+    keep = w > 1e-10 * w.max()
+    Q = X @ (V[:, keep] / np.sqrt(w[keep]))
+    return Q - Phi @ (Phi.T @ (M @ Q))
+
+
 def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center: np.ndarray,
                     outputs: Sequence, inputs: Sequence, *, n_modes: int = 100,
                     zeta: float = 0.01, quantity: str = "accelerance", order: str = "exact",
                     polynomials: list | None = None, options: Options | None = None,
                     enrich_hz: float | None = None, n_enrich: int | None = None,
-                    progress: Callable[[str], None] | None = None,
+                    residual: bool = False, progress: Callable[[str], None] | None = None,
                     ) -> tuple[Surrogate, object]:  # fmt: skip
     """Reduce the (nominal) model at ``p_center`` on its first ``n_modes`` modes there.
 
@@ -416,6 +490,10 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
         (default ``n_modes``); the FRFs still sum the ``n_modes`` lowest modes. This makes
         the Jacobian right at the centre (the modes alone truncate the eigenvector
         derivatives), which the trust-region cycles near the solution need.
+    residual : the FRFs get the residual flexibility of the modes beyond the n_modes lowest
+        (as :func:`femcal.frf.residual_flexibility`), the basis the static responses to the
+        inputs and their parameter derivatives (:func:`static_vectors`). Needs a restrained
+        model.
 
     Returns
     -------
@@ -444,11 +522,23 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
     if polynomials is None:
         polynomials = group_polynomials(model, params, np.zeros(len(params)), options=options,
                                         constant=True)  # fmt: skip
+    Cg = channel_matrix(model, outputs)
+    Bg = channel_matrix(model, inputs)
+    n_basis_modes = Phi.shape[1]
+    if residual:
+        if (modes.eigenvalues <= 0).any():
+            raise ValueError("the residual flexibility needs a restrained model: a basis mode "
+                             "is a rigid-body mode")  # fmt: skip
+        block = _m_orthonormal(static_vectors(polynomials, np.asarray(p_center, float),
+                                              mats.K, red, Bg), mats.M, Phi)  # fmt: skip
+        Phi = np.hstack([Phi, block])
+        say(f"surrogate basis: {block.shape[1]} static responses to the inputs and their "
+            "parameter derivatives (residual flexibility)")
     if enrich_hz is not None:
         m = int(np.searchsorted(modes.frequencies_hz, enrich_hz, side="right"))
         if m:
             extra = derivative_vectors(polynomials, np.asarray(p_center, float), mats.K,
-                                       mats.M, red, Phi, modes.eigenvalues, m,
+                                       mats.M, red, Phi, modes.eigenvalues[:n_basis_modes], m,
                                        n_enrich or n_modes,
                                        solve=factor.get("solve"))  # fmt: skip
             Phi = np.hstack([Phi, extra])
@@ -457,13 +547,11 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
     exps, Kt, Mt = _reexpand(polynomials, Phi, np.asarray(p_center, float), len(params),
                              first_order=order == "first-order")  # fmt: skip
     r = Phi.shape[1]
-    Cg = channel_matrix(model, outputs)
-    Bg = channel_matrix(model, inputs)
     K0 = Phi.T @ (mats.K @ Phi)
     M0 = Phi.T @ (mats.M @ Phi)
     sur = Surrogate(np.asarray(p_center, float), 0.5 * (K0 + K0.T), 0.5 * (M0 + M0.T),
                     np.array(exps, int).reshape(-1, len(params)),
                     np.array(Kt).reshape(-1, r, r), np.array(Mt).reshape(-1, r, r),
                     np.asarray(Cg @ Phi), np.asarray(Bg @ Phi), float(zeta), quantity,
-                    modes.frequencies_hz.copy(), n_frf)  # fmt: skip
+                    modes.frequencies_hz.copy(), n_frf, residual)  # fmt: skip
     return sur, modes

@@ -34,7 +34,7 @@ import numpy as np
 from ..atomic import write_atomic
 from ..correlate import mac, pair_modes, pseudo_orthogonality, serep_mass
 from ..deck import read_deck
-from ..frf import channel_matrix, modal_frf
+from ..frf import channel_matrix
 from ..frfdata import FRFData, convert_units, read_frf
 from ..identify import Settings, equalize_damping, identify
 from ..identify.io import read_model, write_model, write_summary
@@ -76,7 +76,7 @@ class Outcome:
 
 #: Changes whenever the surrogate's construction does, so that finished starts of an older
 #: version are not resumed.
-SURROGATE_VERSION = 2
+SURROGATE_VERSION = 3
 
 
 def _fingerprint(cfg: Config, extra: str) -> str:
@@ -187,9 +187,9 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
     say(f"metric: {cfg.metric} over {band[0]:g}-{band[1]:g} Hz, {len(freq)} frequencies "
         f"({cfg.samples_per_bandwidth:g} per half-power bandwidth at zeta0 = {zeta0:.4f}), "
         f"{len(outputs)} outputs x {len(inputs)} inputs")  # fmt: skip
+    data_hash = hashlib.sha256(freq.tobytes() + H_test.tobytes()).hexdigest()
     fp = _fingerprint(cfg, f"{n_starts}-{SURROGATE_VERSION}-{cfg.enrich_hz}-"
-                      f"{cfg.enrich_vectors}" + hashlib.sha256(freq.tobytes() + H_test.tobytes()
-                                                          ).hexdigest())  # fmt: skip
+                      f"{cfg.enrich_vectors}-{cfg.residual}" + data_hash)  # fmt: skip
     state_path = out / "starts" / "cycles.json"
     rng = np.random.default_rng(cfg.seed)
     starts0 = [np.zeros(len(params))]
@@ -207,7 +207,8 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
                                n_modes=cfg.reduction_modes, zeta=zeta0, quantity=quantity,
                                order=cfg.surrogate, polynomials=polys,
                                enrich_hz=cfg.enrich_hz or None,
-                               n_enrich=cfg.enrich_vectors, progress=say)  # fmt: skip
+                               n_enrich=cfg.enrich_vectors, residual=cfg.residual,
+                               progress=say)  # fmt: skip
 
     def starts_in(c: int, problem: Problem, pts: list[np.ndarray], center: np.ndarray):
         folder = out / "starts" / f"cycle{c}"
@@ -226,7 +227,7 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
     say("cycle 1: Levenberg-Marquardt from every start on the nominal model's surrogate")
     center = np.zeros(len(params))
     sur, modes_c = surrogate_at(center)
-    modes0 = modes_c
+    modes0, sur0 = modes_c, sur
     problem = Problem(sur, freq, H_test, cfg.metric, lo, hi, cfg.max_iterations, weights)
     cost_c = problem.cost(center)
     results = starts_in(1, problem, starts0, center)
@@ -294,9 +295,10 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
     modes_after = modes_c
     write_calibrated_deck(cfg.deck, params, values, out / f"{cfg.deck.stem}_calibrated.bdf")
     Cg = channel_matrix(model, outputs)
-    Bg = channel_matrix(model, inputs).T
-    H_before = modal_frf(modes0.shapes, modes0.radians, Cg, Bg, freq, zeta0, quantity)
-    H_after = modal_frf(modes_after.shapes, modes_after.radians, Cg, Bg, freq, zeta0, quantity)
+    # the full model's FRFs: each surrogate at its centre (the modal sum over the reduction
+    # modes, with the residual flexibility if asked)
+    H_before = sur0.frf(np.zeros(len(params)), freq)
+    H_after = sur.frf(p_final, freq)
     dev_before = deviation(residuals(H_before, H_test, cfg.metric))
     dev_after = deviation(residuals(H_after, H_test, cfg.metric))
     J, r = _jac_res(problem, p_final)
@@ -381,7 +383,7 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
                    for s in cycles[0]["starts"]],
         "settled": settled, "reduction_modes": cfg.reduction_modes,
         "surrogate": cfg.surrogate, "enrich_hz": cfg.enrich_hz,
-        "enrich_vectors": cfg.enrich_vectors,
+        "enrich_vectors": cfg.enrich_vectors, "residual": cfg.residual,
         "model_dof": model.n_dof, "seconds": time.perf_counter() - t0,
         "calibrated_deck": f"{cfg.deck.stem}_calibrated.bdf",
     }  # fmt: skip
