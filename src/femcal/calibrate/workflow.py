@@ -7,7 +7,8 @@
    zeta0, so mass and stiffness parameters are calibrated without pairing modes;
 3. frequencies at equal logarithmic steps, a few per half-power bandwidth 2 zeta0 w;
 4. the FE model is reduced on its modes at the current point (with static
-   eigenvector-derivative vectors of the modes up to ``enrich_hz``), with the exact
+   eigenvector-derivative vectors of the modes up to ``enrich_hz``, and with ``residual``
+   the static responses to the inputs for the residual flexibility), with the exact
    polynomial dependence of K and M on the parameters (or FEMCali's first-order form)
    (:mod:`femcal.calibrate.surrogate`);
 5. Levenberg-Marquardt within the bounds on the log-FRF deviation, from Latin hypercube
