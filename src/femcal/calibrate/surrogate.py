@@ -525,15 +525,6 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
     Cg = channel_matrix(model, outputs)
     Bg = channel_matrix(model, inputs)
     n_basis_modes = Phi.shape[1]
-    if residual:
-        if (modes.eigenvalues <= 0).any():
-            raise ValueError("the residual flexibility needs a restrained model: a basis mode "
-                             "is a rigid-body mode")  # fmt: skip
-        block = _m_orthonormal(static_vectors(polynomials, np.asarray(p_center, float),
-                                              mats.K, red, Bg), mats.M, Phi)  # fmt: skip
-        Phi = np.hstack([Phi, block])
-        say(f"surrogate basis: {block.shape[1]} static responses to the inputs and their "
-            "parameter derivatives (residual flexibility)")
     if enrich_hz is not None:
         m = int(np.searchsorted(modes.frequencies_hz, enrich_hz, side="right"))
         if m:
@@ -544,6 +535,15 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
             Phi = np.hstack([Phi, extra])
             say(f"surrogate basis enriched: {extra.shape[1]} static eigenvector-derivative "
                 f"vectors of the {m} modes up to {enrich_hz:g} Hz (the stiffer ones dropped)")
+    if residual:
+        if (modes.eigenvalues <= 0).any():
+            raise ValueError("the residual flexibility needs a restrained model: a basis mode "
+                             "is a rigid-body mode")  # fmt: skip
+        block = _m_orthonormal(static_vectors(polynomials, np.asarray(p_center, float),
+                                              mats.K, red, Bg), mats.M, Phi)  # fmt: skip
+        Phi = np.hstack([Phi, block])
+        say(f"surrogate basis: {block.shape[1]} static responses to the inputs and their "
+            "parameter derivatives (residual flexibility)")
     exps, Kt, Mt = _reexpand(polynomials, Phi, np.asarray(p_center, float), len(params),
                              first_order=order == "first-order")  # fmt: skip
     r = Phi.shape[1]
