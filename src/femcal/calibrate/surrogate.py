@@ -334,6 +334,50 @@ def _gram(Y: np.ndarray) -> np.ndarray:
     return np.triu(upper) + np.triu(upper, 1).T
 
 
+def _m_compress(X: np.ndarray, M, Phi: np.ndarray, n_keep: int) -> np.ndarray:
+    """The at most ``n_keep`` strongest directions of X (n_g, k), unit-normalised, after
+    making it M-orthogonal to the M-orthonormal basis Phi (n_g, r): (n_g, q) M-orthonormal
+    columns, M-orthogonal to Phi. Directions below 1e-10 of the strongest are dropped. X is
+    overwritten when M is not diagonal.
+    """
+    # X' = X - Phi C, M-orthogonal to the basis (two passes: the static vectors lie mostly in
+    # the basis, so one pass leaves rounding behind), and the Gram matrix X'^T M X'
+    R = _mass_root(M)
+    if R is not None:  # lumped mass: the M-products run over the rows with mass only
+        Y, P = R @ X, R @ Phi
+        C = np.zeros((Phi.shape[1], X.shape[1]))
+        for _ in range(2):
+            D = P.T @ Y
+            Y -= P @ D
+            C += D
+        del P
+        norms = np.sqrt(np.einsum("nk,nk->k", Y, Y))
+        G = _gram(Y)
+        del Y
+    else:
+        C = None
+        for _ in range(2):
+            X -= Phi @ (Phi.T @ (M @ X))
+        MX = M @ X
+        norms = np.sqrt(np.maximum(np.einsum("nk,nk->k", X, MX), 0.0))
+        G = X.T @ MX
+        del MX
+    # the strongest directions of the unit-normalised set
+    big = norms > 1e-12 * max(float(norms.max()), 1e-300)
+    G = G[np.ix_(big, big)] / np.outer(norms[big], norms[big])
+    w, V = np.linalg.eigh(0.5 * (G + G.T))
+    order = np.argsort(w)[::-1]
+    w, V = w[order], V[:, order]
+    keep = w > 1e-10 * w[0]
+    keep[n_keep:] = False
+    W = V[:, keep] / np.sqrt(w[keep]) / norms[big][:, None]
+    Q = X[:, big] @ W
+    if C is not None:
+        Q -= Phi @ (C[:, big] @ W)
+    Q -= Phi @ (Phi.T @ (M @ Q))
+    return Q
+
+
 def derivative_vectors(polys: list[GroupPolynomial], center: np.ndarray, K: object,
                        M: object, red: object, Phi: np.ndarray, lam_basis: np.ndarray,
                        m: int, n_keep: int, depth: int = 2,
@@ -382,41 +426,7 @@ def derivative_vectors(polys: list[GroupPolynomial], center: np.ndarray, K: obje
         return np.zeros((Phi.shape[0], 0))
     X = np.hstack(cols)
     del cols
-    # X' = X - Phi C, M-orthogonal to the basis (two passes: the static vectors lie mostly in
-    # the basis, so one pass leaves rounding behind), and the Gram matrix X'^T M X'
-    R = _mass_root(M)
-    if R is not None:  # lumped mass: the M-products run over the rows with mass only
-        Y, P = R @ X, R @ Phi
-        C = np.zeros((Phi.shape[1], X.shape[1]))
-        for _ in range(2):
-            D = P.T @ Y
-            Y -= P @ D
-            C += D
-        del P
-        norms = np.sqrt(np.einsum("nk,nk->k", Y, Y))
-        G = _gram(Y)
-        del Y
-    else:
-        C = None
-        for _ in range(2):
-            X -= Phi @ (Phi.T @ (M @ X))
-        MX = M @ X
-        norms = np.sqrt(np.maximum(np.einsum("nk,nk->k", X, MX), 0.0))
-        G = X.T @ MX
-        del MX
-    # the strongest directions of the unit-normalised set
-    big = norms > 1e-12 * max(float(norms.max()), 1e-300)
-    G = G[np.ix_(big, big)] / np.outer(norms[big], norms[big])
-    w, V = np.linalg.eigh(0.5 * (G + G.T))
-    order = np.argsort(w)[::-1]
-    w, V = w[order], V[:, order]
-    keep = w > 1e-10 * w[0]
-    keep[n_keep:] = False
-    W = V[:, keep] / np.sqrt(w[keep]) / norms[big][:, None]
-    Q = X[:, big] @ W
-    if C is not None:
-        Q -= Phi @ (C[:, big] @ W)
-    Q -= Phi @ (Phi.T @ (M @ Q))
+    Q = _m_compress(X, M, Phi, n_keep)
     # the vectors' own modes (K- and M-orthogonal); those far above the basis (stiff
     # directions: axial bars, springs, drilling) are dropped: they add ~lam_i / theta to the
     # derivatives and would spoil the small eigenproblem's accuracy (its error is ~eps times
@@ -451,21 +461,6 @@ def static_vectors(polys: list[GroupPolynomial], center: np.ndarray, K: object, 
         if np.any(dKX):
             cols.append(red.T @ solve(Tt @ dKX))
     return np.hstack(cols)
-
-
-def _m_orthonormal(X: np.ndarray, M, Phi: np.ndarray) -> np.ndarray:
-    """The columns of X (n_g, k) made M-orthogonal to the M-orthonormal Phi and
-    M-orthonormal among themselves (two passes); vanishing directions (relative 1e-10 of the
-    unit-normalised set) are dropped."""
-    for _ in range(2):
-        X = X - Phi @ (Phi.T @ (M @ X))
-    norms = np.sqrt(np.maximum(np.einsum("nk,nk->k", X, M @ X), 0.0))
-    X = X[:, norms > 1e-12 * max(float(norms.max()), 1e-300)]
-    X = X / np.sqrt(np.einsum("nk,nk->k", X, M @ X))
-    w, V = np.linalg.eigh(X.T @ (M @ X))
-    keep = w > 1e-10 * w.max()
-    Q = X @ (V[:, keep] / np.sqrt(w[keep]))
-    return Q - Phi @ (Phi.T @ (M @ Q))
 
 
 def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center: np.ndarray,
@@ -539,8 +534,8 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
         if (modes.eigenvalues <= 0).any():
             raise ValueError("the residual flexibility needs a restrained model: a basis mode "
                              "is a rigid-body mode")  # fmt: skip
-        block = _m_orthonormal(static_vectors(polynomials, np.asarray(p_center, float),
-                                              mats.K, red, Bg), mats.M, Phi)  # fmt: skip
+        X = static_vectors(polynomials, np.asarray(p_center, float), mats.K, red, Bg)
+        block = _m_compress(X, mats.M, Phi, n_keep=X.shape[1])
         Phi = np.hstack([Phi, block])
         say(f"surrogate basis: {block.shape[1]} static responses to the inputs and their "
             "parameter derivatives (residual flexibility)")
