@@ -226,6 +226,13 @@ def test_a_synthetic_tests_truth_sets_each_error_against_its_crlb(study, tmp_pat
     bad.write_text("\n".join(lines).replace(f'card = "{params[0].card}"', 'card = "PBAR"', 1))
     with pytest.raises(ValueError, match=rf"parameter {params[0].name}: card = 'PBAR'"):
         read_truth(bad, params)
+    # the run reads it before any work, so a bad file fails at once
+    (d / "bad_truth.toml").write_text(bad.read_text())
+    (d / "bad_truth_cal.toml").write_text(
+        CONFIG.replace('frf = "test.npz"', 'frf = "test.npz"\ntruth = "bad_truth.toml"'))
+    with pytest.raises(ValueError, match=r"bad_truth.toml: parameter .*: card = 'PBAR'"):
+        run(read_config(d / "bad_truth_cal.toml"), tmp_path / "never")
+    assert not (tmp_path / "never" / "starts").exists()
 
 
 def test_the_residual_flag_must_be_a_boolean(study, tmp_path):

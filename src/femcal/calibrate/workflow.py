@@ -160,6 +160,8 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
     deck = read_deck(cfg.deck)
     model = build_model(deck)
     params = read_parameters(cfg.parameters, model)
+    # a synthetic test's known values, for the report only (read now: a bad file fails fast)
+    truth = read_truth(cfg.test_truth, params) if cfg.test_truth is not None else None
     lo = np.array([p.p_lower for p in params])
     hi = np.array([p.p_upper for p in params])
     say(f"{cfg.deck.name}: {model.n_dof} DOF; {len(params)} parameters from "
@@ -341,7 +343,6 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
             "pseudo_orthogonality_after": float(abs(poc[k, list(serep).index(a.fe)]))
             if a and a.fe in serep else None,
         })  # fmt: skip
-    truth = read_truth(cfg.test_truth, params) if cfg.test_truth is not None else None
     param_rows = []
     for i, par in enumerate(params):
         crlb_p = float(fi.crlb[i])
