@@ -91,7 +91,8 @@ def demo() -> None:
 
 
 def noise_free(max_cycles: int = 40, near: float | None = None, residual: bool = False,
-               enrich_hz: float | None = None) -> None:  # fmt: skip
+               enrich_hz: float | None = None, modal_hz: float | None = None,
+               exact_gradient: bool = True) -> None:  # fmt: skip
     from femcal.calibrate.config import read_config
     from femcal.calibrate.parameters import read_parameters, with_values
     from femcal.calibrate.workflow import run
@@ -116,9 +117,12 @@ def noise_free(max_cycles: int = 40, near: float | None = None, residual: bool =
 
         p_true = np.array([true_v[q.name] / q.nominal - 1.0 for q in params])
         sur, _ = build_surrogate(deck, model, params, p_true, shipped.outputs, shipped.inputs,
-                                 n_modes=100, zeta=0.01, residual=True)  # fmt: skip
+                                 n_modes=100, zeta=0.01, residual=True,
+                                 frf_hz=modal_hz)  # fmt: skip
         H = sur.frf(p_true, f)
     else:
+        if modal_hz is not None:
+            raise SystemExit("--modal-hz needs --residual (the test's FRF definition)")
         H = modal_frf(modes.shapes, modes.radians, channel_matrix(m, shipped.outputs),
                       channel_matrix(m, shipped.inputs).T, f, 0.01, "accelerance")  # fmt: skip
     write_npz(WORK / "noise_free_test.npz", FRFData(f, H, shipped.outputs, shipped.inputs,
@@ -144,11 +148,14 @@ def noise_free(max_cycles: int = 40, near: float | None = None, residual: bool =
     if near is not None:
         cfg = cfg.replace("starts = 24", "starts = 1")  # the check is local convergence
     extra = ("residual = true\n" if residual else "") + (
-        f"enrich_hz = {enrich_hz}\n" if enrich_hz is not None else "")
+        f"enrich_hz = {enrich_hz}\n" if enrich_hz is not None else "") + (
+        f"modal_hz = {modal_hz}\n" if modal_hz is not None else "") + (
+        "" if exact_gradient else "exact_gradient = false\n")
     cfg = cfg.replace("[calibration]\n", "[calibration]\n" + extra)
-    if residual or enrich_hz is not None:
-        name += "_residual" if residual else ""
-        name += f"_enrich{enrich_hz:g}" if enrich_hz is not None else ""
+    name += "_residual" if residual else ""
+    name += f"_enrich{enrich_hz:g}" if enrich_hz is not None else ""
+    name += f"_modal{modal_hz:g}" if modal_hz is not None else ""
+    name += "" if exact_gradient else "_surrogate_gradient"
     (WORK / f"{name}.toml").write_text(cfg)
     t = time.perf_counter()
     o = run(read_config(WORK / f"{name}.toml"), WORK / f"calibration_{name}", fresh=True,
@@ -198,13 +205,21 @@ def main(argv=None) -> int:
                     help="noise-free parts: the enrichment frequency (0: none)")
     ap.add_argument("--max-cycles", type=int, default=40,
                     help="trust-region cycles of the noise-free part (default 40)")
+    ap.add_argument("--modal-hz", type=float, default=None,
+                    help="noise-free parts with --residual: the FRFs sum the modes up to this "
+                    "frequency (test and model), the others as residual flexibility")
+    ap.add_argument("--surrogate-gradient", action="store_true",
+                    help="noise-free parts: no first-order correction by the full model's "
+                    "exact Jacobian (exact_gradient = false)")
     a = ap.parse_args(argv)
+    kw = dict(residual=a.residual, enrich_hz=a.enrich_hz, modal_hz=a.modal_hz,
+              exact_gradient=not a.surrogate_gradient)
     if a.part in ("demo", "all"):
         demo()
     if a.part in ("noise-free", "all"):
-        noise_free(a.max_cycles, residual=a.residual, enrich_hz=a.enrich_hz)
+        noise_free(a.max_cycles, **kw)
     if a.part in ("near-truth", "all"):
-        noise_free(a.max_cycles, near=0.03, residual=a.residual, enrich_hz=a.enrich_hz)
+        noise_free(a.max_cycles, near=0.03, **kw)
     return 0
 
 

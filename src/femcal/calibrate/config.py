@@ -34,8 +34,13 @@
                                             #  (default 1.5 x the band's top; 0: none)
     enrich_vectors = 100                    # at most this many (default reduction_modes)
     residual = false                        # true: the FE FRFs add the residual flexibility
-                                            #  of the modes beyond reduction_modes (needs
-                                            #  a restrained model)
+                                            #  of the modes they do not sum (needs a
+                                            #  restrained model)
+    modal_hz = 0.0                          # the FE FRFs sum the modes up to this frequency
+                                            #  at the nominal model (0: all reduction_modes)
+    exact_gradient = true                   # the full model's exact FRF Jacobian at each
+                                            #  surrogate centre corrects the surrogate to
+                                            #  first order there
     starts = 8                              # Latin hypercube starts (the nominal is one)
     workers = 2                             # parallel processes for the starts
     seed = 1
@@ -94,6 +99,8 @@ class Config:
     enrich_hz: float = 0.0
     enrich_vectors: int = 100
     residual: bool = False
+    modal_hz: float = 0.0
+    exact_gradient: bool = True
     starts: int = 8
     workers: int = 2
     seed: int = 1
@@ -236,6 +243,10 @@ def read_config(path: str | os.PathLike[str]) -> Config:
     if enrich_hz < 0:
         raise ValueError(f"{path}: [calibration] enrich_hz = {enrich_hz}: expected a frequency "
                          "in Hz, or 0 for no enrichment")  # fmt: skip
+    modal_hz = _number(cal, "modal_hz", 0.0, float, where)
+    if modal_hz < 0:
+        raise ValueError(f"{path}: [calibration] modal_hz = {modal_hz}: expected a frequency "
+                         "in Hz, or 0 for all reduction modes")  # fmt: skip
     return Config(
         path=path, deck=deck, parameters=params, test_frf=test_frf, test_model=test_model,
         identify=ident, band=band, model_units=model.get("units", "mm/s^2/N"), zeta0=zeta0,
@@ -248,7 +259,8 @@ def read_config(path: str | os.PathLike[str]) -> Config:
         crlb_bands=tuple(_band(b, f"{path}: [calibration] crlb_bands")
                          for b in cal.get("crlb_bands", [])),
         exclude_suspect_channels=bool(cal.get("exclude_suspect_channels", True)),
-        residual=_flag(cal, "residual", False, where),
+        residual=_flag(cal, "residual", False, where), modal_hz=modal_hz,
+        exact_gradient=_flag(cal, "exact_gradient", True, where),
         test_truth=test_truth,
         pictures=bool(out.get("pictures", True)), raw=doc, **ints,
     )  # fmt: skip

@@ -24,7 +24,9 @@ from .surrogate import Surrogate
 class Problem:
     """What every start minimises: the metric between the surrogate's FRFs and the test's
     at ``freq`` (n_f,), within the bounds, plus ``(weights p)^2`` (the regularisation rows,
-    zero weights for none)."""
+    zero weights for none). ``correction`` (n_residuals, n_p), if given, is added to the
+    metric's residuals as ``correction (p - p_c)`` about the surrogate's centre p_c (the
+    first-order correction of :mod:`femcal.calibrate.gradient`)."""
 
     surrogate: Surrogate
     freq: np.ndarray
@@ -34,16 +36,24 @@ class Problem:
     upper: np.ndarray
     max_iter: int
     weights: np.ndarray | None = None
+    correction: np.ndarray | None = None
+
+    def _data_residuals(self, p: np.ndarray) -> np.ndarray:
+        r = residuals(self.surrogate.frf(p, self.freq), self.H_test, self.metric)
+        if self.correction is not None:
+            r = r + self.correction @ (np.asarray(p, float) - self.surrogate.p_center)
+        return r
 
     def fun(self, p: np.ndarray):
         """Residuals and a callable for their Jacobian (computed for accepted points only)."""
-        H = self.surrogate.frf(p, self.freq)
-        r = residuals(H, self.H_test, self.metric)
+        r = self._data_residuals(p)
         w = self.weights
 
         def jac() -> np.ndarray:
             Hj, dH = self.surrogate.frf_and_jacobian(p, self.freq)
             J = jacobian(Hj, dH, self.metric, self.H_test)
+            if self.correction is not None:
+                J = J + self.correction
             return J if w is None else np.vstack([J, np.diag(w)])
 
         return (r if w is None else np.concatenate([r, w * p])), jac
@@ -55,7 +65,7 @@ class Problem:
 
     def deviation(self, p: np.ndarray) -> float:
         """The data part alone: eps^T eps."""
-        r = residuals(self.surrogate.frf(p, self.freq), self.H_test, self.metric)
+        r = self._data_residuals(p)
         return float(r @ r)
 
 

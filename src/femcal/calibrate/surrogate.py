@@ -31,7 +31,7 @@ exact eigen-derivatives of the small problem (all r modes are at hand):
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from math import comb
 
 import numpy as np
@@ -51,6 +51,25 @@ from .parameters import Parameter, with_values
 _POWER = {"receptance": 0, "mobility": 1, "accelerance": 2}
 #: Surrogate orders: every polynomial term, or the first-order terms alone (FEMCali's).
 ORDERS = ("exact", "first-order")
+
+
+def modal_factors(lam: np.ndarray, freq_hz: np.ndarray, zeta: float, quantity: str
+                  ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """Modal factors q (r, n_f) = (i w)^a / (lam - w^2 + 2 i zeta sqrt(lam) w) and
+    dq/dlam (r, n_f) of eigenvalues lam (r,) (rad^2/s^2) at freq_hz (n_f,)."""
+    w = 2 * np.pi * np.asarray(freq_hz, float)
+    root = np.sqrt(np.maximum(lam, 0.0))
+    Dn = lam[:, None] - w[None, :] ** 2 + 2j * zeta * root[:, None] * w[None, :]
+    num = (1j * w[None, :]) ** _POWER[quantity]
+    q = num / Dn
+    safe = np.where(root > 0, root, 1.0)
+    dD = 1.0 + np.where(root[:, None] > 0, 1j * zeta * w[None, :] / safe[:, None], 0.0)
+    return q, -q * dD / Dn
+
+
+def static_factor(freq_hz: np.ndarray, quantity: str) -> np.ndarray:
+    """(i w)^a (n_f,): a static receptance as this quantity."""
+    return (2j * np.pi * np.asarray(freq_hz, float)) ** _POWER[quantity]
 
 
 @dataclass(frozen=True)
@@ -76,6 +95,8 @@ class Surrogate:
         over the other Ritz modes (no cancellation). The basis then holds the static
         responses to the inputs, so at the centre this is the full model's residual
         flexibility (:func:`femcal.frf.residual_flexibility`).
+    exact : the full model's exact FRF derivatives at the centre
+        (:class:`femcal.calibrate.gradient.CentreDerivatives`), when asked for.
     """
 
     p_center: np.ndarray
@@ -91,6 +112,7 @@ class Surrogate:
     basis_hz: np.ndarray
     n_frf: int = 0
     residual: bool = False
+    exact: object | None = None
 
     @property
     def n_params(self) -> int:
@@ -167,23 +189,14 @@ class Surrogate:
         return H
 
     def _static_factor(self, freq_hz: np.ndarray) -> np.ndarray:
-        """(i w)^a (n_f,): a static receptance as this quantity."""
-        return (2j * np.pi * np.asarray(freq_hz, float)) ** _POWER[self.quantity]
+        return static_factor(freq_hz, self.quantity)
 
     @property
     def _n_frf(self) -> int:
         return self.n_frf or self.K0.shape[0]
 
     def _q(self, lam: np.ndarray, freq_hz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Modal factors q (r, n_f) and dq/dlam (r, n_f)."""
-        w = 2 * np.pi * np.asarray(freq_hz, float)
-        root = np.sqrt(np.maximum(lam, 0.0))
-        Dn = lam[:, None] - w[None, :] ** 2 + 2j * self.zeta * root[:, None] * w[None, :]
-        num = (1j * w[None, :]) ** _POWER[self.quantity]
-        q = num / Dn
-        safe = np.where(root > 0, root, 1.0)
-        dD = 1.0 + np.where(root[:, None] > 0, 1j * self.zeta * w[None, :] / safe[:, None], 0.0)
-        return q, -q * dD / Dn
+        return modal_factors(lam, freq_hz, self.zeta, self.quantity)
 
     def frf_and_jacobian(self, p: np.ndarray, freq_hz: np.ndarray
                          ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
@@ -436,22 +449,27 @@ def derivative_vectors(polys: list[GroupPolynomial], center: np.ndarray, K: obje
     return Q @ U[:, keep]
 
 
-def static_vectors(polys: list[GroupPolynomial], center: np.ndarray, K: object, red: object,
-                   Bg: object) -> np.ndarray:  # fmt: skip
-    """The static responses to the inputs, X = K^-1 B_g^T (n_g, n_in), and their parameter
-    derivatives ``-K^-1 dK/dp_j X`` for every parameter: (n_g, n_in (1 + n_p)) at most.
+def stiffness_solve(K: object, red: object) -> Callable[[np.ndarray], np.ndarray]:
+    """A factor of the a-set's K (unshifted) for static solves.
 
     Raises
     ------
     ValueError
         When K is singular (a free model has no static flexibility).
     """
-    Ka = red.reduce(K)
     try:
-        solve, _ = factorize(Ka.tocsc())
+        solve, _ = factorize(red.reduce(K).tocsc())
     except NotPositiveDefinite:
         raise ValueError("the residual flexibility needs a restrained model (K is singular: "
                          "free-free, or a mechanism)") from None  # fmt: skip
+    return solve
+
+
+def static_vectors(polys: list[GroupPolynomial], center: np.ndarray, solve: Callable,
+                   red: object, Bg: object) -> np.ndarray:  # fmt: skip
+    """The static responses to the inputs, X = K^-1 B_g^T (n_g, n_in), and their parameter
+    derivatives ``-K^-1 dK/dp_j X`` for every parameter: (n_g, n_in (1 + n_p)) at most.
+    ``solve`` is the a-set's K^-1 (:func:`stiffness_solve`)."""
     Tt = red.T.T.tocsr()
     B = np.asarray(sp.csr_matrix(Bg).T.todense())  # (n_g, n_in)
     X = red.T @ solve(Tt @ B)
@@ -468,7 +486,9 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
                     zeta: float = 0.01, quantity: str = "accelerance", order: str = "exact",
                     polynomials: list | None = None, options: Options | None = None,
                     enrich_hz: float | None = None, n_enrich: int | None = None,
-                    residual: bool = False, progress: Callable[[str], None] | None = None,
+                    residual: bool = False, frf_modes: int | None = None,
+                    frf_hz: float | None = None, exact_gradient: bool = False,
+                    progress: Callable[[str], None] | None = None,
                     ) -> tuple[Surrogate, object]:  # fmt: skip
     """Reduce the (nominal) model at ``p_center`` on its first ``n_modes`` modes there.
 
@@ -485,10 +505,15 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
         (default ``n_modes``); the FRFs still sum the ``n_modes`` lowest modes. This makes
         the Jacobian right at the centre (the modes alone truncate the eigenvector
         derivatives), which the trust-region cycles near the solution need.
-    residual : the FRFs get the residual flexibility of the modes beyond the n_modes lowest
-        (as :func:`femcal.frf.residual_flexibility`), the basis the static responses to the
-        inputs and their parameter derivatives (:func:`static_vectors`). Needs a restrained
-        model.
+    residual : the FRFs get the residual flexibility of the modes beyond the ``frf_modes``
+        lowest (as :func:`femcal.frf.residual_flexibility`), the basis the static responses
+        to the inputs and their parameter derivatives (:func:`static_vectors`). Needs a
+        restrained model.
+    frf_modes : the FRFs sum this many lowest modes (default ``n_modes``); with
+        ``residual`` the others enter as residual flexibility. Or ``frf_hz``: the modes up
+        to this frequency at the centre (at least one).
+    exact_gradient : also compute the full model's exact FRF derivatives at the centre
+        (:func:`femcal.calibrate.gradient.centre_derivatives`), kept as ``Surrogate.exact``.
 
     Returns
     -------
@@ -509,9 +534,18 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
             factor["solve"] = solve
 
     modes, red = solve_sol103(deck, model_c, matrices=mats, request=EigenRequest(nd=n_modes),
-                              on_factor=keep_factor if enrich_hz is not None else None)  # fmt: skip
+                              on_factor=keep_factor if enrich_hz is not None or exact_gradient
+                              else None)  # fmt: skip
     Phi = modes.shapes  # (n_g, r), mass-normalised
     n_frf = Phi.shape[1]
+    if frf_hz is not None:
+        if frf_modes is not None:
+            raise ValueError("give frf_modes or frf_hz, not both")
+        frf_modes = max(int(np.searchsorted(modes.frequencies_hz, frf_hz, side="right")), 1)
+    if frf_modes is not None:
+        if not 1 <= frf_modes <= n_frf:
+            raise ValueError(f"frf_modes = {frf_modes}: expected 1 to the {n_frf} modes solved")
+        n_frf = int(frf_modes)
     say(f"surrogate: {Phi.shape[1]} modes up to {modes.frequencies_hz[-1]:.1f} Hz; the "
         f"{order} dependence of K and M on {len(params)} parameters")
     if polynomials is None:
@@ -530,11 +564,13 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
             Phi = np.hstack([Phi, extra])
             say(f"surrogate basis enriched: {extra.shape[1]} static eigenvector-derivative "
                 f"vectors of the {m} modes up to {enrich_hz:g} Hz (the stiffer ones dropped)")
+    static_solve = None
     if residual:
         if (modes.eigenvalues <= 0).any():
             raise ValueError("the residual flexibility needs a restrained model: a basis mode "
                              "is a rigid-body mode")  # fmt: skip
-        X = static_vectors(polynomials, np.asarray(p_center, float), mats.K, red, Bg)
+        static_solve = stiffness_solve(mats.K, red)
+        X = static_vectors(polynomials, np.asarray(p_center, float), static_solve, red, Bg)
         block = _m_compress(X, mats.M, Phi, n_keep=X.shape[1])
         Phi = np.hstack([Phi, block])
         say(f"surrogate basis: {block.shape[1]} static responses to the inputs and their "
@@ -549,4 +585,14 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
                     np.array(Kt).reshape(-1, r, r), np.array(Mt).reshape(-1, r, r),
                     np.asarray(Cg @ Phi), np.asarray(Bg @ Phi), float(zeta), quantity,
                     modes.frequencies_hz.copy(), n_frf, residual)  # fmt: skip
+    if exact_gradient:
+        from .gradient import centre_derivatives  # (it builds on this module)
+
+        exact = centre_derivatives(polynomials, np.asarray(p_center, float), mats.M, red,
+                                   modes.shapes, modes.eigenvalues, Cg, Bg, n_frf,
+                                   shifted_solve=factor.get("solve"), static_solve=static_solve,
+                                   residual=residual, K=mats.K)  # fmt: skip
+        sur = replace(sur, exact=exact)
+        say(f"the full model's exact FRF derivatives at the centre ({exact.terms} series terms "
+            "for the modes above the basis)")
     return sur, modes

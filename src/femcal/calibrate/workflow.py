@@ -27,7 +27,7 @@ import hashlib
 import json
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -43,6 +43,7 @@ from ..model import build_model
 from .config import Config
 from .derivatives import group_polynomials
 from .fisher import fisher
+from .gradient import first_order_correction
 from .lm import latin_hypercube
 from .metric import deviation, jacobian, log_frequencies, residuals
 from .parameters import Parameter, read_parameters, read_truth, write_calibrated_deck
@@ -77,7 +78,7 @@ class Outcome:
 
 #: Changes whenever the surrogate's construction does, so that finished starts of an older
 #: version are not resumed.
-SURROGATE_VERSION = 3
+SURROGATE_VERSION = 4
 
 
 def _fingerprint(cfg: Config, extra: str) -> str:
@@ -137,10 +138,15 @@ def _test_frfs(data: FRFData | None, ident, keep: np.ndarray, zeta0: float,
 
 
 def _jac_res(problem: Problem, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(J, r) of the data part of the problem at p."""
+    """(J, r) of the data part of the problem at p (at the centre of a corrected problem,
+    the full model's)."""
     H, dH = problem.surrogate.frf_and_jacobian(p, problem.freq)
-    return (jacobian(H, dH, problem.metric, problem.H_test),
-            residuals(H, problem.H_test, problem.metric))
+    J = jacobian(H, dH, problem.metric, problem.H_test)
+    r = residuals(H, problem.H_test, problem.metric)
+    if problem.correction is not None:
+        J = J + problem.correction
+        r = r + problem.correction @ (np.asarray(p, float) - problem.surrogate.p_center)
+    return J, r
 
 
 def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | None = None,
@@ -192,7 +198,8 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
         f"{len(outputs)} outputs x {len(inputs)} inputs")  # fmt: skip
     data_hash = hashlib.sha256(freq.tobytes() + H_test.tobytes()).hexdigest()
     fp = _fingerprint(cfg, f"{n_starts}-{SURROGATE_VERSION}-{cfg.enrich_hz}-"
-                      f"{cfg.enrich_vectors}-{cfg.residual}" + data_hash)  # fmt: skip
+                      f"{cfg.enrich_vectors}-{cfg.residual}-{cfg.modal_hz}-"
+                      f"{cfg.exact_gradient}" + data_hash)  # fmt: skip
     state_path = out / "starts" / "cycles.json"
     rng = np.random.default_rng(cfg.seed)
     starts0 = [np.zeros(len(params))]
@@ -204,14 +211,30 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
         "element group")
     polys = group_polynomials(model, params, np.zeros(len(params)), constant=True)
 
+    frf_modes: list[int] = []  # the FRFs' mode count, fixed at the nominal model
+
     def surrogate_at(p: np.ndarray):
         say(f"surrogate at p = [{', '.join(f'{x:+.4f}' for x in p)}]")
-        return build_surrogate(deck, model, params, p, outputs, inputs,
-                               n_modes=cfg.reduction_modes, zeta=zeta0, quantity=quantity,
-                               order=cfg.surrogate, polynomials=polys,
-                               enrich_hz=cfg.enrich_hz or None,
-                               n_enrich=cfg.enrich_vectors, residual=cfg.residual,
-                               progress=say)  # fmt: skip
+        sur, modes = build_surrogate(
+            deck, model, params, p, outputs, inputs, n_modes=cfg.reduction_modes, zeta=zeta0,
+            quantity=quantity, order=cfg.surrogate, polynomials=polys,
+            enrich_hz=cfg.enrich_hz or None, n_enrich=cfg.enrich_vectors,
+            residual=cfg.residual, frf_modes=frf_modes[0] if frf_modes else None,
+            frf_hz=cfg.modal_hz if not frf_modes and cfg.modal_hz else None,
+            exact_gradient=cfg.exact_gradient, progress=say)  # fmt: skip
+        if not frf_modes:
+            frf_modes.append(sur._n_frf)
+            if cfg.modal_hz:
+                say(f"the FRFs sum the {sur._n_frf} modes up to {cfg.modal_hz:g} Hz at the "
+                    "nominal" + (", the others as residual flexibility" if cfg.residual
+                                 else ""))  # fmt: skip
+        return sur, modes
+
+    def problem_on(sur, lower: np.ndarray, upper: np.ndarray) -> Problem:
+        corr = (first_order_correction(sur, sur.exact, freq, H_test, cfg.metric)
+                if sur.exact is not None else None)  # fmt: skip
+        return Problem(sur, freq, H_test, cfg.metric, lower, upper, cfg.max_iterations,
+                       weights, corr)  # fmt: skip
 
     def starts_in(c: int, problem: Problem, pts: list[np.ndarray], center: np.ndarray):
         folder = out / "starts" / f"cycle{c}"
@@ -231,7 +254,7 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
     center = np.zeros(len(params))
     sur, modes_c = surrogate_at(center)
     modes0, sur0 = modes_c, sur
-    problem = Problem(sur, freq, H_test, cfg.metric, lo, hi, cfg.max_iterations, weights)
+    problem = problem_on(sur, lo, hi)
     cost_c = problem.cost(center)
     results = starts_in(1, problem, starts0, center)
     best = min(results, key=lambda r: r["cost"])
@@ -249,8 +272,7 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
     settled = False
     for c in range(2, cfg.max_cycles + 1):
         sur_new, modes_new = surrogate_at(cand)
-        prob_new = Problem(sur_new, freq, H_test, cfg.metric, lo, hi, cfg.max_iterations,
-                           weights)  # fmt: skip
+        prob_new = problem_on(sur_new, lo, hi)
         cost_new = prob_new.cost(cand)
         predicted = cost_c - pred
         rho = (cost_c - cost_new) / predicted if predicted > 0 else 0.0
@@ -284,8 +306,8 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
             cycles.append(entry)
             save_cycles()
             break
-        box = Problem(sur, freq, H_test, cfg.metric, np.maximum(lo, center - radius),
-                      np.minimum(hi, center + radius), cfg.max_iterations, weights)  # fmt: skip
+        box = replace(problem, lower=np.maximum(lo, center - radius),
+                      upper=np.minimum(hi, center + radius))
         res = starts_in(c, box, [center], center)[0]
         cand, pred = np.array(res["p"]), res["cost"]
         entry.update(p=list(map(float, cand)), deviation=res["deviation"], best_start=1,
@@ -386,6 +408,8 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
         "settled": settled, "reduction_modes": cfg.reduction_modes,
         "surrogate": cfg.surrogate, "enrich_hz": cfg.enrich_hz,
         "enrich_vectors": cfg.enrich_vectors, "residual": cfg.residual,
+        "modal_hz": cfg.modal_hz, "frf_modes": frf_modes[0],
+        "exact_gradient": cfg.exact_gradient,
         "model_dof": model.n_dof, "seconds": time.perf_counter() - t0,
         "calibrated_deck": f"{cfg.deck.stem}_calibrated.bdf",
     }  # fmt: skip

@@ -1,0 +1,201 @@
+"""The full model's exact FRF Jacobian at a surrogate's centre, and the first-order
+correction that makes the surrogate agree with it there.
+
+The surrogate is the full model at its centre, but its Jacobian there is not the full
+model's: its eigenvector derivatives are truncated to the basis. The trust-region cycles
+then converge only linearly, and slowly where the test informs a parameter weakly. With the
+full model's Jacobian J at the centre c, the surrogate's residuals get the linear correction
+``eps~(p) = eps_s(p) + (J - J_s(c)) (p - c)``, which makes it agree with the full model to
+first order at c (Alexandrov et al. 1998, first-order consistent trust regions): near a
+solution the cycles converge like Gauss-Newton on the full model.
+
+The Jacobian of the full model's FRF, ``H = sum_{j<m} (C phi_j)(B phi_j)^T q_j(lam_j)``
+(+ the residual flexibility ``R = C K^-1 B^T - sum_{j<m} (C phi_j)(B phi_j)^T / lam_j``),
+needs the eigenvalue derivatives (Fox and Kapoor) and the sensors' view of the eigenvector
+derivatives, ``C dphi_j`` and ``B dphi_j``. With the r computed modes
+(M-orthonormal) and their eigenvalues,
+``dphi_j = sum_{k != j} phi_k phi_k^T f_j / (lam_k - lam_j) - phi_j phi_j^T dM phi_j / 2``
+with ``f_j = -(dK - lam_j dM) phi_j``. The modes k < r are at hand; the part over the modes
+above them is summed through the shifted factor of the eigen solution (s < 0):
+``1 / (lam_k - lam_j) = sum_n (lam_j - s)^n / (lam_k - s)^(n+1)``, so that
+``S sum_{k>=r} phi_k phi_k^T f_j / (lam_k - lam_j) = sum_n (lam_j - s)^n Z_n^T f_j`` with
+``Z_n = Q (K - sM)^-1 [M (K - sM)^-1]^n S^T``, Q removing the r modes, and S the sensor
+and input rows (a few dozen): N block solves serve every mode and parameter (adjoint
+form). The series converges as ``((lam_j - s) / (lam_r - s))^N``: fast for FRF modes well
+below the basis's top (the residual form with ``modal_hz``), slowly for the top modes of a
+basis that all enter the FRFs (the number of terms is capped; the report says how far the
+sum is from converged).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..linalg import factorize
+from .derivatives import GroupPolynomial
+from .metric import jacobian
+from .surrogate import STATIC_SHIFT, Surrogate, _polynomial_derivative, modal_factors, static_factor
+
+#: Relative accuracy asked of the series for the out-of-basis part.
+SERIES_TOL = 1e-10
+#: At most this many series terms (each one block solve with n_out + n_in columns).
+MAX_TERMS = 40
+
+
+@dataclass(frozen=True)
+class CentreDerivatives:
+    """The full model's FRF ingredients and their exact parameter derivatives at a centre.
+
+    lam : (m,) eigenvalues (rad^2/s^2) of the modes the FRFs sum.
+    S : (n_out, m) outputs C phi_j; P : (n_in, m) inputs B phi_j.
+    dlam : (n_p, m); d_S : (n_p, n_out, m); d_P : (n_p, n_in, m), per unit of scaled p.
+    R, d_R : (n_out, n_in) residual flexibility and (n_p, n_out, n_in) its derivatives, or
+        None without the residual.
+    terms : series terms taken; tail : bound on the relative truncation of the series for
+        the highest FRF mode (0 when converged to SERIES_TOL).
+    """
+
+    lam: np.ndarray
+    S: np.ndarray
+    P: np.ndarray
+    dlam: np.ndarray
+    d_S: np.ndarray  # noqa: N815 (the docstring's symbols)
+    d_P: np.ndarray  # noqa: N815
+    R: np.ndarray | None
+    d_R: np.ndarray | None  # noqa: N815
+    terms: int
+    tail: float
+
+    def frf_and_jacobian(self, freq_hz: np.ndarray, zeta: float, quantity: str
+                         ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+        """H (n_out, n_in, n_f) and dH/dp (n_p, n_out, n_in, n_f) of the full model."""
+        q, dq = modal_factors(self.lam, freq_hz, zeta, quantity)
+        H = np.einsum("oj,ij,jf->oif", self.S, self.P, q, optimize=True)
+        dH = (np.einsum("poj,ij,jf->poif", self.d_S, self.P, q, optimize=True)
+              + np.einsum("oj,pij,jf->poif", self.S, self.d_P, q, optimize=True)
+              + np.einsum("oj,ij,pj,jf->poif", self.S, self.P, self.dlam, dq, optimize=True))
+        if self.R is not None:
+            stat = static_factor(freq_hz, quantity)
+            H = H + self.R[:, :, None] * stat[None, None, :]
+            dH = dH + self.d_R[:, :, :, None] * stat[None, None, None, :]
+        return H, dH
+
+
+def centre_derivatives(polys: list[GroupPolynomial], center: np.ndarray, M: sp.spmatrix,
+                       red: object, Phi: np.ndarray, lam: np.ndarray, Cg: sp.spmatrix,
+                       Bg: sp.spmatrix, m: int, *, shifted_solve: Callable | None = None,
+                       static_solve: Callable | None = None, residual: bool = False,
+                       K: sp.spmatrix | None = None) -> CentreDerivatives:  # fmt: skip
+    """Exact derivatives of the FRF ingredients at ``center`` (see the module docstring).
+
+    Parameters
+    ----------
+    polys : the group polynomials about p = 0 (their derivatives at ``center`` are exact).
+    M : g-set mass at the centre; K too when no ``shifted_solve`` is given.
+    red : the constraint reduction (solves on its a-set).
+    Phi : (n_g, r) the mass-normalised modes at the centre, lam (r,) their eigenvalues.
+    Cg, Bg : (n_out, n_g), (n_in, n_g) output and input rows.
+    m : the FRFs sum the m lowest modes.
+    shifted_solve : the a-set's (K - STATIC_SHIFT M)^-1 (the eigen solution's factor).
+    static_solve : the a-set's K^-1, needed with ``residual``.
+    """
+    center = np.asarray(center, float)
+    Phi = np.asarray(Phi)
+    r = Phi.shape[1]
+    lam = np.asarray(lam, float)[:r]
+    if not 0 < m <= r:
+        raise ValueError(f"the FRFs' modes ({m}) must be between 1 and the basis's ({r})")
+    Ma = red.reduce(M)
+    if shifted_solve is None:
+        if K is None:
+            raise ValueError("centre_derivatives needs K or the shifted factor")
+        shifted_solve, _ = factorize((red.reduce(K) - STATIC_SHIFT * Ma).tocsc())
+    T = red.T
+    Tt = T.T.tocsr()
+    Sg = sp.vstack([sp.csr_matrix(Cg), sp.csr_matrix(Bg)]).tocsr()  # (n_s, n_g)
+    n_out, n_s = Cg.shape[0], Sg.shape[0]
+    Sr = np.asarray(Sg @ Phi)  # (n_s, r)
+    lm = lam[:m]
+    # series terms: ratio bound (lam_j - s) / (lam_r - s), lam_r a lower bound of the next
+    ratio = (lm[-1] - STATIC_SHIFT) / (lam[-1] - STATIC_SHIFT)
+    if ratio < 1.0:
+        terms = int(np.clip(np.ceil(np.log(SERIES_TOL * (1 - ratio)) / np.log(ratio)), 1,
+                            MAX_TERMS))  # fmt: skip
+        tail = float(ratio**terms / (1 - ratio))
+    else:
+        terms, tail = MAX_TERMS, float("inf")
+    tail = 0.0 if tail <= SERIES_TOL else tail
+    # Z_n (n_g, n_s) scaled by (lam_r - s)^n, and the weights by its inverse (no overflow)
+    top = lam[-1] - STATIC_SHIFT
+    # Q on the a-set, after every solve: each solve multiplies what is left of the low modes
+    # by (lam_r - s) / (lam_k - s), up to 1e4 and more
+    Pa = np.ascontiguousarray(Phi[red.a_dofs])  # the modes' a-set rows (T u_a = u_g)
+
+    def off_modes(Y: np.ndarray) -> np.ndarray:
+        for _ in range(2):  # twice: the modes hold most of it
+            Y = Y - Pa @ (Pa.T @ (Ma @ Y))
+        return Y
+
+    Y = off_modes(shifted_solve(np.asarray((Tt @ Sg.T).todense())))
+    Z = []
+    for n in range(terms):
+        Z.append(T @ Y)
+        if n + 1 < terms:
+            Y = off_modes(top * shifted_solve(Ma @ Y))
+    Zs = np.hstack(Z)  # (n_g, n_s N)
+    weights = ((lm - STATIC_SHIFT) / top)[None, :] ** np.arange(terms)[:, None]  # (N, m)
+    gap = lm[None, :] - lam[:, None]  # [k, j] = lam_j - lam_k
+    tiny = 1e-12 * np.maximum(np.maximum(np.abs(lm)[None, :], np.abs(lam)[:, None]), 1.0)
+    inv_gap = np.where(np.abs(gap) > tiny, 1.0 / np.where(np.abs(gap) > tiny, gap, 1.0), 0.0)
+    diag = np.arange(m)
+    n_p = center.size
+    dlam = np.zeros((n_p, m))
+    dSP = np.zeros((n_p, n_s, m))
+    for i in range(n_p):
+        dKX, dMX = _polynomial_derivative(polys, center, i, Phi[:, :m])
+        rows = np.flatnonzero(np.any(dKX != 0, axis=1) | np.any(dMX != 0, axis=1))
+        if rows.size == 0:
+            continue
+        dKX, dMX, Pr = dKX[rows], dMX[rows], Phi[rows]
+        G, N = Pr.T @ dKX, Pr.T @ dMX  # (r, m)
+        dlam[i] = G[diag, diag] - lm * N[diag, diag]
+        Cc = (G - N * lm[None, :]) * inv_gap
+        Cc[diag, diag] = -0.5 * N[diag, diag]
+        F = -(Zs[rows].T @ dKX) + (Zs[rows].T @ dMX) * lm[None, :]  # (n_s N, m): Z_n^T f_j
+        high = np.einsum("nsj,nj->sj", F.reshape(terms, n_s, m), weights)
+        dSP[i] = Sr @ Cc + high
+    S, P = Sr[:n_out, :m], Sr[n_out:, :m]
+    dS, dP = dSP[:, :n_out], dSP[:, n_out:]
+    R = dR = None
+    if residual:
+        if static_solve is None:
+            raise ValueError("the residual's derivatives need the factor of K")
+        if (lm <= 0).any():
+            raise ValueError("the residual flexibility needs a restrained model: an FRF mode "
+                             "is a rigid-body mode")  # fmt: skip
+        X = T @ static_solve(np.asarray((Tt @ Sg.T).todense()))  # K^-1 S^T (n_g, n_s)
+        XC, XB = X[:, :n_out], X[:, n_out:]
+        R = np.asarray(Cg @ XB) - (S / lm) @ P.T
+        dR = np.zeros((n_p, n_out, P.shape[0]))
+        for i in range(n_p):
+            dKXB, _ = _polynomial_derivative(polys, center, i, XB)
+            rows = np.flatnonzero(np.any(dKXB != 0, axis=1))
+            static = -(XC[rows].T @ dKXB[rows]) if rows.size else 0.0
+            dR[i] = (static - (dS[i] / lm) @ P.T - (S / lm) @ dP[i].T
+                     + (S * (dlam[i] / lm**2)) @ P.T)  # fmt: skip
+    return CentreDerivatives(lm, S, P, dlam, dS, dP, R, dR, terms, tail)
+
+
+def first_order_correction(sur: Surrogate, exact: CentreDerivatives, freq: np.ndarray,
+                           H_test: np.ndarray, metric: str) -> np.ndarray:  # fmt: skip
+    """E (n_residuals, n_p) = J_full(c) - J_surrogate(c) of the metric's residuals: added
+    as ``E (p - c)`` to the surrogate's residuals it makes their Jacobian the full model's at
+    the centre c."""
+    c = sur.p_center
+    H_s, dH_s = sur.frf_and_jacobian(c, freq)
+    H_f, dH_f = exact.frf_and_jacobian(freq, sur.zeta, sur.quantity)
+    return jacobian(H_f, dH_f, metric, H_test) - jacobian(H_s, dH_s, metric, H_test)

@@ -1,0 +1,82 @@
+"""The full model's exact FRF Jacobian at a surrogate's centre (femcal.calibrate.gradient)
+against central differences of the full model, and the first-order correction."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from femcal.calibrate.gradient import first_order_correction
+from femcal.calibrate.metric import jacobian, log_frequencies, residuals
+from femcal.calibrate.starts import Problem
+from femcal.calibrate.surrogate import build_surrogate
+from femcal.frfdata import Channel
+
+from .calib_decks import write_plate
+
+OUTS = [Channel.parse(s) for s in ("28:+Z", "25:+Z", "14:+Y", "21:3", "7:+X")]
+INS = [Channel.parse(s) for s in ("28:+Z", "11:+Y")]
+
+
+@pytest.fixture(scope="module")
+def setup(tmp_path_factory):
+    return write_plate(tmp_path_factory.mktemp("grad"))
+
+
+@pytest.mark.parametrize("residual, frf_modes", [(False, 8), (True, 6), (False, None)])
+def test_exact_centre_jacobian_equals_central_differences_of_the_full_model(setup, residual,
+                                                                          frf_modes):
+    """The full model (the surrogate at its own centre) differenced at +-h, +-2h in every
+    parameter (fourth order): the exact Jacobian matches to the differences' accuracy; the surrogate's own
+    Jacobian (eigenvector derivatives truncated to its basis) is further off. Also with all
+    the basis's modes in the FRFs (the series for the top modes runs to its cap)."""
+    deck, model, params = setup
+    n = len(params)
+    c = np.linspace(0.05, -0.05, n)
+    f = log_frequencies(10.0, 250.0, 0.02, 2.0)
+    kw = dict(n_modes=20, zeta=0.02, residual=residual, frf_modes=frf_modes)
+
+    def full(p):
+        sur, _ = build_surrogate(deck, model, params, p, OUTS, INS, **kw)
+        return sur.frf(p, f)
+
+    sur, _ = build_surrogate(deck, model, params, c, OUTS, INS, exact_gradient=True, **kw)
+    H, dH = sur.exact.frf_and_jacobian(f, 0.02, "accelerance")
+    H_s, dH_s = sur.frf_and_jacobian(c, f)
+    np.testing.assert_allclose(H, H_s, rtol=1e-9, atol=1e-11 * np.abs(H).max())
+    assert (sur.exact.R is not None) == residual
+    if frf_modes is not None:
+        assert sur.exact.tail == 0.0 and 1 <= sur.exact.terms < 40
+    h = 1e-4
+    err_exact, err_sur = [], []
+    for i in range(n):
+        e = np.zeros(n)
+        e[i] = h
+        fd = (8 * (full(c + e) - full(c - e)) - (full(c + 2 * e) - full(c - 2 * e))) / (12 * h)
+        scale = np.abs(fd).max()
+        err_exact.append(np.abs(dH[i] - fd).max() / scale)
+        err_sur.append(np.abs(dH_s[i] - fd).max() / scale)
+    assert max(err_exact) < 2e-6, (params[int(np.argmax(err_exact))].name, max(err_exact))
+    if not residual:  # (with the residual's static block the plate's basis is nearly exact)
+        assert max(err_sur) > 5 * max(err_exact)
+
+
+def test_first_order_correction_gives_the_full_jacobian_at_the_centre(setup):
+    deck, model, params = setup
+    n = len(params)
+    c = np.linspace(-0.04, 0.04, n)
+    f = log_frequencies(10.0, 250.0, 0.02, 2.0)
+    sur, _ = build_surrogate(deck, model, params, c, OUTS, INS, n_modes=20, zeta=0.02,
+                             frf_modes=8, exact_gradient=True)  # fmt: skip
+    H_test = sur.frf(np.zeros(n), f)  # some other point's FRFs
+    E = first_order_correction(sur, sur.exact, f, H_test, "complex-log")
+    H, dH = sur.exact.frf_and_jacobian(f, 0.02, "accelerance")
+    J_full = jacobian(H, dH, "complex-log", H_test)
+    lo, hi = -0.3 * np.ones(n), 0.3 * np.ones(n)
+    prob = Problem(sur, f, H_test, "complex-log", lo, hi, 10, None, E)
+    r, jac = prob.fun(c)
+    np.testing.assert_allclose(r, residuals(H, H_test, "complex-log"), atol=1e-12)
+    np.testing.assert_allclose(jac(), J_full, rtol=1e-10, atol=1e-12 * np.abs(J_full).max())
+    p = c + 0.01
+    plain = Problem(sur, f, H_test, "complex-log", lo, hi, 10)
+    np.testing.assert_allclose(prob.fun(p)[0], plain.fun(p)[0] + E @ (p - c), atol=1e-12)
