@@ -43,7 +43,7 @@ from .surrogate import STATIC_SHIFT, Surrogate, _polynomial_derivative, modal_fa
 #: Relative accuracy asked of the series for the out-of-basis part.
 SERIES_TOL = 1e-10
 #: At most this many series terms (each one block solve with n_out + n_in columns).
-MAX_TERMS = 40
+MAX_TERMS = 24
 
 
 @dataclass(frozen=True)
@@ -140,14 +140,6 @@ def centre_derivatives(polys: list[GroupPolynomial], center: np.ndarray, M: sp.s
             Y = Y - Pa @ (Pa.T @ (Ma @ Y))
         return Y
 
-    Y = off_modes(shifted_solve(np.asarray((Tt @ Sg.T).todense())))
-    Z = []
-    for n in range(terms):
-        Z.append(T @ Y)
-        if n + 1 < terms:
-            Y = off_modes(top * shifted_solve(Ma @ Y))
-    Zs = np.hstack(Z)  # (n_g, n_s N)
-    weights = ((lm - STATIC_SHIFT) / top)[None, :] ** np.arange(terms)[:, None]  # (N, m)
     gap = lm[None, :] - lam[:, None]  # [k, j] = lam_j - lam_k
     tiny = 1e-12 * np.maximum(np.maximum(np.abs(lm)[None, :], np.abs(lam)[:, None]), 1.0)
     inv_gap = np.where(np.abs(gap) > tiny, 1.0 / np.where(np.abs(gap) > tiny, gap, 1.0), 0.0)
@@ -155,19 +147,29 @@ def centre_derivatives(polys: list[GroupPolynomial], center: np.ndarray, M: sp.s
     n_p = center.size
     dlam = np.zeros((n_p, m))
     dSP = np.zeros((n_p, n_s, m))
+    # the known modes' part, and each parameter's -f_j = (dK - lam_j dM) phi_j on the rows
+    # its elements touch (kept for the series)
+    loads: list[tuple[np.ndarray, np.ndarray]] = []
     for i in range(n_p):
         dKX, dMX = _polynomial_derivative(polys, center, i, Phi[:, :m])
         rows = np.flatnonzero(np.any(dKX != 0, axis=1) | np.any(dMX != 0, axis=1))
-        if rows.size == 0:
-            continue
         dKX, dMX, Pr = dKX[rows], dMX[rows], Phi[rows]
         G, N = Pr.T @ dKX, Pr.T @ dMX  # (r, m)
         dlam[i] = G[diag, diag] - lm * N[diag, diag]
         Cc = (G - N * lm[None, :]) * inv_gap
         Cc[diag, diag] = -0.5 * N[diag, diag]
-        F = -(Zs[rows].T @ dKX) + (Zs[rows].T @ dMX) * lm[None, :]  # (n_s N, m): Z_n^T f_j
-        high = np.einsum("nsj,nj->sj", F.reshape(terms, n_s, m), weights)
-        dSP[i] = Sr @ Cc + high
+        dSP[i] = Sr @ Cc
+        loads.append((rows, dKX - dMX * lm[None, :]))
+    # the modes above the basis: term n adds (lam_j - s)^n Z_n^T f_j, one Z_n at a time
+    Y = off_modes(shifted_solve(np.asarray((Tt @ Sg.T).todense())))
+    for n in range(terms):
+        Zn = T @ Y
+        w = ((lm - STATIC_SHIFT) / top) ** n  # (m,)
+        for i, (rows, neg_f) in enumerate(loads):
+            if rows.size:
+                dSP[i] -= (Zn[rows].T @ neg_f) * w[None, :]
+        if n + 1 < terms:
+            Y = off_modes(top * shifted_solve(Ma @ Y))
     S, P = Sr[:n_out, :m], Sr[n_out:, :m]
     dS, dP = dSP[:, :n_out], dSP[:, n_out:]
     R = dR = None
