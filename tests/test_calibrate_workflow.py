@@ -245,3 +245,23 @@ def test_the_residual_flag_must_be_a_boolean(study, tmp_path):
     cfg.write_text(CONFIG.replace("[calibration]", '[calibration]\nresidual = "yes"'))
     with pytest.raises(ValueError, match=r"\[calibration\] residual = 'yes': expected true or"):
         read_config(cfg)
+
+
+def test_modal_hz_and_exact_gradient_keys(study, tmp_path):
+    d, _, _, _ = study
+    for name in ("plate.bdf", "p.toml", "test.npz"):
+        (tmp_path / name).write_bytes((d / name).read_bytes())
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(CONFIG)
+    c = read_config(cfg)
+    assert c.exact_gradient is True and c.modal_hz == 0.0  # the defaults
+    cfg.write_text(CONFIG.replace("[calibration]",
+                                  "[calibration]\nmodal_hz = 150\nexact_gradient = false"))
+    c = read_config(cfg)
+    assert c.exact_gradient is False and c.modal_hz == 150.0
+    cfg.write_text(CONFIG.replace("[calibration]", "[calibration]\nmodal_hz = -1"))
+    with pytest.raises(ValueError, match=r"\[calibration\] modal_hz = -1.0: expected a freq"):
+        read_config(cfg)
+    cfg.write_text(CONFIG.replace("[calibration]", "[calibration]\nexact_gradient = 1"))
+    with pytest.raises(ValueError, match=r"\[calibration\] exact_gradient = 1: expected true"):
+        read_config(cfg)

@@ -594,5 +594,7 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
                                    residual=residual, K=mats.K)  # fmt: skip
         sur = replace(sur, exact=exact)
         say(f"the full model's exact FRF derivatives at the centre ({exact.terms} series terms "
-            "for the modes above the basis)")
+            "for the modes above the basis" + (")" if exact.tail == 0.0 else
+            f"; capped, the top FRF modes' part is approximate: set modal_hz below the "
+            f"basis's top, {modes.frequencies_hz[-1]:.0f} Hz)"))  # fmt: skip
     return sur, modes
