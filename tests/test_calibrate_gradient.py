@@ -29,7 +29,7 @@ def test_exact_centre_jacobian_equals_central_differences_of_the_full_model(setu
     """The full model (the surrogate at its own centre) differenced at +-h, +-2h in every
     parameter (fourth order): the exact Jacobian matches to the differences' accuracy; the surrogate's own
     Jacobian (eigenvector derivatives truncated to its basis) is further off. Also with all
-    the basis's modes in the FRFs (the series for the top modes runs to its cap)."""
+    the basis's modes in the FRFs (the series for the top modes stops at its cap)."""
     deck, model, params = setup
     n = len(params)
     c = np.linspace(0.05, -0.05, n)
@@ -56,7 +56,11 @@ def test_exact_centre_jacobian_equals_central_differences_of_the_full_model(setu
         scale = np.abs(fd).max()
         err_exact.append(np.abs(dH[i] - fd).max() / scale)
         err_sur.append(np.abs(dH_s[i] - fd).max() / scale)
-    assert max(err_exact) < 2e-6, (params[int(np.argmax(err_exact))].name, max(err_exact))
+    # with all 20 modes in the FRFs the top modes' series is capped (12 terms): close, not exact
+    bound = 2e-6 if frf_modes is not None else 2e-5
+    if frf_modes is None:
+        assert sur.exact.tail == np.inf
+    assert max(err_exact) < bound, (params[int(np.argmax(err_exact))].name, max(err_exact))
     if not residual:  # (with the residual's static block the plate's basis is nearly exact)
         assert max(err_sur) > 5 * max(err_exact)
 
