@@ -151,6 +151,8 @@ def noise_free(max_cycles: int = 40, near: float | None = None, residual: bool =
         f"enrich_hz = {enrich_hz}\n" if enrich_hz is not None else "") + (
         f"modal_hz = {modal_hz}\n" if modal_hz is not None else "") + (
         "" if exact_gradient else "exact_gradient = false\n")
+    if enrich_hz is not None:  # the demo's own setting gives way
+        cfg = "\n".join(x for x in cfg.splitlines() if not x.startswith("enrich_hz")) + "\n"
     cfg = cfg.replace("[calibration]\n", "[calibration]\n" + extra)
     name += "_residual" if residual else ""
     name += f"_enrich{enrich_hz:g}" if enrich_hz is not None else ""
