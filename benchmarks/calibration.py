@@ -92,7 +92,7 @@ def demo() -> None:
 
 def noise_free(max_cycles: int = 40, near: float | None = None, residual: bool = False,
                enrich_hz: float | None = None, modal_hz: float | None = None,
-               exact_gradient: bool = True) -> None:  # fmt: skip
+               exact_gradient: bool = True, starts: int | None = None) -> None:  # fmt: skip
     from femcal.calibrate.config import read_config
     from femcal.calibrate.parameters import read_parameters, with_values
     from femcal.calibrate.workflow import run
@@ -147,6 +147,9 @@ def noise_free(max_cycles: int = 40, near: float | None = None, residual: bool =
     cfg = head + tail.replace("settle = 2e-3", "settle = 1e-5")
     if near is not None:
         cfg = cfg.replace("starts = 24", "starts = 1")  # the check is local convergence
+    elif starts is not None:
+        cfg = cfg.replace("starts = 24", f"starts = {starts}")
+        name += f"_starts{starts}"
     extra = ("residual = true\n" if residual else "") + (
         f"enrich_hz = {enrich_hz}\n" if enrich_hz is not None else "") + (
         f"modal_hz = {modal_hz}\n" if modal_hz is not None else "") + (
@@ -210,16 +213,20 @@ def main(argv=None) -> int:
     ap.add_argument("--modal-hz", type=float, default=None,
                     help="noise-free parts with --residual: the FRFs sum the modes up to this "
                     "frequency (test and model), the others as residual flexibility")
+    ap.add_argument("--starts", type=int, default=None,
+                    help="noise-free part: Latin hypercube starts (default the demo's 24)")
     ap.add_argument("--surrogate-gradient", action="store_true",
                     help="noise-free parts: no first-order correction by the full model's "
                     "exact Jacobian (exact_gradient = false)")
     a = ap.parse_args(argv)
     kw = dict(residual=a.residual, enrich_hz=a.enrich_hz, modal_hz=a.modal_hz,
               exact_gradient=not a.surrogate_gradient)
+    if a.part in ("demo", "near-truth") and a.starts is not None:
+        raise SystemExit("--starts is for the noise-free part")
     if a.part in ("demo", "all"):
         demo()
     if a.part in ("noise-free", "all"):
-        noise_free(a.max_cycles, **kw)
+        noise_free(a.max_cycles, starts=a.starts, **kw)
     if a.part in ("near-truth", "all"):
         noise_free(a.max_cycles, near=0.03, **kw)
     return 0
