@@ -29,9 +29,10 @@
     metric = "log-magnitude"                # or "complex-log"
     reduction_modes = 100                   # modes of the surrogate's basis
     surrogate = "exact"                     # or "first-order" (FEMCali's)
-    enrich_hz = 150.0                       # static eigenvector-derivative vectors of the
+    enrich_hz = 0.0                         # static eigenvector-derivative vectors of the
                                             #  modes up to this frequency join the basis
-                                            #  (default 1.5 x the band's top; 0: none)
+                                            #  (default none; 1.5 x the band's top with
+                                            #  exact_gradient = false)
     enrich_vectors = 100                    # at most this many (default reduction_modes)
     residual = false                        # true: the FE FRFs add the residual flexibility
                                             #  of the modes they do not sum (needs a
@@ -239,7 +240,10 @@ def read_config(path: str | os.PathLike[str]) -> Config:
               "enrich_vectors"):
         if ints[k] < 1:
             raise ValueError(f"{path}: [calibration] {k} must be at least 1")
-    enrich_hz = _number(cal, "enrich_hz", 1.5 * band[1], float, where)
+    exact_gradient = _flag(cal, "exact_gradient", True, where)
+    # with the exact-gradient correction the derivative vectors are not needed (and, compressed,
+    # they spoil the surrogate away from its centre: benchmarks/RESULTS.md)
+    enrich_hz = _number(cal, "enrich_hz", 0.0 if exact_gradient else 1.5 * band[1], float, where)
     if enrich_hz < 0:
         raise ValueError(f"{path}: [calibration] enrich_hz = {enrich_hz}: expected a frequency "
                          "in Hz, or 0 for no enrichment")  # fmt: skip
@@ -260,7 +264,7 @@ def read_config(path: str | os.PathLike[str]) -> Config:
                          for b in cal.get("crlb_bands", [])),
         exclude_suspect_channels=bool(cal.get("exclude_suspect_channels", True)),
         residual=_flag(cal, "residual", False, where), modal_hz=modal_hz,
-        exact_gradient=_flag(cal, "exact_gradient", True, where),
+        exact_gradient=exact_gradient,
         test_truth=test_truth,
         pictures=bool(out.get("pictures", True)), raw=doc, **ints,
     )  # fmt: skip
