@@ -255,10 +255,12 @@ def test_modal_hz_and_exact_gradient_keys(study, tmp_path):
     cfg.write_text(CONFIG)
     c = read_config(cfg)
     assert c.exact_gradient is True and c.modal_hz == 0.0  # the defaults
+    assert c.enrich_hz == 0.0  # no derivative vectors with the correction
     cfg.write_text(CONFIG.replace("[calibration]",
                                   "[calibration]\nmodal_hz = 150\nexact_gradient = false"))
     c = read_config(cfg)
     assert c.exact_gradient is False and c.modal_hz == 150.0
+    assert c.enrich_hz == 1.5 * 350.0  # without it: 1.5 x the band's top
     cfg.write_text(CONFIG.replace("[calibration]", "[calibration]\nmodal_hz = -1"))
     with pytest.raises(ValueError, match=r"\[calibration\] modal_hz = -1.0: expected a freq"):
         read_config(cfg)
