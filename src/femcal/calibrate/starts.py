@@ -44,16 +44,24 @@ class Problem:
             r = r + self.correction @ (np.asarray(p, float) - self.surrogate.p_center)
         return r
 
+    def data_jacobian(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(J (n_residuals, n_p), eps (n_residuals,)) of the data part at p, the correction
+        included (at the centre of a corrected problem: the full model's)."""
+        H, dH = self.surrogate.frf_and_jacobian(p, self.freq)
+        J = jacobian(H, dH, self.metric, self.H_test)
+        r = residuals(H, self.H_test, self.metric)
+        if self.correction is not None:
+            J = J + self.correction
+            r = r + self.correction @ (np.asarray(p, float) - self.surrogate.p_center)
+        return J, r
+
     def fun(self, p: np.ndarray):
         """Residuals and a callable for their Jacobian (computed for accepted points only)."""
         r = self._data_residuals(p)
         w = self.weights
 
         def jac() -> np.ndarray:
-            Hj, dH = self.surrogate.frf_and_jacobian(p, self.freq)
-            J = jacobian(Hj, dH, self.metric, self.H_test)
-            if self.correction is not None:
-                J = J + self.correction
+            J = self.data_jacobian(p)[0]
             return J if w is None else np.vstack([J, np.diag(w)])
 
         return (r if w is None else np.concatenate([r, w * p])), jac

@@ -45,7 +45,7 @@ from .derivatives import group_polynomials
 from .fisher import fisher
 from .gradient import first_order_correction
 from .lm import latin_hypercube
-from .metric import deviation, jacobian, log_frequencies, residuals
+from .metric import deviation, log_frequencies, residuals
 from .parameters import Parameter, read_parameters, read_truth, write_calibrated_deck
 from .starts import Problem, run_starts
 from .surrogate import build_surrogate
@@ -137,18 +137,6 @@ def _test_frfs(data: FRFData | None, ident, keep: np.ndarray, zeta0: float,
     return f[idx], data.H[keep][:, :, idx]
 
 
-def _jac_res(problem: Problem, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(J, r) of the data part of the problem at p (at the centre of a corrected problem,
-    the full model's)."""
-    H, dH = problem.surrogate.frf_and_jacobian(p, problem.freq)
-    J = jacobian(H, dH, problem.metric, problem.H_test)
-    r = residuals(H, problem.H_test, problem.metric)
-    if problem.correction is not None:
-        J = J + problem.correction
-        r = r + problem.correction @ (np.asarray(p, float) - problem.surrogate.p_center)
-    return J, r
-
-
 def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | None = None,
         starts: int | None = None,
         progress: Callable[[str], None] | None = None) -> Outcome:  # fmt: skip
@@ -223,9 +211,9 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
             frf_hz=cfg.modal_hz if not frf_modes and cfg.modal_hz else None,
             exact_gradient=cfg.exact_gradient, progress=say)  # fmt: skip
         if not frf_modes:
-            frf_modes.append(sur._n_frf)
+            frf_modes.append(sur.n_frf)
             if cfg.modal_hz:
-                say(f"the FRFs sum the {sur._n_frf} modes up to {cfg.modal_hz:g} Hz at the "
+                say(f"the FRFs sum the {sur.n_frf} modes up to {cfg.modal_hz:g} Hz at the "
                     "nominal" + (", the others as residual flexibility" if cfg.residual
                                  else ""))  # fmt: skip
         return sur, modes
@@ -282,7 +270,7 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
                  "accepted": accepted, "radius": radius,
                  "exact_deviation_at_candidate": prob_new.deviation(cand)}  # fmt: skip
         if accepted:
-            fi_c = fisher(*_jac_res(prob_new, cand), sigma=cfg.noise_sigma)
+            fi_c = fisher(*prob_new.data_jacobian(cand), sigma=cfg.noise_sigma)
             informed = np.isfinite(fi_c.crlb) & (fi_c.crlb <= cfg.identifiable_crlb)
             moved = float(step[informed].max() if informed.any() else step.max())
             center, sur, modes_c, cost_c, problem = cand, sur_new, modes_new, cost_new, prob_new
@@ -326,7 +314,7 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
     H_after = sur.frf(p_final, freq)
     dev_before = deviation(residuals(H_before, H_test, cfg.metric))
     dev_after = deviation(residuals(H_after, H_test, cfg.metric))
-    J, r = _jac_res(problem, p_final)
+    J, r = problem.data_jacobian(p_final)
     fi = fisher(J, r, sigma=cfg.noise_sigma)
     per_band = []
     n_pairs = len(outputs) * len(inputs)
