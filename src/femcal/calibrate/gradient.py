@@ -23,8 +23,8 @@ above them is summed through the shifted factor of the eigen solution (s < 0):
 and input rows (a few dozen): N block solves serve every mode and parameter (adjoint
 form). The series converges as ``((lam_j - s) / (lam_r - s))^N``: fast for FRF modes well
 below the basis's top (the residual form with ``modal_hz``), slowly for the top modes of a
-basis that all enter the FRFs (the number of terms is capped; the report says how far the
-sum is from converged).
+basis that all enter the FRFs (the number of terms is capped, and the progress line says
+so).
 """
 
 from __future__ import annotations
@@ -38,7 +38,15 @@ import scipy.sparse as sp
 from ..linalg import factorize
 from .derivatives import GroupPolynomial
 from .metric import jacobian
-from .surrogate import STATIC_SHIFT, Surrogate, _polynomial_derivative, modal_factors, static_factor
+from .surrogate import (
+    STATIC_SHIFT,
+    Surrogate,
+    _polynomial_derivative,
+    eigen_derivatives,
+    inverse_gaps,
+    modal_factors,
+    static_factor,
+)
 
 #: Relative accuracy asked of the series for the out-of-basis part.
 SERIES_TOL = 1e-10
@@ -143,10 +151,7 @@ def centre_derivatives(polys: list[GroupPolynomial], center: np.ndarray, M: sp.s
             Y = Y - Pa @ (Pa.T @ (Ma @ Y))
         return Y
 
-    gap = lm[None, :] - lam[:, None]  # [k, j] = lam_j - lam_k
-    tiny = 1e-12 * np.maximum(np.maximum(np.abs(lm)[None, :], np.abs(lam)[:, None]), 1.0)
-    inv_gap = np.where(np.abs(gap) > tiny, 1.0 / np.where(np.abs(gap) > tiny, gap, 1.0), 0.0)
-    diag = np.arange(m)
+    inv_gap = inverse_gaps(lm, lam)  # (r, m)
     n_p = center.size
     dlam = np.zeros((n_p, m))
     dSP = np.zeros((n_p, n_s, m))
@@ -158,9 +163,7 @@ def centre_derivatives(polys: list[GroupPolynomial], center: np.ndarray, M: sp.s
         rows = np.flatnonzero(np.any(dKX != 0, axis=1) | np.any(dMX != 0, axis=1))
         dKX, dMX, Pr = dKX[rows], dMX[rows], Phi[rows]
         G, N = Pr.T @ dKX, Pr.T @ dMX  # (r, m)
-        dlam[i] = G[diag, diag] - lm * N[diag, diag]
-        Cc = (G - N * lm[None, :]) * inv_gap
-        Cc[diag, diag] = -0.5 * N[diag, diag]
+        dlam[i], Cc = eigen_derivatives(G, N, lm, inv_gap)
         dSP[i] = Sr @ Cc
         loads.append((rows, dKX - dMX * lm[None, :]))
     # the modes above the basis: term n adds (lam_j - s)^n Z_n^T f_j, one Z_n at a time

@@ -72,6 +72,30 @@ def static_factor(freq_hz: np.ndarray, quantity: str) -> np.ndarray:
     return (2j * np.pi * np.asarray(freq_hz, float)) ** _POWER[quantity]
 
 
+def inverse_gaps(lam: np.ndarray, lam_all: np.ndarray) -> np.ndarray:
+    """(r, m) 1 / (lam_j - lam_k) for the m modes lam (m,) and all r modes lam_all (r,),
+    0 where the pair is repeated. A pair counts as repeated relative to its own eigenvalues
+    (not the basis's largest, which stiff or massless directions make huge)."""
+    gap = lam[None, :] - lam_all[:, None]  # [k, j] = lam_j - lam_k
+    tiny = 1e-12 * np.maximum(np.maximum(np.abs(lam)[None, :], np.abs(lam_all)[:, None]), 1.0)
+    big = np.abs(gap) > tiny
+    return np.where(big, 1.0 / np.where(big, gap, 1.0), 0.0)
+
+
+def eigen_derivatives(G: np.ndarray, N: np.ndarray, lam: np.ndarray, inv_gap: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """Eigenvalue derivatives dlam (m,) and eigenvector coefficients c (r, m), dphi_j =
+    sum_k c_kj phi_k, of m mass-normalised modes from G = Phi^T dK Phi_m and
+    N = Phi^T dM Phi_m (r, m), their eigenvalues lam (m,) and :func:`inverse_gaps`:
+    ``dlam_j = G_jj - lam_j N_jj``, ``c_kj = (G_kj - lam_j N_kj) / (lam_j - lam_k)``,
+    ``c_jj = -N_jj / 2`` (Fox and Kapoor; the modal method)."""
+    diag = np.arange(len(lam))
+    dlam = G[diag, diag] - lam * N[diag, diag]
+    c = (G - N * lam[None, :]) * inv_gap
+    c[diag, diag] = -0.5 * N[diag, diag]
+    return dlam, c
+
+
 @dataclass(frozen=True)
 class Surrogate:
     """Reduced model around ``p_center`` (see the module docstring).
@@ -208,16 +232,11 @@ class Surrogate:
         S_all, P_all = self.C @ psi_all, self.B @ psi_all  # (n_out, r), (n_in, r)
         S, P = S_all[:, :m], P_all[:, :m]
         H = np.einsum("oj,ij,jf->oif", S, P, q, optimize=True)
-        gap = lam[None, :] - lam_all[:, None]  # [k, j] = lam_j - lam_k, (r, m)
-        # a pair counts as repeated relative to its own eigenvalues (not the basis's largest,
-        # which stiff or massless directions make huge)
-        tiny = 1e-12 * np.maximum(np.maximum(np.abs(lam)[None, :], np.abs(lam_all)[:, None]), 1.0)
-        inv_gap = np.where(np.abs(gap) > tiny, 1.0 / np.where(np.abs(gap) > tiny, gap, 1.0), 0.0)
+        inv_gap = inverse_gaps(lam, lam_all)  # (r, m)
         n_o, n_i, n_f = H.shape
         dH = np.empty((self.n_params, n_o, n_i, n_f), complex)
         SP = np.einsum("oj,ij->oij", S, P).reshape(n_o * n_i, -1)  # (o i, m)
         dK, dM = self.derivatives(p)
-        diag = np.arange(m)
         if self.residual:  # K~^-1 = Psi Lam^-1 Psi^T
             KiB = psi_all @ (P_all.T / lam_all[:, None])  # (r, n_in)
             CKi = (S_all / lam_all) @ psi_all.T  # (n_out, r)
@@ -227,9 +246,7 @@ class Surrogate:
         for i in range(self.n_params):
             G = psi_all.T @ (dK[i] @ psi)  # (r, m)
             N = psi_all.T @ (dM[i] @ psi)
-            dlam = G[diag, diag] - lam * N[diag, diag]
-            Cc = (G - N * lam[None, :]) * inv_gap
-            Cc[diag, diag] = -0.5 * N[diag, diag]
+            dlam, Cc = eigen_derivatives(G, N, lam, inv_gap)
             dS, dP = S_all @ Cc, P_all @ Cc
             shape_part = (np.einsum("oj,ij->oij", dS, P) + np.einsum("oj,ij->oij", S, dP))
             dH[i] = (shape_part.reshape(n_o * n_i, -1) @ q
