@@ -213,9 +213,13 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
         if not frf_modes:
             frf_modes.append(sur.n_frf)
             if cfg.modal_hz:
-                say(f"the FRFs sum the {sur.n_frf} modes up to {cfg.modal_hz:g} Hz at the "
-                    "nominal" + (", the others as residual flexibility" if cfg.residual
-                                 else ""))  # fmt: skip
+                top = float(sur.basis_hz[-1])
+                which = (f"the {sur.n_frf} modes up to {cfg.modal_hz:g} Hz"
+                         if cfg.modal_hz < top else
+                         f"all {sur.n_frf} reduction modes (up to {top:.1f} Hz: modal_hz = "
+                         f"{cfg.modal_hz:g} lies above them)")  # fmt: skip
+                say(f"the FRFs sum {which} at the nominal" + (
+                    ", the others as residual flexibility" if cfg.residual else ""))
         return sur, modes
 
     def problem_on(sur, lower: np.ndarray, upper: np.ndarray) -> Problem:
