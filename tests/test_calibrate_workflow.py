@@ -75,6 +75,18 @@ def test_noise_free_test_is_calibrated_back_to_its_parameters(study):
     assert rep["settled"]
 
 
+def test_settled_cycles_search_again_and_stop_when_nothing_lower_is_found(study):
+    # once settled at the (here global) minimum, the multi-start search runs again on the
+    # last surrogate; it finds that minimum again, so the run stops there
+    _, _, outcome, lines = study
+    rep = outcome.report
+    assert rep["restarts"] == 1
+    last = rep["cycles"][-1]
+    assert last["searched"] and last["search_best_deviation"] <= 1e-6 * rep["deviation"]["before"]
+    assert any("the search found no lower minimum elsewhere" in line for line in lines)
+    assert not any(c.get("from_search") for c in rep["cycles"])
+
+
 def test_report_holds_what_the_issue_asks(study):
     d, params, _, _ = study
     rep = json.loads((d / "out" / "report.json").read_text())
@@ -98,9 +110,10 @@ def test_a_second_run_resumes_from_the_finished_starts(study):
     d, _, outcome, _ = study
     lines: list[str] = []
     again = run(read_config(d / "cal.toml"), d / "out", progress=lines.append)
-    # the ten starts of cycle 1, and the later cycles' single starts
+    # the ten starts of cycle 1 and of each search again, and the later cycles' single starts
+    searches = outcome.report["restarts"]
     assert sum("start" in line and "finished earlier" in line and "/10:" in line
-               for line in lines) == 10  # fmt: skip
+               for line in lines) == 10 * (1 + searches)  # fmt: skip
     assert not any("iteration" in line for line in lines)  # nothing was run again
     np.testing.assert_allclose(again.p_final, outcome.p_final, rtol=0, atol=1e-12)
 
@@ -266,4 +279,24 @@ def test_modal_hz_and_exact_gradient_keys(study, tmp_path):
         read_config(cfg)
     cfg.write_text(CONFIG.replace("[calibration]", "[calibration]\nexact_gradient = 1"))
     with pytest.raises(ValueError, match=r"\[calibration\] exact_gradient = 1: expected true"):
+        read_config(cfg)
+
+
+def test_restart_keys(study, tmp_path):
+    d, _, _, _ = study
+    for name in ("plate.bdf", "p.toml", "test.npz"):
+        (tmp_path / name).write_bytes((d / name).read_bytes())
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(CONFIG)
+    c = read_config(cfg)
+    assert (c.restarts, c.restart_fall) == (2, 0.01)  # the defaults
+    cfg.write_text(CONFIG.replace("[calibration]", "[calibration]\nrestarts = 0\n"
+                                  "restart_fall = 0.05"))  # fmt: skip
+    c = read_config(cfg)
+    assert (c.restarts, c.restart_fall) == (0, 0.05)
+    cfg.write_text(CONFIG.replace("[calibration]", "[calibration]\nrestarts = -1"))
+    with pytest.raises(ValueError, match=r"\[calibration\] restarts = -1: expected 0 or more"):
+        read_config(cfg)
+    cfg.write_text(CONFIG.replace("[calibration]", "[calibration]\nrestart_fall = 1.5"))
+    with pytest.raises(ValueError, match=r"restart_fall = 1.5: expected a fraction in \[0, 1\)"):
         read_config(cfg)

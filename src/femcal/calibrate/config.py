@@ -48,6 +48,12 @@
     max_iterations = 30                     # per start and cycle
     max_cycles = 5                          # surrogate rebuilds
     settle = 1e-3                           # stop when no informed p moves more than this
+    restarts = 2                            # the multi-start search runs again on the
+    restart_fall = 0.01                     #  current surrogate (at most this many times)
+                                            #  when a kept step lowers the full model's
+                                            #  cost by less than this fraction, or when the
+                                            #  cycles settle; its best start is the next
+                                            #  candidate
     regularization = 0.0                    # w: adds w p_i / h_i to the residuals (h_i the
                                             #  bounds' half-width); keeps uninformed
                                             #  parameters near their nominal
@@ -108,6 +114,8 @@ class Config:
     max_iterations: int = 30
     max_cycles: int = 5
     settle: float = 1e-3
+    restarts: int = 2
+    restart_fall: float = 0.01
     regularization: float = 0.0
     noise_sigma: float | None = None
     identifiable_crlb: float = 0.05
@@ -247,6 +255,13 @@ def read_config(path: str | os.PathLike[str]) -> Config:
     if enrich_hz < 0:
         raise ValueError(f"{path}: [calibration] enrich_hz = {enrich_hz}: expected a frequency "
                          "in Hz, or 0 for no enrichment")  # fmt: skip
+    restarts = _number(cal, "restarts", 2, int, where)
+    if restarts < 0:
+        raise ValueError(f"{path}: [calibration] restarts = {restarts}: expected 0 or more")
+    restart_fall = _number(cal, "restart_fall", 0.01, float, where)
+    if not 0 <= restart_fall < 1:
+        raise ValueError(f"{path}: [calibration] restart_fall = {restart_fall}: expected a "
+                         "fraction in [0, 1)")  # fmt: skip
     modal_hz = _number(cal, "modal_hz", 0.0, float, where)
     if modal_hz < 0:
         raise ValueError(f"{path}: [calibration] modal_hz = {modal_hz}: expected a frequency "
@@ -264,7 +279,7 @@ def read_config(path: str | os.PathLike[str]) -> Config:
                          for b in cal.get("crlb_bands", [])),
         exclude_suspect_channels=bool(cal.get("exclude_suspect_channels", True)),
         residual=_flag(cal, "residual", False, where), modal_hz=modal_hz,
-        exact_gradient=exact_gradient,
+        exact_gradient=exact_gradient, restarts=restarts, restart_fall=restart_fall,
         test_truth=test_truth,
         pictures=bool(out.get("pictures", True)), raw=doc, **ints,
     )  # fmt: skip

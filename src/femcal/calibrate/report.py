@@ -211,10 +211,12 @@ def write_html(path: Path, report: dict, pictures: dict[str, str], mode_pictures
               _f(m["frequency_error_after_pct"], "+.2f"), _f(m["mac_before"], ".4f"),
               _f(m["mac_after"], ".4f")] for m in report["modes"]]  # fmt: skip
     cyc = [[c["cycle"], "multi-start" if c["cycle"] == 1 else
-            ("kept" if c["accepted"] else "rejected"),
+            ("kept" if c["accepted"] else "rejected")
+            + (" (search candidate)" if c.get("from_search") else ""),
             _f(c.get("exact_deviation_at_candidate", c.get("exact_deviation_at_center")), ".6g"),
             _f(c.get("rho"), ".2f"), _f(c.get("radius"), ".3g"),
-            _f(c.get("moved_informed", c.get("moved")), ".2e")]
+            _f(c.get("moved_informed", c.get("moved")), ".2e"),
+            _f(c.get("search_best_deviation"), ".6g") if c.get("searched") else ""]
            for c in report["cycles"]]  # fmt: skip
     starts = [[s["start"] + 1, f"{s['history'][0]:.6g}", f"{s['deviation']:.6g}",
                s["iterations"], f"{s['seconds']:.1f}", s["message"]]
@@ -250,8 +252,12 @@ f" True values: {html.escape(truth)} (a synthetic test)." if truth else ""}</p>
 <h2>Runs</h2><p>Cycle 1 runs Levenberg-Marquardt from every start on the nominal model's
 surrogate; each later cycle rebuilds the surrogate at the candidate point, where it is the full
 model, keeps the step if the full model's cost fell (trust region) and runs LM again inside the
-trust radius.</p>{_table(cyc, ["cycle", "step", "full-model deviation at the candidate",
- "actual / predicted fall", "trust radius", "largest change (informed parameters)"])}
+trust radius. When a kept step lowers the cost by less than {
+100 * report.get('restart_fall', 0):g} %, or the cycles settle, the multi-start search runs again
+on the current surrogate ({report.get('restarts', 0)} times here); a lower minimum elsewhere is
+the next candidate.</p>{_table(cyc, ["cycle", "step", "full-model deviation at the candidate",
+ "actual / predicted fall", "trust radius", "largest change (informed parameters)",
+ "search again: best deviation (surrogate)"])}
 {_table(starts, ["start", "deviation at start", "deviation", "iterations", "seconds", "stop"])}
 {imgs}<h2>Paired modes after calibration</h2>{mimgs}
 </body></html>

@@ -16,7 +16,11 @@
 6. trust-region cycles: the surrogate is rebuilt at the candidate, where it is the full
    model; the step is kept if the full model's cost fell, and LM runs again within the trust
    radius, until the parameters the CRLB calls informed move less than ``settle`` (or the
-   radius falls below it, or ``max_cycles`` is reached);
+   radius falls below it, or ``max_cycles`` is reached); when a kept step lowers the full
+   model's cost by less than ``restart_fall``, or the cycles settle, the multi-start search
+   runs again over the whole box on the current surrogate (at most ``restarts`` times), and
+   its best start is the next candidate (the full model decides again): a local minimum the
+   cycles have reached is left when a search on the newer surrogate finds a lower one;
 7. the calibrated model is solved in full; frequencies, MAC and the deviation before and
    after, the Cramér-Rao bounds at the solution, and the calibrated deck are written.
 """
@@ -228,13 +232,13 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
         return Problem(sur, freq, H_test, cfg.metric, lower, upper, cfg.max_iterations,
                        weights, corr)  # fmt: skip
 
-    def starts_in(c: int, problem: Problem, pts: list[np.ndarray], center: np.ndarray):
-        folder = out / "starts" / f"cycle{c}"
+    def starts_in(name: str, problem: Problem, pts: list[np.ndarray], center: np.ndarray):
+        folder = out / "starts" / name
         if fresh and folder.is_dir():
             for f in folder.glob("start_*.json"):
                 f.unlink()
         return run_starts(problem, pts, workers=n_workers, folder=folder,
-                          fingerprint=fp + f"-{c}-" + ",".join(f"{x:.12g}" for x in center),
+                          fingerprint=fp + f"-{name}-" + ",".join(f"{x:.12g}" for x in center),
                           progress=say)  # fmt: skip
 
     def save_cycles() -> None:
@@ -248,7 +252,7 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
     modes0, sur0 = modes_c, sur
     problem = problem_on(sur, lo, hi)
     cost_c = problem.cost(center)
-    results = starts_in(1, problem, starts0, center)
+    results = starts_in("cycle1", problem, starts0, center)
     best = min(results, key=lambda r: r["cost"])
     cand, pred = np.array(best["p"]), best["cost"]
     cycles: list[dict] = [{"cycle": 1, "center": list(map(float, center)),
@@ -262,6 +266,8 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
     # there, which decides whether the step is kept
     radius = max(float(np.abs(cand - center).max()), cfg.settle)
     settled = False
+    restarts_left = cfg.restarts if n_starts > 1 else 0
+    searched = False  # the candidate came from a multi-start search over the whole box
     for c in range(2, cfg.max_cycles + 1):
         sur_new, modes_new = surrogate_at(cand)
         prob_new = problem_on(sur_new, lo, hi)
@@ -271,39 +277,72 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
         accepted = cost_new < cost_c
         step = np.abs(cand - center)
         entry = {"cycle": c, "candidate": list(map(float, cand)), "rho": rho,
-                 "accepted": accepted, "radius": radius,
+                 "accepted": accepted, "radius": radius, "from_search": searched,
                  "exact_deviation_at_candidate": prob_new.deviation(cand)}  # fmt: skip
+        stalled, fall = False, 0.0
         if accepted:
             fi_c = fisher(*prob_new.data_jacobian(cand), sigma=cfg.noise_sigma)
             informed = np.isfinite(fi_c.crlb) & (fi_c.crlb <= cfg.identifiable_crlb)
             moved = float(step[informed].max() if informed.any() else step.max())
+            fall = (cost_c - cost_new) / cost_c
             center, sur, modes_c, cost_c, problem = cand, sur_new, modes_new, cost_new, prob_new
             radius = min(2 * radius, 1.0) if rho > 0.75 else (radius / 2 if rho < 0.25 else radius)
-            say(f"cycle {c}: step kept (full-model cost {cost_new:.5g}, ratio to the "
-                f"predicted fall {rho:.2f}); the informed parameters moved {moved:.2e}")
-            if moved < cfg.settle:
-                settled = True
-        else:  # a quarter of the rejected step (of the radius, if the step filled it)
-            radius = min(radius, float(step.max())) / 4.0
-            moved = 0.0
-            say(f"cycle {c}: step rejected (full-model cost {cost_new:.5g} against "
-                f"{cost_c:.5g}); trust radius {radius:.3g}")  # fmt: skip
-            if radius < cfg.settle:
-                settled = True
+            say(f"cycle {c}: step kept (full-model cost {cost_new:.5g}, {100 * fall:.3g} % "
+                f"lower, ratio to the predicted fall {rho:.2f}); the informed parameters "
+                f"moved {moved:.2e}")  # fmt: skip
+            settled = moved < cfg.settle
+            stalled = fall < cfg.restart_fall
+        else:
+            if not searched:  # a quarter of the rejected step (of the radius, if it filled it)
+                radius = min(radius, float(step.max())) / 4.0
+            moved = 0.0  # (a far search candidate says nothing about the local radius)
+            say(f"cycle {c}: {'the search candidate' if searched else 'step'} rejected "
+                f"(full-model cost {cost_new:.5g} against {cost_c:.5g}); trust radius "
+                f"{radius:.3g}")  # fmt: skip
+            settled = radius < cfg.settle
         entry["moved_informed"] = moved
         entry["center"] = list(map(float, center))
-        if settled or c == cfg.max_cycles:
+        last = c == cfg.max_cycles
+        local, found = None, []
+        if not settled and not last:  # the trust-region step from the centre
+            box = replace(problem, lower=np.maximum(lo, center - radius),
+                          upper=np.minimum(hi, center + radius))  # fmt: skip
+            local = starts_in(f"cycle{c}", box, [center], center)[0]
+        res, searched = local, False
+        if (settled or stalled) and restarts_left > 0 and not last:
+            restarts_left -= 1
+            why = "settled" if settled else f"the cost fell by only {100 * fall:.3g} %"
+            say(f"cycle {c}: {why}: the multi-start search runs again from {n_starts} new "
+                f"starts on this surrogate ({restarts_left} more allowed)")  # fmt: skip
+            found = starts_in(f"cycle{c}_search", problem,
+                              list(latin_hypercube(n_starts, lo, hi, rng)), center)  # fmt: skip
+            best = min(found, key=lambda r: r["cost"])
+            ref = ((local["cost"], local["deviation"], np.array(local["p"])) if local
+                   else (cost_c, problem.deviation(center), center))  # fmt: skip
+            entry["search_best_deviation"] = best["deviation"]
+            # another minimum: lower by restart_fall and elsewhere (not the same one again)
+            if (best["cost"] < (1 - cfg.restart_fall) * ref[0]
+                    and np.abs(np.array(best["p"]) - ref[2]).max() > cfg.settle):
+                res, searched, settled = best, True, False
+                say(f"cycle {c}: search start {best['start'] + 1} reaches a lower minimum "
+                    f"(deviation {best['deviation']:.5g} on the surrogate against "
+                    f"{ref[1]:.5g}): it is the next candidate")  # fmt: skip
+            else:
+                say(f"cycle {c}: the search found no lower minimum elsewhere (its best: "
+                    f"deviation {best['deviation']:.5g} on the surrogate, at most "
+                    f"{np.abs(np.array(best['p']) - ref[2]).max():.2g} from here in p; "
+                    f"here {ref[1]:.5g})")  # fmt: skip
+        entry["searched"] = bool(found)
+        if res is None:  # settled, or the last cycle
             entry.update(p=list(map(float, center)), deviation=problem.deviation(center),
                          best_start=1)  # fmt: skip
             cycles.append(entry)
             save_cycles()
             break
-        box = replace(problem, lower=np.maximum(lo, center - radius),
-                      upper=np.minimum(hi, center + radius))
-        res = starts_in(c, box, [center], center)[0]
         cand, pred = np.array(res["p"]), res["cost"]
-        entry.update(p=list(map(float, cand)), deviation=res["deviation"], best_start=1,
-                     starts=[res])  # fmt: skip
+        entry.update(p=list(map(float, cand)), deviation=res["deviation"],
+                     best_start=res["start"] + 1,
+                     starts=([local] if local else []) + found)  # fmt: skip
         cycles.append(entry)
         save_cycles()
     p_final = center
@@ -397,7 +436,9 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
         "regularization": cfg.regularization,
         "starts": [{k: v for k, v in s.items() if k != "fingerprint"}
                    for s in cycles[0]["starts"]],
-        "settled": settled, "reduction_modes": cfg.reduction_modes,
+        "settled": settled, "restarts": sum(bool(cyc.get("searched")) for cyc in cycles),
+        "restart_fall": cfg.restart_fall,
+        "reduction_modes": cfg.reduction_modes,
         "surrogate": cfg.surrogate, "enrich_hz": cfg.enrich_hz,
         "enrich_vectors": cfg.enrich_vectors, "residual": cfg.residual,
         "modal_hz": cfg.modal_hz, "frf_modes": frf_modes[0],
