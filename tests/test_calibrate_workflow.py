@@ -260,12 +260,18 @@ def test_the_residual_flag_must_be_a_boolean(study, tmp_path):
         read_config(cfg)
 
 
-def test_modal_hz_and_exact_gradient_keys(study, tmp_path):
-    d, _, _, _ = study
+def _config_beside_the_study(study, tmp_path):
+    """The study's configuration, deck, parameters and test copied to tmp_path."""
+    d = study[0]
     for name in ("plate.bdf", "p.toml", "test.npz"):
         (tmp_path / name).write_bytes((d / name).read_bytes())
     cfg = tmp_path / "c.toml"
     cfg.write_text(CONFIG)
+    return cfg
+
+
+def test_modal_hz_and_exact_gradient_keys(study, tmp_path):
+    cfg = _config_beside_the_study(study, tmp_path)
     c = read_config(cfg)
     assert c.exact_gradient is True and c.modal_hz == 0.0  # the defaults
     assert c.enrich_hz == 0.0  # no derivative vectors with the correction
@@ -283,11 +289,7 @@ def test_modal_hz_and_exact_gradient_keys(study, tmp_path):
 
 
 def test_restart_keys(study, tmp_path):
-    d, _, _, _ = study
-    for name in ("plate.bdf", "p.toml", "test.npz"):
-        (tmp_path / name).write_bytes((d / name).read_bytes())
-    cfg = tmp_path / "c.toml"
-    cfg.write_text(CONFIG)
+    cfg = _config_beside_the_study(study, tmp_path)
     c = read_config(cfg)
     assert (c.restarts, c.restart_fall) == (2, 0.01)  # the defaults
     cfg.write_text(CONFIG.replace("[calibration]", "[calibration]\nrestarts = 0\n"
