@@ -1,0 +1,170 @@
+"""Block shift-invert Lanczos for the lowest roots of K phi = lambda M phi.
+
+The operator OP = (K - sigma M)^-1 M is self-adjoint in the M inner product; its eigenvalues
+theta = 1 / (lambda - sigma) are largest for the lambda nearest above the shift sigma. A block
+of b vectors spans the Krylov space of OP: each step applies OP to the newest block with ONE
+solve of b right-hand sides (a sparse factor is read once per solve, whatever b is: on a
+241k-DOF plate 8 columns cost 0.18 s against 0.066 s for one), M-orthogonalises the result
+against the whole basis (classical Gram-Schmidt twice, matrix products) and M-orthonormalises
+it within itself. The basis V then satisfies
+
+    OP V_j = V_j T_j + Q_{j+1} R_j E_j^T,    T_j = V_j^T M OP V_j,
+
+so the Ritz pairs (theta, V_j y) of T_j have residuals |R_j y_last| (y_last: y's entries on
+the newest block), which decide convergence. No restart: the basis grows until the wanted
+roots converge or ``max_dim`` is reached (then :class:`LanczosNotConverged`).
+
+This is the method NASTRAN's READ module uses (block shift-invert Lanczos); it replaces the
+one-vector iteration (ARPACK) where solves dominate, and a block also finds every copy of a
+repeated root up to its size (six rigid-body modes of a free-free model, symmetric pairs).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import scipy.linalg as sl
+import scipy.sparse as sp
+
+#: Columns per block.
+DEFAULT_BLOCK = 8
+#: A direction keeping less than this fraction of its M-norm through the
+#: orthogonalisation is dependent on the basis (deflation) and is replaced.
+_DEFLATE = 1e-10
+
+
+class LanczosNotConverged(RuntimeError):
+    """The wanted roots did not converge within the largest basis allowed."""
+
+    def __init__(self, msg: str, converged: int):
+        super().__init__(msg)
+        self.converged = converged
+
+
+def block_lanczos(solve: Callable[[np.ndarray], np.ndarray], M: sp.spmatrix, sigma: float,
+                  k: int, *, block: int = DEFAULT_BLOCK, tol: float = 1e-10,
+                  max_dim: int | None = None, seed: int = 20191,
+                  progress: Callable[[str], None] | None = None,
+                  ) -> tuple[np.ndarray, np.ndarray, int]:  # fmt: skip
+    """The k roots lambda nearest above ``sigma`` and their vectors.
+
+    Parameters
+    ----------
+    solve : x = (K - sigma M)^-1 b for b (n, b) (a factorisation).
+    M : (n, n) symmetric positive semi-definite mass (massless DOF: infinite roots, never
+        returned).
+    sigma : shift (rad^2/s^2), below the wanted roots.
+    k : number of roots.
+    block : columns per block; tol : relative residual of theta = 1 / (lambda - sigma) at
+        which a root counts as converged (ARPACK's meaning of tol).
+    max_dim : largest basis (default min(n, max(6 k, 12 block) + 2 block)).
+    seed : of the random start block (the same problem gives the same result every run).
+
+    Returns
+    -------
+    (lam (k,) ascending, vectors (n, k) M-orthonormal, number of block solves).
+    """
+    n = M.shape[0]
+    b = max(1, min(block, n))
+    k = min(k, n)
+    if max_dim is None:
+        max_dim = min(n, max(6 * k, 12 * b) + 2 * b)
+    max_dim = max(min(max_dim, n), k)
+    rng = np.random.default_rng(seed)
+    mass = mass_product(M)
+    # columns contiguous: a new block is one contiguous write, the products read it in place
+    V = np.empty((n, max_dim + b), order="F")
+    MV = np.empty((n, max_dim + b), order="F")
+    T = np.zeros((max_dim + b, max_dim + b))
+    # the start block in the range of OP (no components along massless directions)
+    W = solve(mass(rng.standard_normal((n, b))))
+    solves = 1
+    Q, _ = _orthonormalize(W, mass, V[:, :0], MV[:, :0], rng)
+    m = prev = 0  # the newest block's and the one before's first column
+    while True:
+        bq = Q.shape[1]
+        V[:, m : m + bq] = Q
+        MV[:, m : m + bq] = mass(Q)
+        W = solve(MV[:, m : m + bq])
+        solves += 1
+        top = m + bq
+        # T's new columns, the projections of OP Q on the basis: first on the two newest
+        # blocks (the three-term recurrence, nearly all of it), then once on the whole basis
+        # for what rounding left, and once more if that pass removed much (Kahan's rule)
+        C = np.zeros((top, bq))
+        C[prev:top] = MV[:, prev:top].T @ W
+        W -= V[:, prev:top] @ C[prev:top]
+        for _ in range(2):
+            before = np.linalg.norm(W, axis=0)
+            C2 = MV[:, :top].T @ W
+            W -= V[:, :top] @ C2
+            C += C2
+            if (np.linalg.norm(W, axis=0) >= 0.5 * before).all():
+                break
+        T[:top, m:top] = C
+        T[m:top, :top] = C.T
+        Ts = T[:top, :top]
+        theta, Y = np.linalg.eigh(0.5 * (Ts + Ts.T))  # ascending: the wanted at the end
+        want = min(k, top)
+        Q_next, R = (_orthonormalize(W, mass, V[:, :top], MV[:, :top], rng)
+                     if top < n else (np.zeros((n, 0)), np.zeros((0, bq))))  # fmt: skip
+        resid = np.linalg.norm(R @ Y[m:top, -want:], axis=0)
+        done = resid <= tol * np.abs(theta[-want:])
+        if progress:
+            progress(f"block Lanczos: basis {top}, {int(done.sum())} of {k} roots converged")
+        if (want == k and done.all()) or top >= n:
+            break
+        if top + Q_next.shape[1] > max_dim:
+            raise LanczosNotConverged(
+                f"block Lanczos: {int(done.sum())} of {k} roots converged with a basis of "
+                f"{top} vectors (the largest allowed)", int(done.sum()))
+        Q, prev, m = Q_next, m, top
+    theta, Y = theta[-want:][::-1], Y[:, -want:][:, ::-1]  # largest theta: lowest lambda
+    ok = theta > 0
+    lam = sigma + 1.0 / theta[ok]
+    vec = V[:, :top] @ Y[:, ok]
+    return lam, vec, solves
+
+
+def mass_product(M: sp.spmatrix) -> Callable[[np.ndarray], np.ndarray]:
+    """X (n, b) -> M X, as a row scaling when M is diagonal (a lumped mass)."""
+    M = sp.csr_matrix(M)
+    d = M.diagonal()
+    if M.nnz == 0 or np.count_nonzero(M.data) == np.count_nonzero(d):
+        return lambda X: d[:, None] * X
+    return lambda X: np.asarray(M @ X)
+
+
+def _orthonormalize(W: np.ndarray, mass: Callable[[np.ndarray], np.ndarray], V: np.ndarray,
+                    MV: np.ndarray, rng: np.random.Generator
+                    ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """(Q (n, b), R (b, b)) with W = Q R, Q M-orthonormal (W already M-orthogonal to V).
+
+    Directions of W that are (numerically) dependent on V or on each other are replaced by
+    random vectors M-orthogonal to V and to the rest (their rows of R are zero)."""
+    n, b = W.shape
+    MW = mass(W)
+    G = W.T @ MW
+    s, U = np.linalg.eigh(0.5 * (G + G.T))
+    scale = max(float(s.max()), 0.0)
+    keep = s > (_DEFLATE**2) * scale if scale > 0 else np.zeros(b, bool)
+    Uk, sk = U[:, keep], np.sqrt(s[keep])
+    Q = W @ (Uk / sk)
+    R = np.zeros((b, b))
+    R[: keep.sum()] = (Uk * sk).T
+    # a second pass (the first squares the condition number of W)
+    G2 = Q.T @ mass(Q)
+    L2 = sl.cholesky(0.5 * (G2 + G2.T), lower=False)
+    Q = sl.solve_triangular(L2, Q.T, trans="T", lower=False).T
+    R[: keep.sum()] = L2 @ R[: keep.sum()]
+    d = b - int(keep.sum())
+    if d:  # deflation: fresh random directions keep the block's size
+        Z = rng.standard_normal((n, d))
+        for _ in range(2):
+            Z -= V @ (MV.T @ Z)
+            Z -= Q @ (mass(Q).T @ Z)
+        G3 = Z.T @ mass(Z)
+        L3 = sl.cholesky(0.5 * (G3 + G3.T), lower=False)
+        Q = np.hstack([Q, sl.solve_triangular(L3, Z.T, trans="T", lower=False).T])
+    return np.asfortranarray(Q), R  # (the basis's layout: stored as one contiguous write)

@@ -1,0 +1,74 @@
+"""Block shift-invert Lanczos against a dense reference: repeated roots, massless DOF, the
+ARPACK fallback."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.linalg as sl
+import scipy.sparse as sp
+
+from femcal.blocklanczos import LanczosNotConverged, block_lanczos
+from femcal.linalg import factorize
+from femcal.modal import EigenRequest, solve_modes
+
+
+def twin_chains(n: int = 400) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+    """Two identical fixed-free spring chains of n DOF side by side (every root twice), with
+    uneven springs and masses and every 7th DOF massless (infinite roots)."""
+    rng = np.random.default_rng(3)
+    k = 1e4 * (1 + rng.random(n))
+    main = k + np.append(k[1:], 0.0)
+    K1 = sp.diags([main, -k[1:], -k[1:]], [0, 1, -1])
+    m = 1 + rng.random(n)
+    m[::7] = 0.0
+    M1 = sp.diags(m)
+    return sp.block_diag([K1, K1]).tocsr(), sp.block_diag([M1, M1]).tocsr()
+
+
+def reference(K, M, k: int) -> np.ndarray:
+    """The k lowest finite roots, from the dense M x = mu K x (mu = 1 / lambda)."""
+    mu = sl.eigh(M.toarray(), K.toarray(), eigvals_only=True)
+    return np.sort(1.0 / mu[mu > 1e-12 * mu.max()])[:k]
+
+
+@pytest.mark.parametrize("block", [1, 3, 8])
+def test_block_lanczos_finds_repeated_roots_and_skips_massless_dof(block):
+    K, M = twin_chains()
+    sigma = -10.0
+    solve, _ = factorize((K - sigma * M).tocsc())
+    lam, vec, solves = block_lanczos(solve, M, sigma, 24, block=block)
+    ref = reference(K, M, 24)
+    np.testing.assert_allclose(lam, ref, rtol=1e-9)
+    assert np.allclose(ref[0::2], ref[1::2], rtol=1e-12)  # the roots do come in pairs
+    np.testing.assert_allclose(vec.T @ (M @ vec), np.eye(24), atol=1e-9)
+    res = K @ vec - (M @ vec) * lam
+    assert np.abs(res).max() <= 1e-6 * np.abs(K @ vec).max()
+    assert solves >= 2
+
+
+def test_solve_modes_block_and_arpack_agree():
+    K, M = twin_chains()
+    req = EigenRequest(nd=16)
+    a = solve_modes(K, M, req, method="block")
+    b = solve_modes(K, M, req, method="arpack")
+    np.testing.assert_allclose(a.eigenvalues, b.eigenvalues, rtol=1e-10)
+    np.testing.assert_allclose(a.generalized_mass, 1.0, rtol=1e-10)
+    with pytest.raises(ValueError, match="method 'lanczos'"):
+        solve_modes(K, M, req, method="lanczos")
+
+
+def test_too_small_a_basis_says_so_and_solve_modes_falls_back_to_arpack(monkeypatch):
+    K, M = twin_chains()
+    solve, _ = factorize((K + 10.0 * M).tocsc())
+    with pytest.raises(LanczosNotConverged, match=r"of 30 roots converged with a basis of"):
+        block_lanczos(solve, M, -10.0, 30, block=4, max_dim=40)
+    import femcal.modal as modal
+
+    real = modal.block_lanczos
+    monkeypatch.setattr(modal, "block_lanczos",
+                        lambda *a, **kw: real(*a, **{**kw, "max_dim": 40}))  # fmt: skip
+    lines: list[str] = []
+    res = solve_modes(K, M, EigenRequest(nd=20), progress=lines.append)
+    assert any("ARPACK instead" in line for line in lines)
+    np.testing.assert_allclose(res.eigenvalues, reference(K, M, 20), rtol=1e-9)
