@@ -75,29 +75,27 @@ def block_lanczos(solve: Callable[[np.ndarray], np.ndarray], M: sp.spmatrix, sig
     mass = mass_product(M)
     # columns contiguous: a new block is one contiguous write, the products read it in place
     V = np.empty((n, max_dim + b), order="F")
-    MV = np.empty((n, max_dim + b), order="F")
     T = np.zeros((max_dim + b, max_dim + b))
     # the start block in the range of OP (no components along massless directions)
     W = solve(mass(rng.standard_normal((n, b))))
     solves = 1
-    Q, _ = _orthonormalize(W, mass, V[:, :0], MV[:, :0], rng)
+    Q, _ = _orthonormalize(W, mass, V[:, :0], rng)
     m = prev = 0  # the newest block's and the one before's first column
     while True:
         bq = Q.shape[1]
         V[:, m : m + bq] = Q
-        MV[:, m : m + bq] = mass(Q)
-        W = solve(MV[:, m : m + bq])
+        W = solve(mass(Q))
         solves += 1
         top = m + bq
         # T's new columns, the projections of OP Q on the basis: first on the two newest
         # blocks (the three-term recurrence, nearly all of it), then once on the whole basis
         # for what rounding left, and once more if that pass removed much (Kahan's rule)
         C = np.zeros((top, bq))
-        C[prev:top] = MV[:, prev:top].T @ W
+        C[prev:top] = V[:, prev:top].T @ mass(W)
         W -= V[:, prev:top] @ C[prev:top]
         for _ in range(2):
             before = np.linalg.norm(W, axis=0)
-            C2 = MV[:, :top].T @ W
+            C2 = V[:, :top].T @ mass(W)
             W -= V[:, :top] @ C2
             C += C2
             if (np.linalg.norm(W, axis=0) >= 0.5 * before).all():
@@ -107,7 +105,7 @@ def block_lanczos(solve: Callable[[np.ndarray], np.ndarray], M: sp.spmatrix, sig
         Ts = T[:top, :top]
         theta, Y = np.linalg.eigh(0.5 * (Ts + Ts.T))  # ascending: the wanted at the end
         want = min(k, top)
-        Q_next, R = (_orthonormalize(W, mass, V[:, :top], MV[:, :top], rng)
+        Q_next, R = (_orthonormalize(W, mass, V[:, :top], rng)
                      if top < n else (np.zeros((n, 0)), np.zeros((0, bq))))  # fmt: skip
         resid = np.linalg.norm(R @ Y[m:top, -want:], axis=0)
         done = resid <= tol * np.abs(theta[-want:])
@@ -137,8 +135,7 @@ def mass_product(M: sp.spmatrix) -> Callable[[np.ndarray], np.ndarray]:
 
 
 def _orthonormalize(W: np.ndarray, mass: Callable[[np.ndarray], np.ndarray], V: np.ndarray,
-                    MV: np.ndarray, rng: np.random.Generator
-                    ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+                    rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """(Q (n, b), R (b, b)) with W = Q R, Q M-orthonormal (W already M-orthogonal to V).
 
     Directions of W that are (numerically) dependent on V or on each other are replaced by
@@ -162,7 +159,7 @@ def _orthonormalize(W: np.ndarray, mass: Callable[[np.ndarray], np.ndarray], V: 
     if d:  # deflation: fresh random directions keep the block's size
         Z = rng.standard_normal((n, d))
         for _ in range(2):
-            Z -= V @ (MV.T @ Z)
+            Z -= V @ (V.T @ mass(Z))
             Z -= Q @ (mass(Q).T @ Z)
         G3 = Z.T @ mass(Z)
         L3 = sl.cholesky(0.5 * (G3 + G3.T), lower=False)
