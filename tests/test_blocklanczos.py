@@ -72,3 +72,9 @@ def test_too_small_a_basis_says_so_and_solve_modes_falls_back_to_arpack(monkeypa
     res = solve_modes(K, M, EigenRequest(nd=20), progress=lines.append)
     assert any("ARPACK instead" in line for line in lines)
     np.testing.assert_allclose(res.eigenvalues, reference(K, M, 20), rtol=1e-9)
+
+
+def test_an_unknown_factorisation_backend_is_an_error():
+    K, _ = twin_chains(20)
+    with pytest.raises(ValueError, match="backend 'umfpack': expected 'auto'"):
+        factorize(K.tocsc(), backend="umfpack")

@@ -41,6 +41,8 @@ def factorize(
         If CHOLMOD finds the matrix not positive definite (SuperLU factors any nonsingular
         matrix, so it raises only for a singular one).
     """
+    if backend not in ("auto", "cholmod", "superlu"):
+        raise ValueError(f"backend {backend!r}: expected 'auto', 'cholmod' or 'superlu'")
     A = sp.csc_matrix(A)
     if backend == "cholmod" and not HAVE_CHOLMOD:
         raise ValueError("CHOLMOD (scikit-sparse) is not installed")
