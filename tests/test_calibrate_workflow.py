@@ -302,3 +302,13 @@ def test_restart_keys(study, tmp_path):
     cfg.write_text(CONFIG.replace("[calibration]", "[calibration]\nrestart_fall = 1.5"))
     with pytest.raises(ValueError, match=r"restart_fall = 1.5: expected a fraction in \[0, 1\)"):
         read_config(cfg)
+
+
+def test_a_misspelt_key_is_an_error(study, tmp_path):
+    cfg = _config_beside_the_study(study, tmp_path)
+    cfg.write_text(CONFIG.replace("[calibration]", "[calibration]\nmax_cylces = 3"))
+    with pytest.raises(ValueError, match=r"\[calibration\]: unknown key 'max_cylces' \(expected"):
+        read_config(cfg)
+    cfg.write_text(CONFIG + "\n[outputs]\npictures = false\n")
+    with pytest.raises(ValueError, match=r"the top level: unknown key 'outputs'"):
+        read_config(cfg)

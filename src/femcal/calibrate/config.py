@@ -148,6 +148,43 @@ def _number(section: dict, key: str, default, kind, where: str):
         raise ValueError(f"{where} {key} = {value!r}: expected {what}") from None
 
 
+#: Every key a configuration may hold, by section (a misspelt key is an error, not a default).
+KEYS = {
+    "": {"model", "test", "calibration", "output"},
+    "model": {"deck", "parameters", "units"},
+    "test": {"frf", "model", "truth", "identify"},
+    "test.identify": {"band", "splits", "orders", "max_order", "gamma", "beta"},
+    "calibration": {
+        "band", "zeta0", "samples_per_bandwidth", "metric", "reduction_modes", "surrogate",
+        "enrich_hz", "enrich_vectors", "residual", "modal_hz", "exact_gradient", "starts",
+        "workers", "seed", "max_iterations", "max_cycles", "settle", "restarts",
+        "restart_fall", "regularization", "noise_sigma", "identifiable_crlb", "crlb_bands",
+        "exclude_suspect_channels",
+    },
+    "output": {"pictures"},
+}  # fmt: skip
+
+
+def _no_unknown_keys(doc: dict, path: Path) -> None:
+    """ValueError naming the first key (or section) the configuration does not know."""
+    sections = [("", doc)]
+    for name in ("model", "test", "calibration", "output"):
+        section = doc.get(name, {})
+        if not isinstance(section, dict):
+            raise ValueError(f"{path}: {name} must be a [{name}] section")
+        sections.append((name, section))
+    identify = doc.get("test", {}).get("identify", {})
+    if not isinstance(identify, dict):
+        raise ValueError(f"{path}: [test] identify must be a [test.identify] section")
+    sections.append(("test.identify", identify))
+    for name, section in sections:
+        unknown = sorted(set(section) - KEYS[name])
+        if unknown:
+            where = f"[{name}]" if name else "the top level"
+            raise ValueError(f"{path}: {where}: unknown key {unknown[0]!r} (expected one of "
+                             f"{', '.join(sorted(KEYS[name]))})")  # fmt: skip
+
+
 def _flag(section: dict, key: str, default: bool, where: str) -> bool:
     """section[key] (or default) as a TOML boolean; ValueError naming the key otherwise."""
     value = section.get(key, default)
@@ -183,6 +220,7 @@ def read_config(path: str | os.PathLike[str]) -> Config:
             raise FileNotFoundError(2, f"[{where}] {key}: no such file", str(p))
         return p
 
+    _no_unknown_keys(doc, path)
     model = doc.get("model", {})
     test = doc.get("test", {})
     cal = doc.get("calibration", {})
