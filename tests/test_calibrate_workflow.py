@@ -270,45 +270,42 @@ def _config_beside_the_study(study, tmp_path):
     return cfg
 
 
+def _read_with(cfg, lines: str):
+    """The study's configuration with ``lines`` added to [calibration], read from ``cfg``."""
+    cfg.write_text(CONFIG.replace("[calibration]", "[calibration]\n" + lines))
+    return read_config(cfg)
+
+
 def test_modal_hz_and_exact_gradient_keys(study, tmp_path):
     cfg = _config_beside_the_study(study, tmp_path)
     c = read_config(cfg)
     assert c.exact_gradient is True and c.modal_hz == 0.0  # the defaults
     assert c.enrich_hz == 0.0  # no derivative vectors with the correction
-    cfg.write_text(CONFIG.replace("[calibration]",
-                                  "[calibration]\nmodal_hz = 150\nexact_gradient = false"))
-    c = read_config(cfg)
+    c = _read_with(cfg, "modal_hz = 150\nexact_gradient = false")
     assert c.exact_gradient is False and c.modal_hz == 150.0
     assert c.enrich_hz == 1.5 * 350.0  # without it: 1.5 x the band's top
-    cfg.write_text(CONFIG.replace("[calibration]", "[calibration]\nmodal_hz = -1"))
     with pytest.raises(ValueError, match=r"\[calibration\] modal_hz = -1.0: expected a freq"):
-        read_config(cfg)
-    cfg.write_text(CONFIG.replace("[calibration]", "[calibration]\nexact_gradient = 1"))
+        _read_with(cfg, "modal_hz = -1")
     with pytest.raises(ValueError, match=r"\[calibration\] exact_gradient = 1: expected true"):
-        read_config(cfg)
+        _read_with(cfg, "exact_gradient = 1")
 
 
 def test_restart_keys(study, tmp_path):
     cfg = _config_beside_the_study(study, tmp_path)
     c = read_config(cfg)
     assert (c.restarts, c.restart_fall) == (2, 0.01)  # the defaults
-    cfg.write_text(CONFIG.replace("[calibration]", "[calibration]\nrestarts = 0\n"
-                                  "restart_fall = 0.05"))  # fmt: skip
-    c = read_config(cfg)
+    c = _read_with(cfg, "restarts = 0\nrestart_fall = 0.05")
     assert (c.restarts, c.restart_fall) == (0, 0.05)
-    cfg.write_text(CONFIG.replace("[calibration]", "[calibration]\nrestarts = -1"))
     with pytest.raises(ValueError, match=r"\[calibration\] restarts = -1: expected 0 or more"):
-        read_config(cfg)
-    cfg.write_text(CONFIG.replace("[calibration]", "[calibration]\nrestart_fall = 1.5"))
+        _read_with(cfg, "restarts = -1")
     with pytest.raises(ValueError, match=r"restart_fall = 1.5: expected a fraction in \[0, 1\)"):
-        read_config(cfg)
+        _read_with(cfg, "restart_fall = 1.5")
 
 
 def test_a_misspelt_key_is_an_error(study, tmp_path):
     cfg = _config_beside_the_study(study, tmp_path)
-    cfg.write_text(CONFIG.replace("[calibration]", "[calibration]\nmax_cylces = 3"))
     with pytest.raises(ValueError, match=r"\[calibration\]: unknown key 'max_cylces' \(expected"):
-        read_config(cfg)
+        _read_with(cfg, "max_cylces = 3")
     cfg.write_text(CONFIG + "\n[outputs]\npictures = false\n")
     with pytest.raises(ValueError, match=r"the top level: unknown key 'outputs'"):
         read_config(cfg)
