@@ -5,8 +5,9 @@ theta = 1 / (lambda - sigma) are largest for the lambda nearest above the shift 
 of b vectors spans the Krylov space of OP: each step applies OP to the newest block with ONE
 solve of b right-hand sides (a sparse factor is read once per solve, whatever b is: on a
 241k-DOF plate 8 columns cost 0.18 s against 0.066 s for one), M-orthogonalises the result
-against the whole basis (classical Gram-Schmidt twice, matrix products) and M-orthonormalises
-it within itself. The basis V then satisfies
+against the two newest blocks (the block three-term recurrence) and then once against the whole
+basis (classical Gram-Schmidt as matrix products; a second pass only when the first removed
+much of a column), and M-orthonormalises it within itself. The basis V then satisfies
 
     OP V_j = V_j T_j + Q_{j+1} R_j E_j^T,    T_j = V_j^T M OP V_j,
 
@@ -29,8 +30,8 @@ import scipy.sparse as sp
 
 #: Columns per block.
 DEFAULT_BLOCK = 8
-#: A direction keeping less than this fraction of its M-norm through the
-#: orthogonalisation is dependent on the basis (deflation) and is replaced.
+#: A direction of a new block whose M-norm is below this fraction of the block's largest is
+#: numerically dependent (deflation) and is replaced by a random one.
 _DEFLATE = 1e-10
 
 
