@@ -112,11 +112,11 @@ def solve_modes(
     lam_hi = np.inf if request.v2 is None else _to_lambda(request.v2) * (1 + 1e-9)
     if request.nd is None and request.v2 is None:
         raise SolverError("EIGRL needs ND or V2 (how many roots, or up to which frequency)")
+    if method not in ("block", "arpack"):
+        raise ValueError(f"method {method!r}: expected 'block' or 'arpack'")
     if n <= DENSE_LIMIT:
         lam, vec, name = _dense(K, M, sigma)
     else:
-        if method not in ("block", "arpack"):
-            raise ValueError(f"method {method!r}: expected 'block' or 'arpack'")
         lam, vec, name = _lanczos(K, M, sigma, request, lam_lo, lam_hi, backend, progress,
                                   on_factor, method)
     keep = (lam >= lam_lo) & (lam <= lam_hi)
