@@ -49,14 +49,37 @@ class Reduction:
     def reduce(self, A: sp.spmatrix) -> sp.csr_matrix:
         """T^T A T (a plain selection of rows and columns when nothing is dependent)."""
         if len(self.dependent) == 0:
-            A = sp.csr_matrix(A)
-            return A[self.a_dofs][:, self.a_dofs].tocsr()
+            return select_symmetric(A, self.a_dofs)
         T = self.T
         return (T.T @ (A @ T)).tocsr()
 
     def expand(self, ua: np.ndarray) -> np.ndarray:
         """g-set vectors from a-set vectors; ua (n_a,) or (n_a, k)."""
         return self.T @ ua
+
+
+def select_symmetric(A: sp.spmatrix, keep: np.ndarray) -> sp.csr_matrix:
+    """A[keep][:, keep] as CSR, in one pass over A's entries.
+
+    A : (n, n) sparse; keep : (m,) row/column indices. For increasing ``keep`` (the a-set's
+    order) the entries are filtered and renumbered in place of scipy's two fancy-indexing
+    passes (1.2 s -> 0.2 s for a 13 M-entry K); other orders take scipy's path.
+    """
+    A = sp.csr_matrix(A)
+    keep = np.asarray(keep, dtype=np.int64)
+    if len(keep) > 1 and (np.diff(keep) <= 0).any():
+        return A[keep][:, keep].tocsr()
+    n, m = A.shape[0], len(keep)
+    new = np.full(n, -1, np.int64)
+    new[keep] = np.arange(m)
+    counts = np.diff(A.indptr)
+    rows = np.repeat(new, counts)
+    take = (rows >= 0) & (new[A.indices] >= 0)
+    indptr = np.zeros(m + 1, np.int64)
+    np.cumsum(np.bincount(rows[take], minlength=m), out=indptr[1:])
+    out = sp.csr_matrix((A.data[take], new[A.indices[take]], indptr), shape=(m, m))
+    out.has_sorted_indices = A.has_sorted_indices  # a monotone renumbering keeps the order
+    return out
 
 
 class _Equations:
