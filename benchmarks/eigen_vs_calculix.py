@@ -5,6 +5,11 @@ Wall time and peak memory of each solver's whole run (reading the input, assembl
 solution, results) are measured with GNU time; the first five frequencies of each are shown.
 
     python benchmarks/eigen_vs_calculix.py [--sizes 50 100 150 200 300] [--femcal-only 410]
+                                           [--repeat N]
+
+With ``--repeat N`` each solver runs N times per mesh, alternating, and the table gives the
+median wall time (the largest peak memory): on a shared machine single runs of the same job
+vary by 10-20 %.
 
 Needs CalculiX (Debian: ``apt-get install calculix-ccx``). Units mm, t, s, N, MPa.
 """
@@ -108,11 +113,21 @@ def run_calculix(n: int) -> tuple[float, float, list[float]]:
     return wall, mb, freqs
 
 
+def _median_run(runs: list[tuple[float, float, list[float]]]) -> tuple[float, float, list[float]]:
+    """(median wall s, largest peak MB, frequencies of the first run) of repeated runs."""
+    walls = sorted(r[0] for r in runs)
+    mid = len(walls) // 2
+    wall = walls[mid] if len(walls) % 2 else 0.5 * (walls[mid - 1] + walls[mid])
+    return wall, max(r[1] for r in runs), runs[0][2]
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", type=int, nargs="*", default=[50, 100, 150, 200, 300])
     ap.add_argument("--femcal-only", type=int, nargs="*", default=[410],
-                    help="meshes run with femcal alone (410 x 410: about 1 M DOF)")  # fmt: skip
+                    help="meshes run with femcal alone (410 x 410: about 1 M DOF)")
+    ap.add_argument("--repeat", type=int, default=1,
+                    help="runs of each solver per mesh; the median time is shown")  # fmt: skip
     args = ap.parse_args(argv)
     WORK.mkdir(parents=True, exist_ok=True)
     have_ccx = shutil.which("ccx") is not None
@@ -123,9 +138,19 @@ def main(argv: list[str] | None = None) -> int:
     print("|---|---|---|---|---|---|---|---|---|---|")
     for n in [*args.sizes, *args.femcal_only]:
         dof = 6 * (n + 1) ** 2
-        fw, fm, ff = run_femcal(n)
-        if have_ccx and n in args.sizes:
-            cw, cm, cf = run_calculix(n)
+        both = have_ccx and n in args.sizes
+        fruns, cruns = [], []
+        for _ in range(max(1, args.repeat)):
+            fruns.append(run_femcal(n))
+            if both:
+                cruns.append(run_calculix(n))
+        if args.repeat > 1:
+            times = lambda runs: ", ".join(f"{r[0]:.1f}" for r in runs)  # noqa: E731
+            print(f"{n}x{n}: femcal runs {times(fruns)} s"
+                  + (f"; CalculiX runs {times(cruns)} s" if both else ""), file=sys.stderr)
+        fw, fm, ff = _median_run(fruns)
+        if both:
+            cw, cm, cf = _median_run(cruns)
             ratio = f"{cw / fw:.1f}x | {cm / fm:.1f}x"
             cfs = ", ".join(f"{x:.3f}" for x in cf[:5])
             ccx_cols = f"{cw:.1f} | {cm:.0f}"

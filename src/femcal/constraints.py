@@ -59,25 +59,30 @@ class Reduction:
 
 
 def select_symmetric(A: sp.spmatrix, keep: np.ndarray) -> sp.csr_matrix:
-    """A[keep][:, keep] as CSR, in one pass over A's entries.
+    """A[keep][:, keep] as CSR, filtering and renumbering A's entries in place of scipy's two
+    fancy-indexing passes.
 
     A : (n, n) sparse; keep : (m,) row/column indices. For increasing ``keep`` (the a-set's
-    order) the entries are filtered and renumbered in place of scipy's two fancy-indexing
-    passes (1.2 s -> 0.2 s for a 13 M-entry K); other orders take scipy's path.
+    order) the work is one gather of the column numbers (32-bit when they fit), boolean masks
+    and one compression of the entries; other orders take scipy's path.
     """
     A = sp.csr_matrix(A)
     keep = np.asarray(keep, dtype=np.int64)
     if len(keep) > 1 and (np.diff(keep) <= 0).any():
         return A[keep][:, keep].tocsr()
     n, m = A.shape[0], len(keep)
-    new = np.full(n, -1, np.int64)
-    new[keep] = np.arange(m)
+    itype = np.int32 if max(n, A.nnz) < np.iinfo(np.int32).max else np.int64
+    new = np.full(n, -1, itype)
+    new[keep] = np.arange(m, dtype=itype)
     counts = np.diff(A.indptr)
-    rows = np.repeat(new, counts)
-    take = (rows >= 0) & (new[A.indices] >= 0)
-    indptr = np.zeros(m + 1, np.int64)
-    np.cumsum(np.bincount(rows[take], minlength=m), out=indptr[1:])
-    out = sp.csr_matrix((A.data[take], new[A.indices[take]], indptr), shape=(m, m))
+    cols = new[A.indices]  # the new column numbers, -1 for columns that go
+    take = cols >= 0
+    take &= np.repeat(new >= 0, counts)  # and the rows that go
+    dropped = np.searchsorted(A.indptr, np.flatnonzero(~take), side="right") - 1
+    kept = (counts - np.bincount(dropped, minlength=n))[keep]
+    indptr = np.zeros(m + 1, itype)
+    np.cumsum(kept, out=indptr[1:])
+    out = sp.csr_matrix((A.data[take], cols[take], indptr), shape=(m, m))
     out.has_sorted_indices = A.has_sorted_indices  # a monotone renumbering keeps the order
     return out
 
