@@ -82,3 +82,37 @@ def test_an_unknown_factorisation_backend_is_an_error():
     K, _ = twin_chains(20)
     with pytest.raises(ValueError, match="backend 'umfpack': expected 'auto'"):
         factorize(K.tocsc(), backend="umfpack")
+
+
+def test_more_roots_continue_on_the_same_basis():
+    """enough() False: k doubles and the iteration goes on (no restart): the roots are those
+    of the dense reference, and it takes fewer solves than two runs from scratch."""
+    K, M = twin_chains()
+    sigma = -10.0
+    solve, _ = factorize((K - sigma * M).tocsc())
+    ref = reference(K, M, 60)
+    asked: list[int] = []
+
+    def enough(lam):
+        asked.append(len(lam))
+        return len(lam) >= 40
+
+    lam, vec, solves = block_lanczos(solve, M, sigma, 12, block=4, enough=enough)
+    assert asked[0] == 12 and asked[-1] >= 40 and len(asked) >= 3  # 12 -> 24 -> 48
+    np.testing.assert_allclose(lam, ref[: len(lam)], rtol=1e-9)
+    np.testing.assert_allclose(vec.T @ (M @ vec), np.eye(len(lam)), atol=1e-9)
+    fresh = sum(block_lanczos(solve, M, sigma, k, block=4)[2] for k in (12, 24, 48))
+    assert solves < fresh
+
+
+def test_v2_request_is_answered_in_one_block_iteration():
+    """Every root below V2 (more than the first guess of 22): the same roots as the dense
+    solver, and the block iteration is not started again."""
+    K, M = twin_chains()
+    ref = reference(K, M, 200)
+    f2 = np.sqrt(0.5 * (ref[69] + ref[70])) / (2 * np.pi)  # 70 roots below V2
+    lines: list[str] = []
+    res = solve_modes(K, M, EigenRequest(v2=f2, nd=None), progress=lines.append)
+    np.testing.assert_allclose(res.eigenvalues, ref[:70], rtol=1e-9)
+    assert sum("Lanczos: " in line and "roots of" in line for line in lines) == 1
+    assert any("going on" in line for line in lines)

@@ -53,6 +53,7 @@ def block_lanczos(solve: Callable[[np.ndarray], np.ndarray], M: sp.spmatrix, sig
                   k: int, *, block: int = DEFAULT_BLOCK, tol: float = DEFAULT_TOL,
                   max_dim: int | None = None, seed: int = 20191,
                   progress: Callable[[str], None] | None = None,
+                  enough: Callable[[np.ndarray], bool] | None = None,
                   ) -> tuple[np.ndarray, np.ndarray, int]:  # fmt: skip
     """The k roots lambda nearest above ``sigma`` and their vectors.
 
@@ -65,8 +66,12 @@ def block_lanczos(solve: Callable[[np.ndarray], np.ndarray], M: sp.spmatrix, sig
     k : number of roots.
     block : columns per block; tol : relative residual of theta = 1 / (lambda - sigma) at
         which a root counts as converged (ARPACK's meaning of tol).
-    max_dim : largest basis (default min(n, max(6 k, 12 block) + 2 block)).
+    max_dim : largest basis (default min(n, max(6 k, 12 block) + 2 block), growing with k).
     seed : of the random start block (the same problem gives the same result every run).
+    enough : asked with the converged roots (ascending) once k have converged; if it says
+        False the iteration goes on for twice as many roots with the same basis (k doubles,
+        the basis keeps growing), until it says True or every root of the problem is found.
+        For "every root below V2" requests, whose count is not known beforehand.
 
     Returns
     -------
@@ -75,8 +80,9 @@ def block_lanczos(solve: Callable[[np.ndarray], np.ndarray], M: sp.spmatrix, sig
     n = M.shape[0]
     b = max(1, min(block, n))
     k = min(k, n)
+    grow = max_dim is None
     if max_dim is None:
-        max_dim = min(n, max(6 * k, 12 * b) + 2 * b)
+        max_dim = _default_dim(n, k, b)
     max_dim = max(min(max_dim, n), k)
     rng = np.random.default_rng(seed)
     mass = mass_product(M)
@@ -117,8 +123,17 @@ def block_lanczos(solve: Callable[[np.ndarray], np.ndarray], M: sp.spmatrix, sig
         done = resid <= tol * np.abs(theta[-want:])
         if progress:
             progress(f"block Lanczos: basis {top}, {int(done.sum())} of {k} roots converged")
-        if (want == k and done.all()) or top >= n:
+        converged = (want == k and done.all()) or top >= n
+        if converged and (enough is None or top >= n or k >= n
+                          or enough(_roots(theta[-want:], sigma))):  # fmt: skip
             break
+        if converged:  # not enough yet: twice as many roots, on the same basis
+            k = min(2 * k, n)
+            if grow and _default_dim(n, k, b) > max_dim:
+                max_dim = _default_dim(n, k, b)
+                V, T = _wider(V, top + b_next, max_dim + b), _larger(T, top, max_dim + b)
+            if progress:
+                progress(f"block Lanczos: going on for {k} roots")
         if top + b_next > max_dim:
             raise LanczosNotConverged(
                 f"block Lanczos: {int(done.sum())} of {k} roots converged with a basis of "
@@ -129,6 +144,29 @@ def block_lanczos(solve: Callable[[np.ndarray], np.ndarray], M: sp.spmatrix, sig
     lam = sigma + 1.0 / theta[ok]
     vec = V[:, :top] @ Y[:, ok]
     return lam, vec, solves
+
+
+def _default_dim(n: int, k: int, b: int) -> int:
+    return min(n, max(6 * k, 12 * b) + 2 * b)
+
+
+def _roots(theta: np.ndarray, sigma: float) -> np.ndarray:
+    """lambda (ascending) of the Ritz values theta = 1 / (lambda - sigma) > 0."""
+    return np.sort(sigma + 1.0 / theta[theta > 0])
+
+
+def _wider(V: np.ndarray, used: int, cols: int) -> np.ndarray:
+    """V (n, c) copied into a column-major (n, cols), its first ``used`` columns kept."""
+    out = np.empty((V.shape[0], cols), order="F")
+    out[:, :used] = V[:, :used]
+    return out
+
+
+def _larger(T: np.ndarray, used: int, size: int) -> np.ndarray:
+    """T (c, c) copied into a zero (size, size), its leading ``used`` x ``used`` block kept."""
+    out = np.zeros((size, size))
+    out[:used, :used] = T[:used, :used]
+    return out
 
 
 def mass_product(M: sp.spmatrix) -> Callable[[np.ndarray], np.ndarray]:
