@@ -44,7 +44,9 @@ KNOWN_GAPS = {
     "thin CQUAD4 skins on solid faces (PCOMP 40: 65 %, PSHELL 30: 28 %), which are too stiff "
     "here. Their transverse shear decides it: scaling the skins' shear stiffness by 0.01 moves "
     "mode 7 from +122 % to -11 %; the drilling stiffness is ruled out (no change with 1e-4 of "
-    "it). How NASTRAN's QUAD4 shear differs on such skins is not yet found",
+    "it). How NASTRAN's QUAD4 shear differs on such skins is not yet found; a candidate not "
+    "yet tried: MacNeal's QUAD4 adds a residual bending flexibility to the transverse shear "
+    "(MacNeal, Computers & Structures 8, 1978), which MITC4 does not have",
     "pyn_mode_solid_shell_bar": "1.39 % (mode 1), -1.16 % (mode 2): mixed CHEXA/CPENTA/CTETRA "
     "with PCOMP and PSHELL shells; PENTA6 in-plane bending is stiff (known) and the PCOMP "
     "transverse shear is an approximation; not yet diagnosed",
