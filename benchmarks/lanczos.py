@@ -31,8 +31,11 @@ def matrices(deck_path: Path):
     model = build_model(deck)
     mats = assemble(model, Options())
     red = build_reduction(deck, model)
-    red = autospc(model, red, red.reduce(mats.K), red.reduce(mats.M), enabled=True)
-    return red.reduce(mats.K), red.reduce(mats.M)
+    K, M = red.reduce(mats.K), red.reduce(mats.M)
+    red = autospc(model, red, K, M, enabled=True)
+    if len(red.autospc):
+        K, M = red.reduce(mats.K), red.reduce(mats.M)
+    return K, M
 
 
 def main() -> int:

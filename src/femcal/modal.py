@@ -193,15 +193,20 @@ def _lanczos(K, M, sigma, request, lam_lo, lam_hi, backend, progress, on_factor=
     k = min(max(want + 2, 12), n - 2)
     lam = vec = None
 
-    def enough(lam: np.ndarray) -> bool:
-        """Whether the roots found (ascending) answer the request (ND in range, or V2 passed)."""
+    def answered(lam: np.ndarray) -> bool:
+        """Whether the roots found (ascending) answer the request: the ND lowest roots in
+        range are all there, or every root below V2 is."""
         in_range = (lam >= lam_lo) & (lam <= lam_hi)
         if request.nd is not None and in_range.sum() >= request.nd:
             return True
-        if np.isfinite(lam_hi) and len(lam) and lam[-1] > lam_hi:
+        return bool(np.isfinite(lam_hi) and len(lam) and lam[-1] > lam_hi)
+
+    def enough(lam: np.ndarray) -> bool:
+        if answered(lam):
             return True
         if progress:
-            progress(f"Lanczos: {int(in_range.sum())} roots in range so far, going on")
+            n_in = int(((lam >= lam_lo) & (lam <= lam_hi)).sum())
+            progress(f"Lanczos: {n_in} roots in range so far, going on")
         return False
 
     while True:
@@ -226,11 +231,6 @@ def _lanczos(K, M, sigma, request, lam_lo, lam_hi, backend, progress, on_factor=
                 lam, vec = _arpack(K, M, sigma, solve, k)
         order = np.argsort(lam)
         lam, vec = lam[order], vec[:, order]
-        in_range = (lam >= lam_lo) & (lam <= lam_hi)
-        if request.nd is not None and in_range.sum() >= request.nd:
-            return lam, vec, name  # the ND lowest roots in range are all here
-        if np.isfinite(lam_hi) and lam[-1] > lam_hi:
-            return lam, vec, name  # every root below V2 is here
-        if k >= n - 2 or finished:
+        if finished or answered(lam) or k >= n - 2:
             return lam, vec, name
         k = min(2 * k, n - 2)
