@@ -13,7 +13,8 @@ much of a column), and M-orthonormalises it within itself. The basis V then sati
 
 so the Ritz pairs (theta, V_j y) of T_j have residuals |R_j y_last| (y_last: y's entries on
 the newest block), which decide convergence. No restart: the basis grows until the wanted
-roots converge or ``max_dim`` is reached (then :class:`LanczosNotConverged`).
+roots converge or ``max_dim`` is reached (then :class:`LanczosNotConverged`); when the caller
+asks for more roots (``enough``), the same basis goes on growing.
 
 This is the method NASTRAN's READ module uses (block shift-invert Lanczos); it replaces the
 one-vector iteration (ARPACK) where solves dominate, and a block also finds every copy of a
@@ -189,8 +190,8 @@ def _orthonormalize(
 
     Returns (the number of columns written, R (b, b)). Directions of W that are (numerically)
     dependent on V or on each other are replaced by random vectors M-orthogonal to V and to
-    the rest (their rows of R are zero); ``out`` has room for W's b columns (fewer when the
-    basis would exceed n)."""
+    the rest (their rows of R are zero), never more of them than the n - (V's columns)
+    directions left; ``out`` has room for W's b columns."""
     n, b = W.shape
     MW = mass(W)
     G = W.T @ MW
