@@ -112,15 +112,36 @@ def test_eigen_sensitivities_equal_central_differences(plate, name):
         assert np.abs(dphi - fdv).max() < 1e-6 * np.abs(fdv).max(), k
 
 
-def test_a_nonpolynomial_dependence_is_refused(tmp_path):
+def _shear_flexible_bar(tmp_path):
+    """The plate deck with the bar given shear flexibility (PBAR K1 = K2 = 0.8): its
+    stiffness is then rational in the area, not linear."""
     text = plate_deck().replace("PBAR,2,2,120.,900.,1600.,2000.",
                                 "PBAR,2,2,120.,900.,1600.,2000.\n,,,,,,,,\n,.8,.8")  # fmt: skip
     (tmp_path / "d.bdf").write_text(text)
     (tmp_path / "p.toml").write_text(PARAMS_TOML)
     model = build_model(read_deck(tmp_path / "d.bdf"))
     params = read_parameters(tmp_path / "p.toml", model)
-    par = next(p for p in params if p.name == "A_bar")
-    with pytest.raises(DerivativeError, match=r"A_bar \(PBAR 2 A\).*not a polynomial of degree 1"):
+    return model, next(p for p in params if p.name == "A_bar")
+
+
+def test_a_smooth_nonpolynomial_dependence_gets_a_raised_degree(tmp_path):
+    model, par = _shear_flexible_bar(tmp_path)
+    dK, dM = parameter_matrices(model, par)
+    h = 1e-4 * par.nominal
+    plus = assemble(with_values(model, [par], [par.nominal + h]))
+    minus = assemble(with_values(model, [par], [par.nominal - h]))
+    assert _rel(dK, (plus.K - minus.K) / (2 * h)) < 1e-6
+    assert _rel(dM, (plus.M - minus.M) / (2 * h)) < 1e-6
+
+
+def test_a_dependence_no_raised_degree_reproduces_is_refused(tmp_path, monkeypatch):
+    import femcal.calibrate.derivatives as derivatives
+
+    monkeypatch.setattr(derivatives, "RAISED_DEGREES", (2,))
+    model, par = _shear_flexible_bar(tmp_path)
+    with pytest.raises(DerivativeError, match=r"A_bar \(PBAR 2 A, elements CBAR\).*not a "
+                       r"polynomial of degree 1 in it.*nor reproduced to 1e-09 by one of "
+                       r"degree 2"):  # fmt: skip
         parameter_matrices(model, par)
 
 

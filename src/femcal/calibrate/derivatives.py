@@ -2,15 +2,23 @@
 
 dK/dP and dM/dP come from the element kernels themselves. Every parameter field states the
 polynomial degree d of the element matrices in its value (:data:`FIELDS`: thickness enters
-membrane, shear and mass linearly and bending cubically, so K is a cubic in T; K is linear
-in E, A, I, J, spring rates; M linear in RHO, A, T, concentrated masses). The elements that
-depend on the parameter are assembled alone at d + 1 values around P; the matrices are then
-exactly the polynomial through them, whose derivative at P is a fixed combination of the
-d + 1 matrices (Lagrange weights). No step size is involved: the result is exact up to
-rounding. The degree is checked every time at one more point (the interpolating
-polynomial must reproduce the matrices at P itself), so a field whose dependence is not a
-polynomial of that degree (e.g. a bar with shear flexibility, whose stiffness is rational
-in A) is refused with a clear error instead of giving a wrong derivative.
+membrane and mass linearly and bending cubically; K is linear in E, A, I, J, spring rates;
+M linear in RHO, A, T, concentrated masses). The elements that depend on the parameter are
+assembled alone at d + 1 values around P; the matrices are then exactly the polynomial
+through them, whose derivative at P is a fixed combination of the d + 1 matrices (Lagrange
+weights). No step size is involved: the result is exact up to rounding. The degree is
+checked every time at one more point (the interpolating polynomial must reproduce the
+matrices at P itself).
+
+Some dependences are smooth but not polynomial: the QUAD4's transverse shear with its
+residual bending flexibility, ``(1/(k G t) + var/D(t))^-1``, is rational in the thickness,
+and so is a bar's stiffness with shear flexibility in its area. When the field's degree
+does not reproduce the matrices, the degree is raised (:data:`RAISED_DEGREES`) with
+Chebyshev points over the interval the value will move in, until the interpolant
+reproduces them to :data:`DEGREE_CHECK` at the centre and between the two outermost points;
+the derivative is then the interpolant's, accurate to about that level (the tests compare
+it with finite differences). Beyond the highest degree the parameter is refused with a
+clear error instead of giving a wrong derivative.
 
 Eigen-sensitivities of mass-normalised modes (Fox and Kapoor 1968; Nelson 1976):
 ``dlam = phi^T (dK - lam dM) phi``; ``dphi`` by Nelson's method, which needs one sparse
@@ -35,6 +43,9 @@ from .parameters import Parameter, affected_elements, current_value, subset, wit
 SPREAD = 0.3
 #: Largest relative misfit at P accepted as "the dependence is that polynomial".
 DEGREE_CHECK = 1e-9
+#: Degrees tried, in turn, when the field's own degree does not reproduce the matrices
+#: (a smooth non-polynomial dependence); an even number of Chebyshev points each.
+RAISED_DEGREES = (7, 11, 15)
 
 
 class DerivativeError(FemcalError):
@@ -79,6 +90,60 @@ def _max_abs(A: sp.spmatrix) -> float:
     return float(np.abs(A.data).max()) if A.nnz else 0.0
 
 
+def _chebyshev_points(count: int, lo: float, hi: float) -> np.ndarray:
+    """``count`` Chebyshev points of the first kind on ``[lo, hi]``, increasing."""
+    x = np.cos((2.0 * np.arange(count) + 1.0) * np.pi / (2.0 * count))[::-1]
+    return 0.5 * (lo + hi) + 0.5 * (hi - lo) * x
+
+
+def _misfit(nodes: np.ndarray, series: list, at: float, exact) -> tuple[float, str]:
+    """Largest relative misfit (over K and M) of the interpolant through ``series`` (pairs
+    (K, M) at ``nodes``) against ``exact`` (K, M) at ``at``, and which matrix it is in."""
+    w = _lagrange_value_weights(nodes, at)
+    worst, which = 0.0, "stiffness"
+    for k, name in ((0, "stiffness"), (1, "mass")):
+        scale = _max_abs(exact[k])
+        if scale > 0:
+            miss = _max_abs(_combine([m[k] for m in series], w) - exact[k]) / scale
+            if miss > worst:
+                worst, which = miss, name
+    return worst, which
+
+
+def interpolation_nodes(assemble_at, degree: int, interval: tuple[float, float],
+                        what: str) -> tuple[np.ndarray, list]:  # fmt: skip
+    """Offsets ``d`` and the matrices ``assemble_at(d)`` = (K, M) there, on which the
+    interpolating polynomial reproduces the matrices (see the module docstring).
+
+    ``degree`` is the field's own degree (equally spaced points on +-SPREAD, as many as it
+    needs); if that fails, :data:`RAISED_DEGREES` on Chebyshev points over ``interval``
+    (which holds +-SPREAD). ``what`` names the parameter(s) in the error.
+
+    Raises
+    ------
+    DerivativeError
+        If no degree up to the highest reproduces the matrices.
+    """
+    nodes = np.linspace(-SPREAD, SPREAD, degree + 1)
+    series = [assemble_at(d) for d in nodes]
+    miss, which = _misfit(nodes, series, 0.0, assemble_at(0.0))
+    if miss <= DEGREE_CHECK:
+        return nodes, series
+    first = (miss, which)
+    lo, hi = min(interval[0], -SPREAD), max(interval[1], SPREAD)
+    for raised in (d for d in RAISED_DEGREES if d > degree):
+        nodes = _chebyshev_points(raised + 1, lo, hi)
+        series = [assemble_at(d) for d in nodes]
+        checks = (0.0, 0.5 * (nodes[-2] + nodes[-1]))
+        miss = max(_misfit(nodes, series, x, assemble_at(x))[0] for x in checks)
+        if miss <= DEGREE_CHECK:
+            return nodes, series
+    raise DerivativeError(
+        f"{what}: the {first[1]} of its elements is not a polynomial of degree {degree} in "
+        f"it (misfit {first[0]:.1e}), nor reproduced to {DEGREE_CHECK:.0e} by one of degree "
+        f"{RAISED_DEGREES[-1]} (misfit {miss:.1e}); its derivative would not be exact.")
+
+
 def parameter_matrices(model: Model, par: Parameter, *, options: Options | None = None
                        ) -> tuple[sp.csr_matrix, sp.csr_matrix]:  # fmt: skip
     """dK/dP and dM/dP (g-set CSR, per unit of P) at the model's current value of P.
@@ -97,28 +162,18 @@ def parameter_matrices(model: Model, par: Parameter, *, options: Options | None 
     sub = subset(model, rows)
     P = current_value(model, par.card, par.id, par.field)
     degree = max(spec.k_degree, spec.m_degree)
-    nodes = np.linspace(-SPREAD, SPREAD, degree + 1)
-    Ks, Ms = [], []
-    for d in nodes:
+
+    def assemble_at(d: float) -> tuple[sp.csr_matrix, sp.csr_matrix]:
         mats = assemble(with_values(sub, [par], [P * (1.0 + d)]), options)
-        Ks.append(mats.K)
-        Ms.append(mats.M)
-    at_P = assemble(sub, options)
-    wv = _lagrange_value_weights(nodes)
-    for name, series, exact in (("stiffness", Ks, at_P.K), ("mass", Ms, at_P.M)):
-        scale = _max_abs(exact)
-        miss = _max_abs(_combine(series, wv) - exact)
-        if scale > 0 and miss > DEGREE_CHECK * scale:
-            kinds = ", ".join(sorted(rows))
-            raise DerivativeError(
-                f"parameter {par.name} ({par.card} {par.id} {par.field}): the {name} of its "
-                f"elements ({kinds}) is not a polynomial of degree {degree} in "
-                f"{par.field} (misfit {miss / scale:.1e}); its derivative would not be exact. "
-                "Shear-flexible bars (PBAR K1/K2) and other nonlinear dependences are not "
-                "supported as parameters yet.")  # fmt: skip
+        return mats.K, mats.M
+
+    what = (f"parameter {par.name} ({par.card} {par.id} {par.field}, elements "
+            f"{', '.join(sorted(rows))})")  # fmt: skip
+    nodes, series = interpolation_nodes(assemble_at, degree, (-SPREAD, SPREAD), what)
     w = _lagrange_derivative_weights(nodes) / P  # d/dP = (d/d delta) / P
-    dK = _combine(Ks, w) if spec.k_degree > 0 else sp.csr_matrix(at_P.K.shape)
-    dM = _combine(Ms, w) if spec.m_degree > 0 else sp.csr_matrix(at_P.M.shape)
+    shape = series[0][0].shape
+    dK = _combine([m[0] for m in series], w) if spec.k_degree > 0 else sp.csr_matrix(shape)
+    dM = _combine([m[1] for m in series], w) if spec.m_degree > 0 else sp.csr_matrix(shape)
     return dK, dM
 
 
@@ -194,34 +249,27 @@ def group_polynomials(model: Model, params: list[Parameter], center: np.ndarray,
     for n, (idx, rows) in enumerate(groups.items(), start=1):
         sub = subset(model, rows)
         pars = [params[i] for i in idx]
-        degrees = [max(p.spec.k_degree, p.spec.m_degree) for p in pars]
-        nodes = [np.linspace(-SPREAD, SPREAD, d + 1) for d in degrees]
-        grid = list(itertools.product(*[range(d + 1) for d in degrees]))
-        Ks, Ms = {}, {}
-        for g in grid:
-            vals = [par.value(center[i] + nodes[k][g[k]]) for k, (i, par)
-                    in enumerate(zip(idx, pars, strict=True))]  # fmt: skip
-            mats = assemble(with_values(sub, pars, vals), options)
-            Ks[g], Ms[g] = mats.K, mats.M
-        # coefficients: apply the inverse Vandermonde matrix along every parameter
-        inv = [np.linalg.inv(np.vander(x, increasing=True)) for x in nodes]
-        exps = list(itertools.product(*[range(d + 1) for d in degrees]))
-        coef_w = {a: {g: float(np.prod([inv[k][a[k], g[k]] for k in range(len(idx))]))
-                      for g in grid} for a in exps}  # fmt: skip
         at_values = [par.value(center[i]) for i, par in zip(idx, pars, strict=True)]
         at_c = assemble(with_values(sub, pars, at_values), options)
+        degrees = [max(p.spec.k_degree, p.spec.m_degree) for p in pars]
+        nodes = [np.linspace(-SPREAD, SPREAD, d + 1) for d in degrees]
+        Ks, Ms, coef_w = _tensor_fit(sub, idx, pars, center, nodes, options)
+        miss = _constant_misfit(Ks, Ms, coef_w, at_c)
+        if miss[0] > DEGREE_CHECK:  # a dependence that is not the fields' polynomial
+            nodes = [_alone_nodes(sub, pars, k, idx[k], at_values, center, degrees[k], options)
+                     for k in range(len(idx))]  # fmt: skip
+            Ks, Ms, coef_w = _tensor_fit(sub, idx, pars, center, nodes, options)
+            miss = _constant_misfit(Ks, Ms, coef_w, at_c)
+        if miss[0] > DEGREE_CHECK:
+            names = ", ".join(p.name for p in pars)
+            raise DerivativeError(
+                f"parameters {names}: the {miss[1]} of their elements ({', '.join(rows)}) is "
+                f"not reproduced by the polynomial of degrees {[len(x) - 1 for x in nodes]} in "
+                f"them (misfit {miss[0]:.1e}) although each parameter's alone is; their "
+                "derivatives would not be exact.")  # fmt: skip
+        grid = list(Ks)
+        exps = grid
         zero = tuple(0 for _ in idx)
-        for name, series, exact in (("stiffness", Ks, at_c.K), ("mass", Ms, at_c.M)):
-            const = _combine([series[g] for g in grid], np.array([coef_w[zero][g] for g in grid]))
-            scale = _max_abs(exact)
-            miss = _max_abs(const - exact)
-            if scale > 0 and miss > DEGREE_CHECK * scale:
-                names = ", ".join(p.name for p in pars)
-                raise DerivativeError(
-                    f"parameters {names}: the {name} of their elements ({', '.join(rows)}) is "
-                    f"not the polynomial of degrees {degrees} in them (misfit "
-                    f"{miss / scale:.1e}); shear-flexible bars (PBAR K1/K2) and other nonlinear "
-                    "dependences are not supported as parameters yet.")  # fmt: skip
         terms, Kc, Mc = [], [], []
         for a in exps:
             if (a == zero and not constant) or (first_order and sum(a) > 1):
@@ -241,6 +289,61 @@ def group_polynomials(model: Model, params: list[Parameter], center: np.ndarray,
         if progress is not None:
             progress(n, len(groups), [p.name for p in pars])
     return out
+
+
+def _alone_nodes(sub: Model, pars: list[Parameter], k: int, i: int, at_values: list[float],
+                 center: np.ndarray, degree: int, options: Options | None
+                 ) -> np.ndarray:  # fmt: skip
+    """Interpolation offsets for parameter ``pars[k]`` (index i) moving alone about the
+    centre, the others held at ``at_values`` (see :func:`interpolation_nodes`)."""
+    par = pars[k]
+
+    def assemble_at(d: float) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+        vals = list(at_values)
+        vals[k] = par.value(center[i] + d)
+        mats = assemble(with_values(sub, pars, vals), options)
+        return mats.K, mats.M
+
+    kinds = ", ".join(sorted(sub.elements))
+    what = f"parameter {par.name} ({par.card} {par.id} {par.field}, elements {kinds})"
+    interval = (par.p_lower - center[i], par.p_upper - center[i])
+    return interpolation_nodes(assemble_at, degree, interval, what)[0]
+
+
+def _tensor_fit(sub: Model, idx: tuple[int, ...], pars: list[Parameter], center: np.ndarray,
+                nodes: list[np.ndarray], options: Options | None
+                ) -> tuple[dict, dict, dict]:  # fmt: skip
+    """The group's K and M on the tensor grid of ``nodes`` (offsets per parameter about
+    ``center``), and the weights giving each monomial coefficient from them: ``Ks[g]``,
+    ``Ms[g]`` per grid index g, ``coef_w[a][g]`` per exponent tuple a."""
+    grid = list(itertools.product(*[range(len(x)) for x in nodes]))
+    Ks, Ms = {}, {}
+    for g in grid:
+        vals = [par.value(center[i] + nodes[k][g[k]]) for k, (i, par)
+                in enumerate(zip(idx, pars, strict=True))]  # fmt: skip
+        mats = assemble(with_values(sub, pars, vals), options)
+        Ks[g], Ms[g] = mats.K, mats.M
+    # coefficients: apply the inverse Vandermonde matrix along every parameter
+    inv = [np.linalg.inv(np.vander(x, increasing=True)) for x in nodes]
+    coef_w = {a: {g: float(np.prod([inv[k][a[k], g[k]] for k in range(len(idx))]))
+                  for g in grid} for a in grid}  # fmt: skip
+    return Ks, Ms, coef_w
+
+
+def _constant_misfit(Ks: dict, Ms: dict, coef_w: dict, at_c) -> tuple[float, str]:
+    """Relative misfit of the fitted constant term against the matrices at the centre, and
+    in which of stiffness and mass it is largest."""
+    grid = list(Ks)
+    zero = tuple(0 for _ in grid[0])
+    w = np.array([coef_w[zero][g] for g in grid])
+    worst, which = 0.0, "stiffness"
+    for name, series, exact in (("stiffness", Ks, at_c.K), ("mass", Ms, at_c.M)):
+        scale = _max_abs(exact)
+        if scale > 0:
+            miss = _max_abs(_combine([series[g] for g in grid], w) - exact) / scale
+            if miss > worst:
+                worst, which = miss, name
+    return worst, which
 
 
 def eigenvalue_sensitivities(shapes: np.ndarray, eigenvalues: np.ndarray, dK: sp.spmatrix,
