@@ -12,8 +12,10 @@ for one parameter that K and M depend on linearly (moduli, areas, masses), first
 thicknesses (bending goes with T^3) and for products (a shell's stiffness goes with E T).
 femcal's default (``order="exact"``) keeps every term instead: each group of elements that
 shares its parameters contributes the exact polynomial in them
-(:func:`femcal.calibrate.derivatives.group_polynomials`), so the surrogate is the full
-model's Rayleigh-Ritz reduction on the basis at any p, and only the basis is approximate.
+(:func:`femcal.calibrate.derivatives.group_polynomials`; where the dependence is rational,
+as the CQUAD4's transverse shear in T, an interpolant of raised degree that reproduces it to
+1e-9), so the surrogate is the full model's Rayleigh-Ritz reduction on the basis at any p,
+and only the basis is approximate.
 The surrogate's modes come from the small dense problem
 ``K~ psi = lam M~ psi``, every mode gets the same modal damping zeta0, and the FRFs at the
 sensor channels C (n_out, r) = C_g Phi and inputs B (n_in, r) are::
@@ -325,9 +327,12 @@ STIFF_CUTOFF = 1e4
 
 def _polynomial_derivative(polys: list[GroupPolynomial], center: np.ndarray, j: int,
                            X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
-    """dK/dp_j X and dM/dp_j X (n_g, m) at ``center`` from the group polynomials about 0."""
-    dKX = np.zeros(X.shape)
-    dMX = np.zeros(X.shape)
+    """dK/dp_j X and dM/dp_j X (n_g, m) at ``center`` from the group polynomials about 0.
+
+    The terms' matrices are summed with their weights first (one pass over their entries
+    each), then multiplied once: a group of high degree has many terms, and X many columns.
+    """
+    dK, dM = [], []
     for g in polys:
         if j not in g.params:
             continue
@@ -340,9 +345,11 @@ def _polynomial_derivative(polys: list[GroupPolynomial], center: np.ndarray, j: 
             if w == 0.0:
                 continue
             if Kc.nnz:
-                dKX += w * (Kc @ X)
+                dK.append(w * Kc)
             if Mc.nnz:
-                dMX += w * (Mc @ X)
+                dM.append(w * Mc)
+    dKX = sum(dK[1:], dK[0]) @ X if dK else np.zeros(X.shape)
+    dMX = sum(dM[1:], dM[0]) @ X if dM else np.zeros(X.shape)
     return dKX, dMX
 
 
