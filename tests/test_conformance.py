@@ -39,17 +39,12 @@ KNOWN_GAPS = {
     "pyn_tet10_simple": "23 % (mode 5): two 10-node tetrahedra; NASTRAN lies between femcal's "
     "HRZ-lumped (-10..-23 %) and consistent (+9..+40 %) mass, so its CTETRA(10) lumped mass "
     "(or stiffness) formulation is not yet matched",
-    "pyn_nx_sine_solid": "modes 1, 4, 7 off by +2.9 %, +18 %, +122 % (modes 2, 3, 5, 6 within "
-    "0.01 %), and mode 8 (near V2) not found. Mode 7 keeps 92 % of its strain energy in the "
-    "thin CQUAD4 skins on solid faces (PCOMP 40: 65 %, PSHELL 30: 28 %), which are too stiff "
-    "here. Their transverse shear decides it: scaling the skins' shear stiffness by 0.01 moves "
-    "mode 7 from +122 % to -11 %; the drilling stiffness is ruled out (no change with 1e-4 of "
-    "it). How NASTRAN's QUAD4 shear differs on such skins is not yet found; a candidate not "
-    "yet tried: MacNeal's QUAD4 adds a residual bending flexibility to the transverse shear "
-    "(MacNeal, Computers & Structures 8, 1978), which MITC4 does not have",
-    "pyn_mode_solid_shell_bar": "1.39 % (mode 1), -1.16 % (mode 2): mixed CHEXA/CPENTA/CTETRA "
-    "with PCOMP and PSHELL shells; PENTA6 in-plane bending is stiff (known) and the PCOMP "
-    "transverse shear is an approximation; not yet diagnosed",
+    "pyn_mode_solid_shell_bar": "1.27 % (mode 1: +1.27 %, mode 2: -1.27 %; 1.39 / -1.16 % "
+    "before the CQUAD4 residual bending flexibility): mixed CHEXA/CPENTA/CTETRA with PCOMP and "
+    "PSHELL shells; PENTA6 in-plane bending is stiff (known) and the PCOMP transverse shear is "
+    "an approximation. Modes 1 and 2 move in opposite directions with the CTRIA3 shear "
+    "stiffness (x0.1: -1.31 / -1.90 %), so the triangles' shear alone does not explain it; "
+    "not yet diagnosed",
 }
 
 CASES = [

@@ -63,7 +63,8 @@ FIELDS: dict[tuple[str, str], FieldSpec] = {
     (s.card, s.field): s
     for s in [
         _spec("PSHELL", "T", "property", "t", 3, 1,
-              "membrane and shear stiffness and mass linear, bending cubic in T"),
+              "membrane and mass linear, bending cubic in T; with MID3 the CQUAD4 "
+              "transverse shear is rational in T (residual bending flexibility)"),
         _spec("MAT1", "E", "material", "e", 1, 0, "stiffness linear in E (G derived from E)"),
         _spec("MAT1", "RHO", "material", "rho", 0, 1, "mass linear in RHO"),
         _spec("PBAR", "A", "property", "a", 1, 1, "axial stiffness and mass linear in A"),
