@@ -36,15 +36,20 @@ KNOWN_GAPS = {
     "out 3-150 % high: this deck's PCOMP/MAT8 laminates (LAM blank, FT=STRN) on CQUAD8, "
     "CTRIA6 (with omitted midside nodes), CQUADR and CTRIAR differ from NASTRAN; the shell "
     "drilling stiffness is ruled out (1e-6 of it gives the same zeros); not yet found",
-    "pyn_tet10_simple": "23 % (mode 5): two 10-node tetrahedra; NASTRAN lies between femcal's "
-    "HRZ-lumped (-10..-23 %) and consistent (+9..+40 %) mass, so its CTETRA(10) lumped mass "
-    "(or stiffness) formulation is not yet matched",
+    "pyn_tet10_simple": "23 % (mode 5): two 10-node tetrahedra, clamped at one corner and "
+    "three midside nodes; NASTRAN lies between femcal's HRZ-lumped (-10..-23 %) and consistent "
+    "(+9..+40 %) mass, and no single corner/midside split of the lumped mass fits all ten "
+    "modes. One midside node (GRID 2534) lies 2.7 % of its edge off the midpoint (a curved "
+    "edge): straightening it moves femcal's modes by 2-5 %, and integrating the stiffness with "
+    "a 125-point rule instead of the 4-point one by under 0.1 %. Not yet matched",
     "pyn_mode_solid_shell_bar": "1.27 % (mode 1: +1.27 %, mode 2: -1.27 %; 1.39 / -1.16 % "
-    "before the CQUAD4 residual bending flexibility): mixed CHEXA/CPENTA/CTETRA with PCOMP and "
-    "PSHELL shells; PENTA6 in-plane bending is stiff (known) and the PCOMP transverse shear is "
-    "an approximation. Modes 1 and 2 move in opposite directions with the CTRIA3 shear "
-    "stiffness (x0.1: -1.31 / -1.90 %), so the triangles' shear alone does not explain it; "
-    "not yet diagnosed",
+    "before the CQUAD4 residual bending flexibility). Strain energy: mode 1 is 42 % in the "
+    "CBEAM (PBEAM K1 = K2 = 0.85, a 0.5 x 0.5 x 1 stub, so its shear flexibility matters: "
+    "K = 0.7 gives +0.50 %, 1.0 gives +1.83 %), 22 % CROD, 15 % CBAR, 17 % shells; mode 2 is "
+    "38 % CROD, 33 % CBAR, 10 % CTRIA3 (PCOMP and PSHELL walls). Constant-strain CTRIA3 "
+    "membranes instead of Allman's take mode 2 to +0.65 % and mode 3 to +2.3 %; the CTRIA3 "
+    "transverse shear x0.1 gives -1.31 / -1.90 %. No one of these fits all three modes; not "
+    "yet diagnosed",
 }
 
 CASES = [
