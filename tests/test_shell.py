@@ -578,3 +578,17 @@ def test_offset_cantilever() -> None:
     ref = beam_deflection(2.1e5, 0.0, I + area * d**2, area)
     assert abs(w @ tip[:, 2] / ref - 1) < 0.005  # measured +0.15 % (20x2: +3.0 %)
     assert w @ tip[:, 2] < 0.1 * (w @ tip0[:, 2])
+
+
+def test_an_element_without_transverse_shear_stiffness_keeps_none() -> None:
+    # S = 0 (no shear stiffness) cannot take the residual bending flexibility (its compliance is
+    # infinite already): that element keeps S = 0, and the others in the same call are the
+    # same as alone.
+    xyz = np.array([[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0.0]]] * 2)
+    A, D, S = iso(2.1e5, 0.3, 0.1)
+    K, _ = quad4_matrices(xyz, A, D, np.stack([np.zeros((2, 2)), S]), rho_area=1.0)
+    alone, _ = quad4_matrices(xyz[1:], A, D, S, rho_area=1.0)
+    zero, _ = quad4_matrices(xyz[:1], A, D, np.zeros((2, 2)), rho_area=1.0)
+    assert np.isfinite(K).all()
+    np.testing.assert_array_equal(K[1], alone[0])
+    np.testing.assert_array_equal(K[0], zero[0])
