@@ -41,7 +41,8 @@ class FieldSpec:
     ``Model.materials``), ``record`` (a field of a list card's records, index for tuples),
     or ``element`` (a column of an element block's data, the id being the element id).
     k_degree, m_degree : polynomial degree of the element stiffness and mass in the value
-    (0: independent of it).
+    (0: independent of it); where a dependence is rational (the CQUAD4's transverse shear in
+    T), :mod:`femcal.calibrate.derivatives` raises the degree it fits.
     """
 
     card: str
