@@ -195,8 +195,9 @@ def derivative_matrices(model: Model, params: list[Parameter], *,
 
 @dataclass(frozen=True)
 class GroupPolynomial:
-    """K and M of one group of elements as an exact polynomial in the scaled offsets
-    ``d_i = p_i - p_c,i`` of the parameters they depend on.
+    """K and M of one group of elements as a polynomial in the scaled offsets
+    ``d_i = p_i - p_c,i`` of the parameters they depend on: exact, or to 1e-9 where a
+    dependence is rational and the degree was raised (:func:`interpolation_nodes`).
 
     params : indices (into the parameter list) of the group's parameters.
     exponents : (n_terms, len(params)) exponent of each d_i in each term (the constant term
@@ -239,9 +240,12 @@ def group_polynomials(model: Model, params: list[Parameter], center: np.ndarray,
 
     Each group's elements are assembled alone on a tensor grid of (degree + 1) offsets per
     parameter; the polynomial through those values is the matrices' dependence exactly
-    (checked at the centre, as in :func:`parameter_matrices`). With ``first_order`` only the
-    linear terms are kept (the derivatives at the centre: FEMCali's first-order surrogate);
-    with ``constant`` the constant term (the group's matrices at the centre) is kept too.
+    (checked at the centre, as in :func:`parameter_matrices`). If that check fails, each
+    parameter's degree is found alone (raised on Chebyshev points where its dependence is
+    rational, :func:`interpolation_nodes`) and the grid is built again. With ``first_order``
+    only the linear terms are kept (the derivatives at the centre: FEMCali's first-order
+    surrogate); with ``constant`` the constant term (the group's matrices at the centre) is
+    kept too.
     """
     center = np.asarray(center, float)
     out: list[GroupPolynomial] = []
