@@ -96,37 +96,52 @@ def _chebyshev_points(count: int, lo: float, hi: float) -> np.ndarray:
     return 0.5 * (lo + hi) + 0.5 * (hi - lo) * x
 
 
-def _misfit(nodes: np.ndarray, series: list, at: float, exact) -> tuple[float, str]:
-    """Largest relative misfit (over K and M) of the interpolant through ``series`` (pairs
-    (K, M) at ``nodes``) against ``exact`` (K, M) at ``at``, and which matrix it is in."""
-    w = _lagrange_value_weights(nodes, at)
+def _relative_misfit(Ks: list, Ms: list, w: np.ndarray, exact) -> tuple[float, str]:
+    """Largest relative misfit of ``sum w_j Ks[j]`` and ``sum w_j Ms[j]`` against ``exact``
+    (K, M), and which of stiffness and mass it is in."""
     worst, which = 0.0, "stiffness"
-    for k, name in ((0, "stiffness"), (1, "mass")):
-        scale = _max_abs(exact[k])
+    for name, series, X in (("stiffness", Ks, exact[0]), ("mass", Ms, exact[1])):
+        scale = _max_abs(X)
         if scale > 0:
-            miss = _max_abs(_combine([m[k] for m in series], w) - exact[k]) / scale
+            miss = _max_abs(_combine(series, w) - X) / scale
             if miss > worst:
                 worst, which = miss, name
     return worst, which
 
 
+def _misfit(nodes: np.ndarray, series: list, at: float, exact) -> tuple[float, str]:
+    """:func:`_relative_misfit` of the interpolant through ``series`` (pairs (K, M) at
+    ``nodes``) against ``exact`` (K, M) at ``at``."""
+    w = _lagrange_value_weights(nodes, at)
+    return _relative_misfit([m[0] for m in series], [m[1] for m in series], w, exact)
+
+
+def _describe(par: Parameter, kinds) -> str:
+    """The parameter as errors name it: name, card, id, field and its elements' types."""
+    return (f"parameter {par.name} ({par.card} {par.id} {par.field}, elements "
+            f"{', '.join(sorted(kinds))})")  # fmt: skip
+
+
 def interpolation_nodes(assemble_at, degree: int, interval: tuple[float, float],
-                        what: str) -> tuple[np.ndarray, list]:  # fmt: skip
+                        what: str, at_zero=None) -> tuple[np.ndarray, list]:  # fmt: skip
     """Offsets ``d`` and the matrices ``assemble_at(d)`` = (K, M) there, on which the
     interpolating polynomial reproduces the matrices (see the module docstring).
 
     ``degree`` is the field's own degree (equally spaced points on +-SPREAD, as many as it
     needs); if that fails, :data:`RAISED_DEGREES` on Chebyshev points over ``interval``
-    (which holds +-SPREAD). ``what`` names the parameter(s) in the error.
+    (which holds +-SPREAD). ``what`` names the parameter(s) in the error. ``at_zero``: the
+    matrices at ``d = 0`` if the caller has them (else assembled once here).
 
     Raises
     ------
     DerivativeError
         If no degree up to the highest reproduces the matrices.
     """
+    if at_zero is None:
+        at_zero = assemble_at(0.0)
     nodes = np.linspace(-SPREAD, SPREAD, degree + 1)
     series = [assemble_at(d) for d in nodes]
-    miss, which = _misfit(nodes, series, 0.0, assemble_at(0.0))
+    miss, which = _misfit(nodes, series, 0.0, at_zero)
     if miss <= DEGREE_CHECK:
         return nodes, series
     first = (miss, which)
@@ -134,8 +149,9 @@ def interpolation_nodes(assemble_at, degree: int, interval: tuple[float, float],
     for raised in (d for d in RAISED_DEGREES if d > degree):
         nodes = _chebyshev_points(raised + 1, lo, hi)
         series = [assemble_at(d) for d in nodes]
-        checks = (0.0, 0.5 * (nodes[-2] + nodes[-1]))
-        miss = max(_misfit(nodes, series, x, assemble_at(x))[0] for x in checks)
+        between = 0.5 * (nodes[-2] + nodes[-1])
+        miss = max(_misfit(nodes, series, 0.0, at_zero)[0],
+                   _misfit(nodes, series, between, assemble_at(between))[0])  # fmt: skip
         if miss <= DEGREE_CHECK:
             return nodes, series
     raise DerivativeError(
@@ -167,9 +183,8 @@ def parameter_matrices(model: Model, par: Parameter, *, options: Options | None 
         mats = assemble(with_values(sub, [par], [P * (1.0 + d)]), options)
         return mats.K, mats.M
 
-    what = (f"parameter {par.name} ({par.card} {par.id} {par.field}, elements "
-            f"{', '.join(sorted(rows))})")  # fmt: skip
-    nodes, series = interpolation_nodes(assemble_at, degree, (-SPREAD, SPREAD), what)
+    nodes, series = interpolation_nodes(assemble_at, degree, (-SPREAD, SPREAD),
+                                        _describe(par, rows))  # fmt: skip
     w = _lagrange_derivative_weights(nodes) / P  # d/dP = (d/d delta) / P
     shape = series[0][0].shape
     dK = _combine([m[0] for m in series], w) if spec.k_degree > 0 else sp.csr_matrix(shape)
@@ -260,8 +275,8 @@ def group_polynomials(model: Model, params: list[Parameter], center: np.ndarray,
         Ks, Ms, coef_w = _tensor_fit(sub, idx, pars, center, nodes, options)
         miss = _constant_misfit(Ks, Ms, coef_w, at_c)
         if miss[0] > DEGREE_CHECK:  # a dependence that is not the fields' polynomial
-            nodes = [_alone_nodes(sub, pars, k, idx[k], at_values, center, degrees[k], options)
-                     for k in range(len(idx))]  # fmt: skip
+            nodes = [_alone_nodes(sub, pars, k, idx[k], at_values, at_c, center, degrees[k],
+                                  options) for k in range(len(idx))]  # fmt: skip
             Ks, Ms, coef_w = _tensor_fit(sub, idx, pars, center, nodes, options)
             miss = _constant_misfit(Ks, Ms, coef_w, at_c)
         if miss[0] > DEGREE_CHECK:
@@ -271,11 +286,10 @@ def group_polynomials(model: Model, params: list[Parameter], center: np.ndarray,
                 f"not reproduced by the polynomial of degrees {[len(x) - 1 for x in nodes]} in "
                 f"them (misfit {miss[0]:.1e}) although each parameter's alone is; their "
                 "derivatives would not be exact.")  # fmt: skip
-        grid = list(Ks)
-        exps = grid
+        grid = list(Ks)  # the exponent tuples are the grid's indices
         zero = tuple(0 for _ in idx)
         terms, Kc, Mc = [], [], []
-        for a in exps:
+        for a in grid:
             if (a == zero and not constant) or (first_order and sum(a) > 1):
                 continue
             w = np.array([coef_w[a][g] for g in grid])
@@ -296,10 +310,11 @@ def group_polynomials(model: Model, params: list[Parameter], center: np.ndarray,
 
 
 def _alone_nodes(sub: Model, pars: list[Parameter], k: int, i: int, at_values: list[float],
-                 center: np.ndarray, degree: int, options: Options | None
+                 at_c, center: np.ndarray, degree: int, options: Options | None
                  ) -> np.ndarray:  # fmt: skip
     """Interpolation offsets for parameter ``pars[k]`` (index i) moving alone about the
-    centre, the others held at ``at_values`` (see :func:`interpolation_nodes`)."""
+    centre, the others held at ``at_values`` (``at_c``: the group's matrices there; see
+    :func:`interpolation_nodes`)."""
     par = pars[k]
 
     def assemble_at(d: float) -> tuple[sp.csr_matrix, sp.csr_matrix]:
@@ -308,10 +323,9 @@ def _alone_nodes(sub: Model, pars: list[Parameter], k: int, i: int, at_values: l
         mats = assemble(with_values(sub, pars, vals), options)
         return mats.K, mats.M
 
-    kinds = ", ".join(sorted(sub.elements))
-    what = f"parameter {par.name} ({par.card} {par.id} {par.field}, elements {kinds})"
     interval = (par.p_lower - center[i], par.p_upper - center[i])
-    return interpolation_nodes(assemble_at, degree, interval, what)[0]
+    return interpolation_nodes(assemble_at, degree, interval, _describe(par, sub.elements),
+                               (at_c.K, at_c.M))[0]  # fmt: skip
 
 
 def _tensor_fit(sub: Model, idx: tuple[int, ...], pars: list[Parameter], center: np.ndarray,
@@ -340,14 +354,7 @@ def _constant_misfit(Ks: dict, Ms: dict, coef_w: dict, at_c) -> tuple[float, str
     grid = list(Ks)
     zero = tuple(0 for _ in grid[0])
     w = np.array([coef_w[zero][g] for g in grid])
-    worst, which = 0.0, "stiffness"
-    for name, series, exact in (("stiffness", Ks, at_c.K), ("mass", Ms, at_c.M)):
-        scale = _max_abs(exact)
-        if scale > 0:
-            miss = _max_abs(_combine([series[g] for g in grid], w) - exact) / scale
-            if miss > worst:
-                worst, which = miss, name
-    return worst, which
+    return _relative_misfit([Ks[g] for g in grid], [Ms[g] for g in grid], w, (at_c.K, at_c.M))
 
 
 def eigenvalue_sensitivities(shapes: np.ndarray, eigenvalues: np.ndarray, dK: sp.spmatrix,
