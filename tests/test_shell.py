@@ -592,3 +592,14 @@ def test_an_element_without_transverse_shear_stiffness_keeps_none() -> None:
     assert np.isfinite(K).all()
     np.testing.assert_array_equal(K[1], alone[0])
     np.testing.assert_array_equal(K[0], zero[0])
+
+
+def test_coupling_without_membrane_stiffness_does_not_fail() -> None:
+    # B given but A singular (no membrane): the residual bending flexibility uses D itself
+    # (there is no membrane to relax) instead of failing in the solve with A.
+    xyz = np.array([[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0.0]]])
+    A, D, S = iso(2.1e5, 0.3, 0.1)
+    K, _ = quad4_matrices(xyz, np.zeros((3, 3)), D, S, 0.01 * A, rho_area=1.0)
+    assert np.isfinite(K).all()
+    np.testing.assert_allclose(K, K.swapaxes(1, 2), atol=1e-9 * np.abs(K).max())
+

@@ -284,9 +284,10 @@ def _with_residual_bending(
     directions and values of the element's area covariance ``cov``, ``D_k`` the bending
     stiffness for curvature along ``t_k`` alone (``m^T D* m`` with ``m = [tx^2, ty^2,
     2 tx ty]``) of the laminate about its neutral surface, ``D* = D - B^T A^-1 B`` (so a
-    reference-plane offset does not change it). Elements without bending stiffness along a
-    direction get no term there, and elements whose ``S`` is singular (no transverse shear
-    stiffness in some direction) keep their ``S``.
+    reference-plane offset does not change it; ``D`` itself where ``A`` is singular, with no
+    membrane to relax). Elements without bending stiffness along a direction get no term
+    there, and elements whose ``S`` is singular (no transverse shear stiffness in some
+    direction) keep their ``S``.
     """
     keep = np.linalg.det(S) <= 0.0
     if keep.all():
@@ -297,6 +298,7 @@ def _with_residual_bending(
         return out
     Dstar = D.copy()
     coupled = np.abs(B).reshape(len(B), -1).max(axis=1) > 0.0
+    coupled &= np.linalg.det(A) > 0.0
     if coupled.any():
         Dstar[coupled] -= np.swapaxes(B[coupled], 1, 2) @ np.linalg.solve(A[coupled], B[coupled])
     lam, vec = np.linalg.eigh(cov)
