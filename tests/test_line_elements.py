@@ -162,6 +162,43 @@ def test_tapered_beam_matches_integrated_flexibility():
     assert cantilever_tip(K[0], 1)[1] == pytest.approx(exact, rel=1e-6)
 
 
+@pytest.mark.parametrize("coupled", [False, True])
+def test_tapered_beam_mass_keeps_total_mass_centre_and_rotary_inertia(coupled):
+    # A linear taper of the mass per length from m_a to m_b along a member on x. Exact:
+    # total mass L (m_a + m_b) / 2, first moment about end A L^2 (m_a + 2 m_b) / 6, and
+    # (coupled, whose Hermite shapes hold the rigid rotation exactly) second moment
+    # L^3 (m_a + 3 m_b) / 12. The lumped ends are the centre-keeping shares
+    # L (2 m_a + m_b) / 6 and L (m_a + 2 m_b) / 6; the torsion inertia is shared the same way.
+    from femcal.elements.line import _GAUSS_X
+
+    L, ma, mb, ja, jb = 2.5, 3.0, 11.0, 0.2, 0.9
+    xyz = np.array([[[0, 0, 0], [L, 0, 0]]], float)
+    sec = np.tile([1.0, 1.0, 1.0, 0.0, 1.0], (1, 1))
+    _, M = bar_matrices(
+        xyz, np.array([[0, 1.0, 0]]), np.zeros((1, 3)), np.zeros((1, 3)),
+        np.array([1.0]), np.array([0.4]), sec, np.array([np.nan]), np.array([np.nan]),
+        (ma + (mb - ma) * _GAUSS_X)[None], coupled_mass=coupled,
+        torsion_inertia=(ja + (jb - ja) * _GAUSS_X)[None],
+    )  # fmt: skip
+    M = M[0]
+    total = L * (ma + mb) / 2
+    first = L**2 * (ma + 2 * mb) / 6
+    ty = np.zeros(12)
+    ty[[1, 7]] = 1.0  # rigid translation along y
+    rz = np.zeros(12)
+    rz[[5, 11]] = 1.0
+    rz[7] = L  # rigid rotation about z through end A: v = x theta
+    assert ty @ M @ ty == pytest.approx(total, rel=1e-12)
+    assert ty @ M @ rz == pytest.approx(first, rel=1e-12)
+    if coupled:
+        assert rz @ M @ rz == pytest.approx(L**3 * (ma + 3 * mb) / 12, rel=1e-12)
+    else:
+        assert M[1, 1] == pytest.approx(L * (2 * ma + mb) / 6, rel=1e-12)
+        assert M[7, 7] == pytest.approx(L * (ma + 2 * mb) / 6, rel=1e-12)
+    assert M[3, 3] == pytest.approx(L * (2 * ja + jb) / 6, rel=1e-12)
+    assert M[9, 9] == pytest.approx(L * (ja + 2 * jb) / 6, rel=1e-12)
+
+
 def test_line_frame_errors():
     with pytest.raises(ValueError, match="zero-length"):
         line_frame(np.zeros((1, 3)), np.zeros((1, 3)), np.array([[0, 1.0, 0]]))

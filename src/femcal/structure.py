@@ -359,7 +359,7 @@ def _beams(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
     k2 = np.ones(n)
     mids = np.zeros(n, np.int64)
     nsm = np.zeros((n, q))
-    nsi = np.zeros(n)
+    nsi = np.zeros((n, q))  # NSI at the stations
     done = np.zeros(n, bool)
     pbeam = {p.pid: p for p in m.properties.get("PBEAM", [])}
     pbeaml = {p.pid: p for p in m.properties.get("PBEAML", [])}
@@ -376,7 +376,7 @@ def _beams(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
             nsm[i] = np.interp(_GAUSS_X, xs, ns)
             k1[i], k2[i] = p.tail_value("k1"), p.tail_value("k2")
             nsi_a, nsi_b = p.tail_value("nsi_a"), p.tail_value("nsi_b")
-            nsi[i] = 0.5 * (nsi_a + (nsi_a if np.isnan(nsi_b) else nsi_b))
+            nsi[i] = nsi_a + ((nsi_a if np.isnan(nsi_b) else nsi_b) - nsi_a) * _GAUSS_X
             mids[i] = p.mid
         elif pid in pbeaml:
             p = pbeaml[pid]
@@ -397,13 +397,13 @@ def _beams(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
         done[i] = True
     _all_done(done, block, "PBEAM or PBEAML")
     mat = ctx.mat1(mids, block.type, block.ids)
-    mpl_q = mat["rho"][:, None] * section[..., 0] + nsm
+    mpl_q = mat["rho"][:, None] * section[..., 0] + nsm  # mass per length at the stations
     mpl = (mpl_q * _GAUSS_W).sum(axis=1)  # mean mass per length
-    polar = mat["rho"] * ((section[..., 1] + section[..., 2]) * _GAUSS_W).sum(axis=1) + nsi
+    polar_q = mat["rho"][:, None] * (section[..., 1] + section[..., 2]) + nsi
     K, M = bar_matrices(
-        xyz, v, wa, wb, mat["E"], mat["G"], section, k1, k2, mpl,
+        xyz, v, wa, wb, mat["E"], mat["G"], section, k1, k2, mpl_q,
         pa=_pins(block.data["pa"]), pb=_pins(block.data["pb"]), coupled_mass=ctx.coupled,
-        torsion_inertia=polar,
+        torsion_inertia=polar_q,
     )  # fmt: skip
     asm.add_blocks(block.nodes, 6, K, M)
     L = np.linalg.norm((xyz[:, 1] + wb) - (xyz[:, 0] + wa), axis=1)

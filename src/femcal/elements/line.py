@@ -216,6 +216,21 @@ def beam_stiffness_local(
     return np.einsum("nki,nkl,nlj->nij", H, Kbb, H)
 
 
+def _along(values: np.ndarray, n: int) -> np.ndarray:
+    """(n,) uniform or (n, q) values at the Gauss stations ``_GAUSS_X`` -> (n, q)."""
+    values = np.asarray(values, dtype=float)
+    if values.ndim == 1:
+        return np.broadcast_to(values[:, None], (n, len(_GAUSS_X)))
+    return values
+
+
+def _end_shares(L: np.ndarray, per_length: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lumped end values of a quantity per length (n, q): the shares that keep its total and
+    its centre, int q (1 - x/L) dx at end A and int q x/L dx at end B; (n,) each."""
+    wl = L[:, None] * _GAUSS_W[None, :] * per_length
+    return (wl * (1.0 - _GAUSS_X)).sum(axis=1), (wl * _GAUSS_X).sum(axis=1)
+
+
 def beam_mass_local(
     L: np.ndarray,
     mass_per_length: np.ndarray,
@@ -225,37 +240,50 @@ def beam_mass_local(
 ) -> np.ndarray:
     """Local 12 x 12 mass of bars/beams.
 
-    Lumped: half the mass at each end, on the translations. Coupled: along the axis the mean of
-    the lumped and the linear consistent matrices, across it the cubic Hermite consistent mass.
-    ``torsion_inertia`` (n,): mass moment of inertia per length about the axis (CBEAM:
-    rho (I1 + I2) + NSI), half of it times L at each end's rotation about x, in both cases;
-    None for CBAR, which NASTRAN gives none. (These masses match NASTRAN on
-    refdecks/cofe_svanberg_bar and _beam, ekm_swept_plane and yeti_full_cbar_rbe2.)
+    ``mass_per_length``: (n,) uniform, or (n, q) at the Gauss stations ``_GAUSS_X`` of a
+    tapered member (mass/length). ``torsion_inertia``: mass moment of inertia per length about
+    the axis, (n,) or (n, q) (CBEAM: rho (I1 + I2) + NSI); None for CBAR, which NASTRAN gives
+    none.
+
+    Lumped: each end gets the share of the mass that keeps the member's total mass and centre
+    of mass, int m (1 - x/L) dx at end A and int m x/L dx at end B, on the translations; half
+    each for a uniform member. (A linear taper from m_A to m_B gives L (2 m_A + m_B) / 6 at
+    end A: with half each, refdecks/pyn_fmondsp's tapered tubes were 0.29 % low, with these
+    shares 0.11 %.) The torsion inertia is shared the same way, lumped or coupled.
+    Coupled: along the axis the mean of the lumped and the linear consistent matrices, across
+    it the cubic Hermite consistent mass, both integrated with the varying mass per length.
+    (These masses match NASTRAN on refdecks/cofe_svanberg_bar and _beam, ekm_swept_plane and
+    yeti_full_cbar_rbe2.)
     """
     n = len(L)
-    m = mass_per_length * L
+    mq = _along(mass_per_length, n)
+    end_a, end_b = _end_shares(L, mq)
     M = np.zeros((n, 12, 12))
     if torsion_inertia is not None:
-        M[:, 3, 3] = M[:, 9, 9] = torsion_inertia * L / 2.0
+        M[:, 3, 3], M[:, 9, 9] = _end_shares(L, _along(torsion_inertia, n))
     if not coupled:
-        for k in (0, 1, 2, 6, 7, 8):
-            M[:, k, k] = m / 2.0
+        for k in (0, 1, 2):
+            M[:, k, k] = end_a
+            M[:, k + 6, k + 6] = end_b
         return M
-    # axial: the mean of lumped and consistent, m [[5, 1], [1, 5]] / 12, as NASTRAN's coupled
-    # mass has it (all 278 modes of refdecks/yeti_full_cbar_rbe2 to 5e-7)
-    for i, j, c in ((0, 0, 5), (0, 6, 1), (6, 0, 1), (6, 6, 5)):
-        M[:, i, j] = m * c / 12.0
-    # transverse, plane 1 (v, rz) and plane 2 (w, -ry): Hermite consistent mass m/420 [...]
-    herm = np.array(
-        [[156, 22, 54, -13], [22, 4, 13, -3], [54, 13, 156, -22], [-13, -3, -22, 4]], float
-    )
-    Lp = np.array([1.0, 1.0, 1.0, 1.0])
+    x = _GAUSS_X
+    wl = L[:, None] * _GAUSS_W[None, :] * mq  # (n, q)
+    # axial: the mean of lumped and consistent (m [[5, 1], [1, 5]] / 12 when uniform), as
+    # NASTRAN's coupled mass has it (all 278 modes of refdecks/yeti_full_cbar_rbe2 to 5e-7)
+    lin = np.stack([1.0 - x, x])  # (2, q)
+    axial = np.einsum("nq,aq,bq->nab", wl, lin, lin)
+    axial[:, 0, 0] += end_a
+    axial[:, 1, 1] += end_b
+    M[:, 0::6, 0::6] = axial / 2.0
+    # transverse, plane 1 (v, rz) and plane 2 (w, -ry): cubic Hermite consistent mass
+    herm = np.stack([1 - 3 * x**2 + 2 * x**3, x - 2 * x**2 + x**3, 3 * x**2 - 2 * x**3,
+                     -(x**2) + x**3])  # (4, q), slopes per unit x/L  # fmt: skip
+    Mt = np.einsum("nq,aq,bq->nab", wl, herm, herm)
+    scale = np.stack([np.ones(n), L, np.ones(n), L], axis=1)  # slopes in rad: times L
+    Mt *= scale[:, :, None] * scale[:, None, :]
     for dofs, sgn in (((1, 5, 7, 11), (1, 1, 1, 1)), ((2, 4, 8, 10), (1, -1, 1, -1))):
-        for a in range(4):
-            for b in range(4):
-                pa = L if a in (1, 3) else Lp[a]
-                pb = L if b in (1, 3) else Lp[b]
-                M[:, dofs[a], dofs[b]] = m / 420.0 * herm[a, b] * pa * pb * sgn[a] * sgn[b]
+        s = np.array(sgn, float)
+        M[:, np.array(dofs)[:, None], np.array(dofs)[None, :]] = Mt * np.outer(s, s)
     return M
 
 
@@ -286,11 +314,12 @@ def bar_matrices(
     E, G : (n,) moduli.
     section : (n, 5) uniform A, I1, I2, I12, J, or (n, 8, 5) at the Gauss stations along x.
     k1, k2 : (n,) shear factors (0 or NaN: no shear flexibility).
-    mass_per_length : (n,) rho A + nsm (average for tapered members).
+    mass_per_length : (n,) rho A + nsm, or (n, 8) at the Gauss stations along x.
     pa, pb : (n,) pin-flag codes (e.g. 456: release rotations at that end, element frame);
         0 or None for none. Released DOF carry no force: statically condensed out of K.
     coupled_mass : NASTRAN COUPMASS (see :func:`beam_mass_local`).
-    torsion_inertia : (n,) mass moment of inertia per length about the axis (CBEAM), or None.
+    torsion_inertia : (n,) or (n, 8) mass moment of inertia per length about the axis
+        (CBEAM), or None.
 
     Returns
     -------
