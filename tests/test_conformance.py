@@ -43,11 +43,16 @@ KNOWN_GAPS = {
     "MITC8/MITC6 ties (two per edge and the interior ones) over-constrain it; averaging the "
     "edge's two ties frees modes 4-6 but not 7-9 (measured, not kept). Not yet solved",
     "pyn_tet10_simple": "23 % (mode 5): two 10-node tetrahedra, clamped at one corner and "
-    "three midside nodes; NASTRAN lies between femcal's HRZ-lumped (-10..-23 %) and consistent "
-    "(+9..+40 %) mass, and no single corner/midside split of the lumped mass fits all ten "
-    "modes. One midside node (GRID 2534) lies 2.7 % of its edge off the midpoint (a curved "
-    "edge): straightening it moves femcal's modes by 2-5 %, and integrating the stiffness with "
-    "a 125-point rule instead of the 4-point one by under 0.1 %. Not yet matched",
+    "three midside nodes. The stiffness is NASTRAN's: the f06's 0 Hz response (residual vectors "
+    "on, so the static one) agrees with femcal's K u = F within 0.6 % at the loaded DOF; with "
+    "NASTRAN's displacements, femcal's straight-edged element 2 gives NASTRAN's strain energy to "
+    "2e-4 and its centre strains (the mean of the 4 Gauss points) to 7 digits. Element 1, whose "
+    "GRID 2534 lies 2.7 % of its edge off the midpoint, is 1.3 % stiffer than NASTRAN's "
+    "(a 125-point rule moves it under 0.1 %). The modes differ in the mass: NASTRAN lies between "
+    "femcal's HRZ-lumped (-10..-23 %) and consistent (+9..+40 %) mass, and none of these fits "
+    "all ten modes: any corner/midside split (best 8 %), a blend of the two (12 %), massless "
+    "corners with six free midside masses (2.5 %), or a consistent mass integrated at 1, 4 or 5 "
+    "points. Not yet matched",
     "pyn_mode_solid_shell_bar": "1.27 % (mode 1: +1.27 %, mode 2: -1.27 %; 1.39 / -1.16 % "
     "before the CQUAD4 residual bending flexibility). Strain energy: mode 1 is 42 % in the "
     "CBEAM (PBEAM K1 = K2 = 0.85, a 0.5 x 0.5 x 1 stub, so its shear flexibility matters: "
