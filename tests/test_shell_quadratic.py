@@ -10,6 +10,7 @@ Leissa, Vibration of Plates, NASA SP-160, 1969).
 
 from __future__ import annotations
 
+import itertools
 import time
 from collections.abc import Callable
 
@@ -178,6 +179,45 @@ def test_symmetry_psd_and_rigid_body_modes(
         assert np.max(subspace_angles(vec[:, :6], R)) < 1e-6
         np.testing.assert_allclose(M[e], M[e].T, atol=1e-14 * np.abs(M[e]).max())
         assert np.linalg.eigvalsh(M[e])[0] > -1e-12 * np.abs(M[e]).max()
+
+
+@pytest.mark.parametrize("name", ["quad8", "tria6"])
+def test_omitted_midside_nodes(name: str) -> None:
+    """Every pattern of omitted midside nodes: the omitted nodes' rows and columns are zero;
+    the rest has exactly the six rigid-body zero modes (warped, curved, rotated elements);
+    the membrane stiffness and the mass are those of the full element with the node at its
+    edge's midpoint and tied to the corners (only the transverse shear field changes)."""
+    from femcal.elements.shell_quadratic import _tie_midside
+
+    kernel, nn = KERNELS[name]
+    nc = nn // 2
+    edges = ((0, 1), (1, 2), (2, 3), (3, 0)) if nn == 8 else ((0, 1), (1, 2), (2, 0))
+    rng = np.random.default_rng(17)
+    for pattern in itertools.product((True, False), repeat=nc):
+        present = np.array([pattern])
+        xyz = random_element(rng, nn, 0.05, 0.05)[None]
+        K, M = kernel(xyz, A0, D0, S0, rho_area=2.0, midside=present)
+        gone = [nc + j for j in range(nc) if not pattern[j]]
+        dead = np.array([6 * a + i for a in gone for i in range(6)], dtype=int)
+        assert not K[0][dead].any() and not K[0][:, dead].any() and not M[0][dead].any()
+        keep = np.setdiff1d(np.arange(6 * nn), dead)
+        Kk = K[0][np.ix_(keep, keep)]
+        ev = np.linalg.eigvalsh(Kk)
+        assert np.all(np.abs(ev[:6]) < 1e-12 * ev[-1]) and ev[6] > 1e-7 * ev[-1], pattern
+        R = rigid_modes(xyz[0])
+        assert np.abs(K[0] @ R).max() < 1e-10 * np.abs(K[0]).max() * np.abs(R).max()
+        # flat element in the xy plane: membrane DOFs T1, T2, R3 apart from bending
+        flat = with_midsides(random_corners(rng, nc), None, 0.0)
+        flat = np.column_stack([flat, np.zeros(nn)])[None]
+        Ko, Mo = kernel(flat, A0, D0, S0, rho_area=2.0, midside=present)
+        Kf, Mf = kernel(flat, A0, D0, S0, rho_area=2.0)
+        for j, (a, b) in enumerate(edges):
+            if not pattern[j]:
+                Kf, Mf = _tie_midside(Kf, nc + j, a, b), _tie_midside(Mf, nc + j, a, b)
+        membrane = np.array([6 * a + i for a in range(nn) for i in (0, 1, 5)])
+        mem = np.ix_(membrane, membrane)
+        np.testing.assert_allclose(Ko[0][mem], Kf[0][mem], atol=1e-12 * np.abs(Kf).max())
+        np.testing.assert_allclose(Mo, Mf, atol=1e-14 * np.abs(Mf).max())
 
 
 @pytest.mark.parametrize("name", ["quad8", "tria6"])

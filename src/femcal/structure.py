@@ -582,19 +582,16 @@ def _shells(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
         rigid = bool(sec.shear_rigid[sel[0]])
         B = sec.B[sel] if sec.B[sel].any() else None
         try:
+            # an omitted midside node (a straight edge) is tied to its corners by the kernel
+            midside = {"midside": block.nodes[sel, corners:] >= 0} if edges else {}
             K, M = kernel(
                 xyz[sel], sec.A[sel], sec.D[sel], None if rigid else sec.S[sel], B,
                 rho_area=sec.rho_area[sel], nsm=sec.nsm[sel], zoffs=zoffs[sel],
-                k6rot=ctx.k6rot, coupled_mass=ctx.coupled,
+                k6rot=ctx.k6rot, coupled_mass=ctx.coupled, **midside,
             )  # fmt: skip
         except ValueError as e:
             ids = block.ids[sel]
             raise ModelError(f"{block.type}: {_name_positions(str(e), ids)}", ids[:20]) from None
-        for j, (a, b) in enumerate(edges, start=corners):
-            gone = block.nodes[sel, j] < 0
-            if gone.any():
-                K[gone] = _tie_midside(K[gone], j, a, b)
-                M[gone] = _tie_midside(M[gone], j, a, b)
         return block.nodes[sel], 6, K, M
 
     parts = []
@@ -621,20 +618,6 @@ def _name_positions(message: str, ids: np.ndarray) -> str:
 
 #: Corner pairs of the midside nodes of 8- and 6-node shells (NASTRAN order).
 _MIDSIDE_EDGES = {8: ((0, 1), (1, 2), (2, 3), (3, 0)), 6: ((0, 1), (1, 2), (2, 0))}
-
-
-def _tie_midside(X: np.ndarray, j: int, a: int, b: int) -> np.ndarray:
-    """Element matrices (n, 6k, 6k) with node j's motion tied to the mean of corners a and b
-    (NASTRAN's omitted midside node: a straight edge); node j's rows and columns become zero."""
-    X = X.copy()
-    J, A, B = (slice(6 * i, 6 * i + 6) for i in (j, a, b))
-    X[:, :, A] += 0.5 * X[:, :, J]
-    X[:, :, B] += 0.5 * X[:, :, J]
-    X[:, A, :] += 0.5 * X[:, J, :]
-    X[:, B, :] += 0.5 * X[:, J, :]
-    X[:, J, :] = 0.0
-    X[:, :, J] = 0.0
-    return X
 
 
 def _polygon_area(xyz: np.ndarray) -> np.ndarray:

@@ -56,6 +56,31 @@ Shear locking is removed by interpolating the covariant transverse shear strains
   at the two Gauss points of each edge and the element means of ``e_r`` and ``e_s``
   (3-point rule). Straight-edged CTRIA6 are affine, so quadratic ``w`` is exact.
 
+Omitted midside nodes
+---------------------
+NASTRAN allows any midside node of a CQUAD8 or CTRIA6 to be left blank: that edge is
+straight and every field is linear along it. The kernels take ``midside`` (n, 4) or (n, 3):
+an omitted node is put at its edge's midpoint and tied to the mean of the two corners (its
+rows and columns are zero), and the assumed shear field follows the linear edge: where a
+field is linear along a line, the tangential shear there is tied once (the mean of the two
+Gauss values) rather than twice. Tying it twice imposes the Kirchhoff condition on the
+linear part of the rotation along a straight edge, which the linear ``w`` cannot follow:
+the element locks (a simply supported 6 x 4 plate, 400 thicknesses per element, with a
+random half or all of the midside nodes omitted was 430-9000 % too stiff; now within 4 %,
+the same as at 25 thicknesses). The fields, each with exactly six zero modes:
+
+* CQUAD8 (:func:`_quad8_tying`): per line of ``e_xi`` (eta = -1, 0, 1; the interior line
+  only with G6 and G8, else ``e_xi`` is linear in eta), the part linear in xi is tied on an
+  edge whose midside node is given and on the interior line only with both G5 and G7 (with
+  one of them, the curvature along xi grows from one edge to the other and the interior
+  line would lock); ``e_eta`` likewise. The bubble is used only by the full element. All
+  four omitted gives MITC4's field.
+* CTRIA6 (:func:`_tria6_tying`): with any node omitted, the lowest-order Nedelec (MITC3)
+  field plus the gradients of the given edges' bubbles ``L_i L_j``, tied on the edges only
+  (the interior means would see the gradient of the missing edge bubble and lock). All
+  three omitted gives MITC3, as CTRIA3, and shares its behaviour: MITC3 is stiff on coarse
+  meshes of thin plates (the same plate of CTRIA3, 400 thicknesses per element, +1400 %).
+
 A free element has exactly six zero-energy modes (verified by the tests for distorted,
 curved and warped elements); both elements pass the membrane and constant-curvature patch
 tests on distorted meshes and are nodally exact for a straight cantilever under tip load.
@@ -80,7 +105,9 @@ on each translation. Lumped (default): HRZ (Hinton, Rock & Zienkiewicz 1976) dia
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
+from functools import cache
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -189,55 +216,141 @@ def _tying_interpolation(
     return np.stack([basis(r, s) @ Pinv for r, s, _ in rule])
 
 
-def _quad8_tying() -> Tying:
-    """MITC8-type CQUAD8 shear: ``e_xi`` tied at ``(+-g, -1 | 0 | 1)``, ``e_eta`` at
-    ``(-1 | 0 | 1, +-g)``; ``e_xi`` linear in xi and quadratic in eta, and vice versa."""
+def _mean_tie(a: tuple[float, float], b: tuple[float, float], tangent: tuple[float, float]) -> Tie:
+    """The mean of the tangential strain at two points: for a field linear between them, its
+    value at their midpoint."""
+    return ((a, tangent, 0.5), (b, tangent, 0.5))
+
+
+def _lagrange(nodes: tuple[float, ...], k: int, x: float) -> float:
+    """Lagrange polynomial of ``nodes[k]`` on ``nodes`` at x."""
+    out = 1.0
+    for j, xj in enumerate(nodes):
+        if j != k:
+            out *= (x - xj) / (nodes[k] - xj)
+    return out
+
+
+@cache
+def _quad8_tying(present: tuple[bool, bool, bool, bool] = (True,) * 4) -> Tying:
+    """CQUAD8 shear, MITC8-type, for the midside nodes ``present`` (G5-G8).
+
+    With all four: ``e_xi`` tied at ``(+-g, -1 | 0 | 1)``, ``e_eta`` at ``(-1 | 0 | 1, +-g)``;
+    ``e_xi`` linear in xi and quadratic in eta, and vice versa.
+
+    An omitted midside node makes its edge straight and every field linear along it; the
+    assumed strain follows, between MITC8 and MITC4 (all four omitted: MITC4's field).
+    ``e_xi`` is tied on the lines eta = -1, 0, 1 (0 only when G6 or G8 is given: the
+    quadratic variation in eta); on each line either at ``xi = +-g`` (its part linear in xi)
+    or by the mean of those two values (constant in xi). The linear part is tied on the edge
+    eta = -1 when G5 is given, on eta = 1 when G7 is given, and on the interior line when
+    both are; its variation in eta is the Lagrange interpolant over those lines only.
+    ``e_eta`` likewise with (G5, G7) and (G6, G8) swapped.
+
+    Why: tying the linear part where the fields along the line are linear imposes the
+    Kirchhoff condition on the rotation's linear part, which a linear ``w`` cannot follow:
+    it locks (a simply supported plate of such elements was 50-5000 % too stiff). With G5
+    omitted and G7 given, the curvature of ``w`` along xi grows linearly from the edge
+    eta = -1 to eta = 1, so the interior line would lock too: only the given edge is tied.
+    """
+    g5, g6, g7, g8 = present
     ties: list[Tie] = []
-    for a in (-_GE, _GE):
-        for b in (-1.0, 0.0, 1.0):
-            ties.append((((a, b), (1.0, 0.0), 1.0),))
-    for a in (-_GE, _GE):
-        for b in (-1.0, 0.0, 1.0):
-            ties.append((((b, a), (0.0, 1.0), 1.0),))
+    terms: list[tuple[int, tuple[float, ...], int, int]] = []  # (component, lines, k, power)
+    for c, (lo, hi, across) in enumerate(((g5, g7, g6 and g8), (g8, g6, g5 and g7))):
+        lines = (-1.0, 0.0, 1.0) if across else (-1.0, 1.0)
+        linear = {-1.0: lo, 0.0: lo and hi, 1.0: hi}
+        slope_lines = tuple(x for x in lines if linear[x])
+        tangent = (1.0, 0.0) if c == 0 else (0.0, 1.0)
+        for k, x in enumerate(lines):
+
+            def at(a: float, x: float = x, c: int = c) -> tuple[float, float]:
+                return (a, x) if c == 0 else (x, a)
+
+            terms.append((c, lines, k, 0))
+            if linear[x]:
+                ties += [((at(-_GE), tangent, 1.0),), ((at(_GE), tangent, 1.0),)]
+                terms.append((c, slope_lines, slope_lines.index(x), 1))
+            else:
+                ties.append(_mean_tie(at(-_GE), at(_GE), tangent))
 
     def basis(xi: float, eta: float) -> np.ndarray:
-        P = np.zeros((2, 12))
-        mono = [f1 * f2 for f1 in (1.0, xi) for f2 in (1.0, eta, eta * eta)]
-        P[0, :6] = mono
-        P[1, 6:] = [f1 * f2 for f1 in (1.0, eta) for f2 in (1.0, xi, xi * xi)]
+        P = np.zeros((2, len(terms)))
+        for m, (c, pos, k, power) in enumerate(terms):
+            along, across = (xi, eta) if c == 0 else (eta, xi)
+            P[c, m] = _lagrange(pos, k, across) * along**power
         return P
 
     return tuple(ties), _tying_interpolation(tuple(ties), basis, _QUAD_RULE)
 
 
-def _tria6_tying() -> Tying:
-    """MITC6-type CTRIA6 shear: Nedelec first-kind degree-2 covariant field
+def _quad8_has_bubble(present: tuple[bool, bool, bool, bool]) -> bool:
+    """The internal ``w`` bubble enters the tied strains only through the interior lines'
+    linear parts (see :func:`_quad8_tying`); without them it is left out."""
+    return all(present)
+
+
+_TRI_CORNERS = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+_TRI_EDGES = ((0, 1), (1, 2), (2, 0))
+
+
+def _ned2_basis(r: float, s: float) -> np.ndarray:
+    """Nedelec first-kind degree-2 covariant field: ``P1^2 + (s, -r)(d r + e s)``, (2, 8)."""
+    P = np.zeros((2, 8))
+    P[0, :3] = P[1, 3:6] = (1.0, r, s)
+    P[0, 6:] = (s * r, s * s)
+    P[1, 6:] = (-r * r, -r * s)
+    return P
+
+
+def _ned1_basis(r: float, s: float) -> np.ndarray:
+    """Lowest-order Nedelec (MITC3) field ``(a + c s, b - c r)``, (2, 3)."""
+    return np.array([[1.0, 0.0, s], [0.0, 1.0, -r]])
+
+
+def _edge_gradients(r: float, s: float) -> np.ndarray:
+    """Gradients in (r, s) of the edge bubbles ``L_i L_j`` of edges 12, 23, 31: (2, 3). Each
+    has a tangential trace linear with zero mean on its own edge and zero on the others."""
+    return np.array([[1 - 2 * r - s, s, -s], [-r, r, 1 - r - 2 * s]])
+
+
+@cache
+def _tria6_tying(present: tuple[bool, bool, bool] = (True,) * 3) -> Tying:
+    """CTRIA6 shear, MITC6-type, for the midside nodes ``present`` (G4-G6).
+
+    With all three: the Nedelec first-kind degree-2 covariant field
     ``(e_r, e_s) = P1^2 + (s, -r) (d r + e s)``, tied by the tangential strains at the two
     Gauss points of each edge (6) and the element means of ``e_r`` and ``e_s`` (2, exact by
-    the 3-point rule for the quadratic strains of a straight-edged element)."""
-    corners = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    the 3-point rule for the quadratic strains of a straight-edged element).
+
+    With a midside node omitted (its edge straight): the lowest-order Nedelec (MITC3) field
+    plus, for each edge whose midside node is given, the gradient of that edge's bubble
+    ``L_i L_j``; tied by the tangential strains at the two Gauss points of the given edges
+    and by the mean tangential strain of the omitted ones, without interior ties. (The
+    interior means would see the gradient of the missing edge bubble, which a curvature
+    along the straight edge needs, and lock: with them a simply supported plate of such
+    elements was 100-4000 % too stiff.) All three omitted gives MITC3, as CTRIA3.
+    """
     ties: list[Tie] = []
-    for i, j in ((0, 1), (1, 2), (2, 0)):
-        t = corners[j] - corners[i]
-        for tau in (0.5 - 0.5 * _GE, 0.5 + 0.5 * _GE):
-            p = corners[i] + tau * t
-            ties.append((((float(p[0]), float(p[1])), (float(t[0]), float(t[1])), 1.0),))
-    pts3 = ((1.0 / 6.0, 1.0 / 6.0), (2.0 / 3.0, 1.0 / 6.0), (1.0 / 6.0, 2.0 / 3.0))
-    for d in ((1.0, 0.0), (0.0, 1.0)):
-        ties.append(tuple((p, d, 1.0 / 3.0) for p in pts3))
+    for edge, (i, j) in enumerate(_TRI_EDGES):
+        t = _TRI_CORNERS[j] - _TRI_CORNERS[i]
+        tangent = (float(t[0]), float(t[1]))
+        taus = (0.5 - 0.5 * _GE, 0.5 + 0.5 * _GE)
+        a, b = (tuple(map(float, _TRI_CORNERS[i] + tau * t)) for tau in taus)
+        if present[edge]:
+            ties += [((a, tangent, 1.0),), ((b, tangent, 1.0),)]
+        else:
+            ties.append(_mean_tie(a, b, tangent))
+    if all(present):
+        pts3 = ((1.0 / 6.0, 1.0 / 6.0), (2.0 / 3.0, 1.0 / 6.0), (1.0 / 6.0, 2.0 / 3.0))
+        for d in ((1.0, 0.0), (0.0, 1.0)):
+            ties.append(tuple((p, d, 1.0 / 3.0) for p in pts3))
+        return tuple(ties), _tying_interpolation(tuple(ties), _ned2_basis, _TRI_RULE)
+    given = [e for e in range(3) if present[e]]
 
     def basis(r: float, s: float) -> np.ndarray:
-        P = np.zeros((2, 8))
-        P[0, :3] = P[1, 3:6] = (1.0, r, s)
-        P[0, 6:] = (s * r, s * s)
-        P[1, 6:] = (-r * r, -r * s)
-        return P
+        return np.hstack([_ned1_basis(r, s), _edge_gradients(r, s)[:, given]])
 
     return tuple(ties), _tying_interpolation(tuple(ties), basis, _TRI_RULE)
-
-
-_QUAD8_TYING = _quad8_tying()
-_TRIA6_TYING = _tria6_tying()
 
 
 def _quad8_bubble(xi: float, eta: float) -> tuple[float, np.ndarray]:
@@ -383,6 +496,24 @@ def _local(
     return K, lumped, Mcons
 
 
+#: Corner pairs of the midside nodes (NASTRAN order): CQUAD8 G5-G8, CTRIA6 G4-G6.
+_MIDSIDE_EDGES = {8: ((0, 1), (1, 2), (2, 3), (3, 0)), 6: ((0, 1), (1, 2), (2, 0))}
+
+
+def _tie_midside(X: np.ndarray, j: int, a: int, b: int) -> np.ndarray:
+    """Element matrices (n, 6k, 6k) with node j's motion tied to the mean of corners a and b
+    (an omitted midside node: a straight edge); node j's rows and columns become zero."""
+    X = X.copy()
+    J, A, B = (slice(6 * i, 6 * i + 6) for i in (j, a, b))
+    X[:, :, A] += 0.5 * X[:, :, J]
+    X[:, :, B] += 0.5 * X[:, :, J]
+    X[:, A, :] += 0.5 * X[:, J, :]
+    X[:, B, :] += 0.5 * X[:, J, :]
+    X[:, J, :] = 0.0
+    X[:, :, J] = 0.0
+    return X
+
+
 def _matrices(
     xyz: ArrayLike,
     nn: int,
@@ -395,29 +526,57 @@ def _matrices(
     zoffs: ArrayLike,
     k6rot: ArrayLike,
     coupled_mass: bool,
+    midside: ArrayLike | None,
 ) -> tuple[np.ndarray, np.ndarray]:
+    nc = nn // 2
+    edges = _MIDSIDE_EDGES[nn]
+    xyz = np.array(xyz, dtype=float)
+    present = np.ones((len(xyz), nc), dtype=bool) if midside is None else np.array(midside, bool)
+    if xyz.ndim != 3 or present.shape != (len(xyz), nc):
+        raise ValueError(f"midside must have shape (n, {nc}) for xyz of shape (n, {nn}, 3)")
+    for j, (a, b) in enumerate(edges):  # an omitted node sits at its edge's midpoint
+        gone = ~present[:, j]
+        xyz[gone, nc + j] = 0.5 * (xyz[gone, a] + xyz[gone, b])
     T, xl, h, A_, D_, S_, B_, m, zo, alpha = _prepare(
         xyz, nn, A, D, S, B, rho_area, nsm, zoffs, k6rot
     )
-    if nn == 8:
-        K, lumped, Mcons = _local(
-            xl,
-            A_,
-            D_,
-            S_,
-            B_,
-            alpha,
-            _quad8_shape,
-            _QUAD_RULE,
-            _QUAD8_TYING,
-            _quad8_bubble,
-            "CQUAD8",
-        )
-    else:
-        K, lumped, Mcons = _local(
-            xl, A_, D_, S_, B_, alpha, _tria6_shape, _TRI_RULE, _TRIA6_TYING, None, "CTRIA6"
-        )
-    return _to_basic(K, lumped, Mcons, m, T, zo[:, None] - h, coupled_mass)
+    K = np.empty((len(xl), 6 * nn, 6 * nn))
+    lumped = np.empty((len(xl), nn))
+    Mcons = np.empty((len(xl), nn, nn))
+    patterns, which = np.unique(present, axis=0, return_inverse=True)
+    for p, pattern in enumerate(patterns):
+        sel = np.flatnonzero(which.ravel() == p)
+        key = tuple(bool(x) for x in pattern)
+        S_sel = None if S_ is None else S_[sel]
+        if nn == 8:
+            args = (_quad8_shape, _QUAD_RULE, _quad8_tying(key))
+            bubble = _quad8_bubble if _quad8_has_bubble(key) else None  # type: ignore[arg-type]
+            name = "CQUAD8"
+        else:
+            args = (_tria6_shape, _TRI_RULE, _tria6_tying(key))  # type: ignore[assignment]
+            bubble, name = None, "CTRIA6"
+        try:
+            K[sel], lumped[sel], Mcons[sel] = _local(
+                xl[sel], A_[sel], D_[sel], S_sel, B_[sel], alpha[sel], *args, bubble, name
+            )
+        except ValueError as e:  # name the positions in the whole input, not the group
+            raise ValueError(_renumber(str(e), sel)) from None
+    K, M = _to_basic(K, lumped, Mcons, m, T, zo[:, None] - h, coupled_mass)
+    for j, (a, b) in enumerate(edges):
+        gone = ~present[:, j]
+        if gone.any():
+            K[gone] = _tie_midside(K[gone], nc + j, a, b)
+            M[gone] = _tie_midside(M[gone], nc + j, a, b)
+    return K, M
+
+
+def _renumber(message: str, sel: np.ndarray) -> str:
+    """A kernel message's ``index(es) [i, j]`` within a group, as positions in the input."""
+    m = re.search(r"index\(es\) \[([\d, ]+)\]", message)
+    if not m:
+        return message
+    pos = [int(sel[int(x)]) for x in m.group(1).split(",") if x.strip()]
+    return message[: m.start(1)] + ", ".join(map(str, pos)) + message[m.end(1) :]
 
 
 _PARAMS_DOC = """
@@ -443,6 +602,12 @@ _PARAMS_DOC = """
         NASTRAN PARAM K6ROT: drilling modulus ``(1 + k6rot * 1e-6) * A[2, 2]``.
     coupled_mass : bool
         False: HRZ lumped translational mass. True: consistent translational mass.
+    midside : array_like of bool, shape (n, {nc}), optional
+        Which midside nodes are given (default: all). An omitted one is placed at its edge's
+        midpoint, its motion is tied to the mean of the edge's corners (a straight edge; its
+        rows and columns of K and M are zero) and the assumed shear follows the linear edge
+        (see "Omitted midside nodes" in the module docstring); its coordinates in xyz are
+        ignored.
 
     Returns
     -------
@@ -463,9 +628,10 @@ def quad8_matrices(
     zoffs: ArrayLike = 0.0,
     k6rot: ArrayLike = 100.0,
     coupled_mass: bool = False,
+    midside: ArrayLike | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Stiffness and mass of CQUAD8 elements (see the module docstring)."""
-    return _matrices(xyz, 8, A, D, S, B, rho_area, nsm, zoffs, k6rot, coupled_mass)
+    return _matrices(xyz, 8, A, D, S, B, rho_area, nsm, zoffs, k6rot, coupled_mass, midside)
 
 
 def tria6_matrices(
@@ -480,14 +646,15 @@ def tria6_matrices(
     zoffs: ArrayLike = 0.0,
     k6rot: ArrayLike = 100.0,
     coupled_mass: bool = False,
+    midside: ArrayLike | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Stiffness and mass of CTRIA6 elements (see the module docstring)."""
-    return _matrices(xyz, 6, A, D, S, B, rho_area, nsm, zoffs, k6rot, coupled_mass)
+    return _matrices(xyz, 6, A, D, S, B, rho_area, nsm, zoffs, k6rot, coupled_mass, midside)
 
 
 quad8_matrices.__doc__ = (quad8_matrices.__doc__ or "") + _PARAMS_DOC.format(
-    nn=8, order="G1-G4 corners counter-clockwise, G5-G8 midside of 12, 23, 34, 41", k=48
+    nn=8, nc=4, order="G1-G4 corners counter-clockwise, G5-G8 midside of 12, 23, 34, 41", k=48
 )
 tria6_matrices.__doc__ = (tria6_matrices.__doc__ or "") + _PARAMS_DOC.format(
-    nn=6, order="G1-G3 corners counter-clockwise, G4-G6 midside of 12, 23, 31", k=36
+    nn=6, nc=3, order="G1-G3 corners counter-clockwise, G4-G6 midside of 12, 23, 31", k=36
 )
