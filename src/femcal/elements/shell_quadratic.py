@@ -67,19 +67,22 @@ Gauss values) rather than twice. Tying it twice imposes the Kirchhoff condition 
 linear part of the rotation along a straight edge, which the linear ``w`` cannot follow:
 the element locks (a simply supported 6 x 4 plate, 400 thicknesses per element, with a
 random half or all of the midside nodes omitted was 430-9000 % too stiff; now within 4 %,
-the same as at 25 thicknesses). The fields, each with exactly six zero modes:
+8.4 % for CTRIA6 with all omitted, and the same as at 25 thicknesses; see
+``tests/test_sol103_analytic.py::test_thin_plates_do_not_lock``). The fields, each with
+exactly six zero modes:
 
 * CQUAD8 (:func:`_quad8_tying`): per line of ``e_xi`` (eta = -1, 0, 1; the interior line
   only with G6 and G8, else ``e_xi`` is linear in eta), the part linear in xi is tied on an
   edge whose midside node is given and on the interior line only with both G5 and G7 (with
   one of them, the curvature along xi grows from one edge to the other and the interior
   line would lock); ``e_eta`` likewise. The bubble is used only by the full element. All
-  four omitted gives MITC4's field.
+  four omitted gives MITC4's field, with the CQUAD4's residual bending flexibility
+  (:mod:`femcal.elements.shell`: bilinear rotations miss the same energy).
 * CTRIA6 (:func:`_tria6_tying`): with any node omitted, the lowest-order Nedelec (MITC3)
   field plus the gradients of the given edges' bubbles ``L_i L_j``, tied on the edges only
   (the interior means would see the gradient of the missing edge bubble and lock). All
-  three omitted gives MITC3, as CTRIA3, and shares its behaviour: MITC3 is stiff on coarse
-  meshes of thin plates (the same plate of CTRIA3, 400 thicknesses per element, +1400 %).
+  three omitted gives MITC3 with the CTRIA3's residual bending flexibility, as CTRIA3
+  (without it MITC3 locks on coarse thin meshes: +1537 % on that plate).
 
 A free element has exactly six zero-energy modes (verified by the tests for distorted,
 curved and warped elements); both elements pass the membrane and constant-curvature patch
@@ -548,6 +551,9 @@ def _matrices(
         sel = np.flatnonzero(which.ravel() == p)
         key = tuple(bool(x) for x in pattern)
         S_sel = None if S_ is None else S_[sel]
+        if S_sel is not None and not any(key):  # linear rotations: CQUAD4's / CTRIA3's
+            cov = shell._corner_covariance(xl[sel, :nc])  # residual bending flexibility
+            S_sel = shell._with_residual_bending(S_sel, cov, A_[sel], B_[sel], D_[sel])
         if nn == 8:
             args = (_quad8_shape, _QUAD_RULE, _quad8_tying(key))
             bubble = _quad8_bubble if _quad8_has_bubble(key) else None  # type: ignore[arg-type]
