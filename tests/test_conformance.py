@@ -55,15 +55,6 @@ KNOWN_GAPS = {
     "all ten modes: any corner/midside split (best 8 %), a blend of the two (12 %), massless "
     "corners with six free midside masses (2.5 %), or a consistent mass integrated at 1, 4 or 5 "
     "points. Not yet matched",
-    "pyn_mode_solid_shell_bar": "1.45 % (mode 1: +1.12 %, mode 2: -1.45 %; 1.39 / -1.16 % "
-    "before the CQUAD4 residual bending flexibility, +1.27 / -1.27 % before the CTRIA3's, "
-    "which cures MITC3's shear locking in thin plates). Strain energy: mode 1 is 42 % in the "
-    "CBEAM (PBEAM K1 = K2 = 0.85, a 0.5 x 0.5 x 1 stub, so its shear flexibility matters: "
-    "K = 0.7 gives +0.50 %, 1.0 gives +1.83 %), 22 % CROD, 15 % CBAR, 17 % shells; mode 2 is "
-    "38 % CROD, 33 % CBAR, 10 % CTRIA3 (PCOMP and PSHELL walls). Constant-strain CTRIA3 "
-    "membranes instead of Allman's take mode 2 to +0.65 % and mode 3 to +2.3 % (measured "
-    "before the CTRIA3 change); the CTRIA3 transverse shear x0.1 gave -1.31 / -1.90 %. No one "
-    "of these fits all three modes; not yet diagnosed",
 }
 
 CASES = [

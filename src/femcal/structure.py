@@ -584,6 +584,8 @@ def _shells(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
         try:
             # an omitted midside node (a straight edge) is tied to its corners by the kernel
             midside = {"midside": block.nodes[sel, corners:] >= 0} if edges else {}
+            if not edges:  # CQUAD4 / CTRIA3: no drilling membrane; CQUADR / CTRIAR: Allman
+                midside = {"drilling": block.type in ("CQUADR", "CTRIAR")}
             K, M = kernel(
                 xyz[sel], sec.A[sel], sec.D[sel], None if rigid else sec.S[sel], B,
                 rho_area=sec.rho_area[sel], nsm=sec.nsm[sel], zoffs=zoffs[sel],

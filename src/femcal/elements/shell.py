@@ -1,4 +1,5 @@
-"""Shell element kernels: NASTRAN CQUAD4 and CTRIA3, all elements of a type at once.
+"""Shell element kernels: NASTRAN CQUAD4 and CTRIA3 (and, with ``drilling=True``, CQUADR and
+CTRIAR), all elements of a type at once.
 
 Element frame (:func:`shell_frame`)
 -----------------------------------
@@ -49,8 +50,17 @@ CQUAD4 formulation
   it takes NASTRAN's modes 4 and 7 from +18 % and +122 % to within 0.01 %, and on the
   bundled truck frame it lowers the flexible modes by 0.5-3.2 %. Not applied with MID3 blank
   (the shear-rigid penalty below stands). The CTRIA3 gets the same (below).
-* Membrane: Allman-type quadrilateral with drilling rotations (Ibrahimbegovic, Taylor &
-  Wilson 1990): bilinear displacements plus, on each edge ``ij``, a serendipity midside
+* Membrane, CQUAD4 (``drilling=False``, the default): bilinear displacements with Taylor's
+  incompatible modes ``(1 - xi^2)``, ``(1 - eta^2)`` on ``u`` and ``v`` (QM6: their gradients
+  taken with the centre Jacobian and ``det J0 / det J``, so that their strains integrate to
+  zero over any element and the patch test is passed), condensed statically; 2x2 Gauss.
+  ``Rz`` enters only the drilling penalty below, as in NASTRAN's CQUAD4, whose drilling
+  stiffness is K6ROT's penalty. A rectangle is exact in in-plane pure bending; like every
+  4-node quadrilateral it is stiff in in-plane bending when trapezoidal (MacNeal-Harder
+  straight beam: 0.99 rectangular, 0.05 trapezoidal, 0.63 parallelogram).
+* Membrane, CQUADR (``drilling=True``): Allman-type quadrilateral with drilling rotations
+  (Ibrahimbegovic, Taylor & Wilson 1990): bilinear displacements plus, on each edge ``ij``, a
+  serendipity midside
   function carrying the normal displacement ``l (Rz_j - Rz_i) / 8`` along the outward normal;
   2x2 Gauss. The quadratic edge terms are what relieves the bilinear element's in-plane shear
   locking (a 10x1 in-plane cantilever of square elements is within 0.5 % of beam theory), but
@@ -67,10 +77,11 @@ CQUAD4 formulation
 
 CTRIA3 formulation
 ------------------
-* Membrane: Allman (1984) triangle: linear displacements plus the quadratic edge terms
-  ``4 L_i L_j l (Rz_j - Rz_i) / 8`` along each edge's outward normal (the same device as the
-  quadrilateral), integrated by the 3-point rule; with equal drilling rotations it is the
-  constant-strain triangle.
+* Membrane, CTRIA3 (``drilling=False``): the constant-strain triangle; ``Rz`` only in the
+  drilling penalty. CTRIAR (``drilling=True``): Allman (1984) triangle: linear displacements
+  plus the quadratic edge terms ``4 L_i L_j l (Rz_j - Rz_i) / 8`` along each edge's outward
+  normal (the same device as the quadrilateral), integrated by the 3-point rule; with equal
+  drilling rotations it is the constant-strain triangle.
 * Bending: linear rotations, constant curvature. Transverse shear: MITC3 (Lee & Bathe 2004):
   ``e_r = e_r(1) + c s``, ``e_s = e_s(2) - c r`` with ``c = e_s(2) - e_r(1) - e_s(3) + e_r(3)``
   and tying points (1) ``(1/2, 0)``, (2) ``(0, 1/2)``, (3) ``(1/2, 1/2)``: the tangential shear
@@ -88,26 +99,38 @@ CTRIA3 formulation
 
 Drilling rotation (K6ROT)
 -------------------------
-The drilling rotation ``Rz`` enters the membrane through the Allman edge terms above, and the
-Hughes-Brezzi penalty ties it to the in-plane rotation ``omega = (v,x - u,y) / 2`` of the
-membrane field (including the Allman terms):
-``U_drill = 1/2 alpha integral((Rz - omega)^2 dA)`` with
-``alpha = (DRILL_GAMMA + k6rot * 1e-6) * A[2, 2]`` and ``DRILL_GAMMA = 1``, i.e. the
-``gamma = G`` recommended by Ibrahimbegovic, Taylor & Wilson, plus NASTRAN's K6ROT term
-``1e-6 K6ROT G t`` on top. ``Rz`` is the physical in-plane rotation (as in NASTRAN's CQUADR /
-CTRIAR, which ignore K6ROT); K6ROT changes results by about ``k6rot * 1e-6`` relative and
-``k6rot = 0`` does not make the drilling DOFs singular.
+A Hughes-Brezzi penalty ties ``Rz`` to the in-plane rotation ``omega = (v,x - u,y) / 2`` of
+the membrane field: ``U_drill = 1/2 alpha integral((Rz - omega)^2 dA)``, integrated with the
+element's full rule (2x2 Gauss, or the 3-point triangle rule), so a free element has exactly
+six zero-energy modes.
 
-Why not a small (MSC K6ROT-sized) penalty alone: a weak ``Rz``-``omega`` coupling lets the
-rotation about the normal at a node act as a partial hinge between non-coplanar neighbours
-(their out-of-plane rotations are different projections of the same nodal rotation). Measured
-on the MacNeal-Harder twisted beam (2x12 CQUAD4): ``gamma = 1e-4 G`` (K6ROT = 100 alone) is
-4.9 % / 11 % too flexible (in-plane / out-of-plane load), ``1e-2 G`` 0.9 % / 1.6 %, and
-``0.1 G`` to ``G`` within 0.4 %; with a bilinear + incompatible-modes membrane instead of
-Allman's and ``alpha = 1e-4 G t`` it was 3.9 times too flexible. The penalty is integrated
-with the element's full rule (2x2 Gauss, or the 3-point triangle rule), so a free element has
-exactly six zero-energy modes, the rigid-body motions (the Allman terms alone would leave an
-equal-``Rz`` mode).
+* CQUADR / CTRIAR (Allman membranes, ``Rz`` the physical in-plane rotation; NASTRAN's R
+  elements ignore K6ROT): ``omega`` includes the Allman terms and
+  ``alpha = (DRILL_GAMMA + k6rot * 1e-6) * A[2, 2]``, ``DRILL_GAMMA = 1``: the ``gamma = G``
+  recommended by Ibrahimbegovic, Taylor & Wilson (the Allman terms alone would leave an
+  equal-``Rz`` mode).
+* CQUAD4 / CTRIA3: ``alpha = (PENALTY_GAMMA + k6rot * 1e-6) * A[2, 2]``,
+  ``PENALTY_GAMMA = 0.1``, plus NASTRAN's K6ROT term (``1e-6 K6ROT G t``).
+
+Why the CQUAD4 / CTRIA3 membranes do not use ``Rz``: NASTRAN's do not. With NASTRAN's own
+mode shapes of an MSC 2005 run of an earlier pyn_mode_solid_shell_bar (beams standing on the
+corners of a CQUAD4 / CTRIA3 box), femcal's element strain energies match NASTRAN's printed
+ones to 1e-4 for the CBAR, CBEAM, CROD and CTETRA, but were 1.3-6.6 times NASTRAN's for the
+Allman shells, 1.0-1.5 times with these membranes, and 1.0-1.2 times with these and the
+K6ROT penalty alone (below). On the reference decks,
+pyn_goland's mode goes from 0.33 % to 0.29 %, pyn_mode_solid_shell_bar from 1.45 % to 0.80 %
+(within its 1 %), and the tier C pyn_bwb from 136 % to 72 %.
+
+Why ``PENALTY_GAMMA = 0.1`` and not NASTRAN's K6ROT penalty alone (``1e-4 G``): a weak
+``Rz``-``omega`` coupling lets the rotation about the normal at a node act as a partial hinge
+between non-coplanar flat neighbours (their out-of-plane rotations are different projections
+of the same nodal rotation; NASTRAN's QUAD4 is not flat). MacNeal-Harder twisted beam,
+CQUAD4 2x12 / 4x24, in-plane and out-of-plane load, measured against ``gamma`` (in units of
+G): 1e-4 (K6ROT alone): 3.9 / 3.6 times too flexible; 0.01: +3.0 / +3.1 %; 0.05: +0.5 /
++0.9 %; 0.1: +0.2 / +0.5 %; 0.3 and 1: within 0.5 % and 1.6 %. The reference decks prefer a
+weak penalty (pyn_goland 0.03 % at 0.01, 0.29 % at 0.1, 2.8 % at 1; pyn_mode_solid_shell_bar
+0.55 %, 0.80 %, 2.1 %). 0.1 is the smallest of these that keeps the twisted beam within
+0.6 %.
 
 Shear-rigid plates (``S=None``)
 -------------------------------
@@ -148,8 +171,11 @@ __all__ = ["quad4_matrices", "shell_frame", "tria3_matrices"]
 
 #: Ratio of the penalty transverse shear stiffness to ``trace(D) / area`` for ``S=None``.
 SHEAR_RIGID_PENALTY = 1.0e4
-#: Drilling penalty: ``alpha = (DRILL_GAMMA + k6rot * DRILL_SCALE) * A[2, 2]``.
+#: Drilling penalty: ``alpha = (DRILL_GAMMA + k6rot * DRILL_SCALE) * A[2, 2]`` (CQUADR,
+#: CTRIAR: the Allman membranes), ``(PENALTY_GAMMA + k6rot * DRILL_SCALE) * A[2, 2]`` (CQUAD4,
+#: CTRIA3, whose membranes do not use ``Rz``; see "Drilling rotation" above).
 DRILL_GAMMA = 1.0
+PENALTY_GAMMA = 0.1
 DRILL_SCALE = 1.0e-6
 
 _G = 1.0 / np.sqrt(3.0)
@@ -458,8 +484,13 @@ def _quad4_local(
     S: np.ndarray | None,
     B: np.ndarray,
     alpha: np.ndarray,
+    drilling: bool = True,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Element-frame stiffness (n, 24, 24), int(N_a) (n, 4) and int(N_a N_b) (n, 4, 4)."""
+    """Element-frame stiffness (n, 24, 24), int(N_a) (n, 4) and int(N_a N_b) (n, 4, 4).
+
+    ``drilling``: the Allman membrane (CQUADR); else the bilinear membrane with Taylor's
+    incompatible modes (CQUAD4), ``Rz`` only in the drilling penalty.
+    """
     n = xl.shape[0]
     jac = [np.einsum("ra,eai->eri", _quad_shape(xi, eta)[1], xl) for xi, eta in _GAUSS_2X2]
     detJ = [np.linalg.det(J) for J in jac]
@@ -483,9 +514,14 @@ def _quad4_local(
     }
 
     Gal = _allman_coefficients(xl, _QUAD_EDGES)
+    if not drilling:
+        Gal = np.zeros_like(Gal)
+        J0inv = np.linalg.inv(np.einsum("ra,eai->eri", _quad_shape(0.0, 0.0)[1], xl))
+        det0 = area / 4.0  # det J at the centre of a bilinear map is the mean
+    k = 24 if drilling else 28  # + u, v times (1 - xi^2), (1 - eta^2), condensed below
     # Per Gauss point q: weighted rows sqrt(w det J) B_q (8 generalised strains + 1 drilling
     # residual), stacked so that K is one batched product over all points.
-    rows = np.zeros((n, 4, 9, 24))
+    rows = np.zeros((n, 4, 9, k))
     Nint = np.zeros((n, 4))
     Mcons = np.zeros((n, 4, 4))
     for q, ((xi, eta), J, dJ) in enumerate(zip(_GAUSS_2X2, jac, detJ, strict=True)):
@@ -499,8 +535,18 @@ def _quad4_local(
         e_eta = 0.5 * (1.0 - xi) * tie[-1.0, 0.0][:, 1] + 0.5 * (1.0 + xi) * tie[1.0, 0.0][:, 1]
         Bg[:, 6:8] = Jinv @ np.stack([e_xi, e_eta], axis=1)
 
-        rows[:, q, :8] = np.sqrt(dJ)[:, None, None] * Bg
-        rows[:, q, 8] = np.sqrt(alpha * dJ)[:, None] * _drill_row(N, dNxy, dNbxy, Gal)
+        rows[:, q, :8, :24] = np.sqrt(dJ)[:, None, None] * Bg
+        rows[:, q, 8, :24] = np.sqrt(alpha * dJ)[:, None] * _drill_row(N, dNxy, dNbxy, Gal)
+        if not drilling:  # Taylor: centre Jacobian, det0 / det J, so the modes' strains
+            g = np.einsum("eir,rk->eik", J0inv, np.diag([-2.0 * xi, -2.0 * eta]))  # mean 0
+            g *= (det0 / np.sqrt(dJ))[:, None, None]
+            rows[:, q, 0, 24:26] = g[:, 0]  # u modes: eps_xx = du/dx, gamma = du/dy
+            rows[:, q, 2, 24:26] = g[:, 1]
+            rows[:, q, 1, 26:28] = g[:, 1]  # v modes: eps_yy = dv/dy, gamma = dv/dx
+            rows[:, q, 2, 26:28] = g[:, 0]
+            # and their in-plane rotation omega = (v,x - u,y) / 2 in the residual Rz - omega
+            rows[:, q, 8, 24:26] = 0.5 * np.sqrt(alpha)[:, None] * g[:, 1]
+            rows[:, q, 8, 26:28] = -0.5 * np.sqrt(alpha)[:, None] * g[:, 0]
         Nint += dJ[:, None] * N
         Mcons += dJ[:, None, None] * np.outer(N, N)
 
@@ -508,9 +554,22 @@ def _quad4_local(
     C9 = np.zeros((n, 9, 9))
     C9[:, :8, :8] = C
     C9[:, 8, 8] = 1.0
-    CR = (C9[:, None] @ rows).reshape(n, 36, 24)
-    K = np.swapaxes(rows.reshape(n, 36, 24), 1, 2) @ CR
+    CR = (C9[:, None] @ rows).reshape(n, 36, k)
+    K = np.swapaxes(rows.reshape(n, 36, k), 1, 2) @ CR
+    if not drilling:  # static condensation of the incompatible modes (none without membrane)
+        Kaa = K[:, 24:, 24:]
+        scale = np.abs(Kaa).max(axis=(1, 2))
+        ok = np.abs(np.linalg.det(Kaa)) > (1e-12 * scale) ** 4
+        Kaa_inv = np.zeros_like(Kaa)
+        Kaa_inv[ok] = np.linalg.inv(Kaa[ok])
+        K = K[:, :24, :24] - K[:, :24, 24:] @ Kaa_inv @ K[:, 24:, :24]
     return K, Nint, Mcons
+
+
+def _penalty_modulus(k6rot: ArrayLike, A: np.ndarray) -> np.ndarray:
+    """(n,) CQUAD4 / CTRIA3 drilling modulus ``(PENALTY_GAMMA + k6rot 1e-6) A[2, 2]``."""
+    k6 = _per_elem(k6rot, len(A), (), "k6rot")
+    return (PENALTY_GAMMA + k6 * DRILL_SCALE) * A[:, 2, 2]
 
 
 def _triangle_covariance(xl: np.ndarray) -> np.ndarray:
@@ -537,8 +596,13 @@ def _tria3_local(
     S: np.ndarray | None,
     B: np.ndarray,
     alpha: np.ndarray,
+    drilling: bool = True,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Element-frame stiffness (n, 18, 18), int(N_a) (n, 3) and int(N_a N_b) (n, 3, 3)."""
+    """Element-frame stiffness (n, 18, 18), int(N_a) (n, 3) and int(N_a N_b) (n, 3, 3).
+
+    ``drilling``: the Allman membrane (CTRIAR); else the constant-strain membrane (CTRIA3),
+    ``Rz`` only in the drilling penalty.
+    """
     n = xl.shape[0]
     _, dN = _tri_shape(0.0, 0.0)
     J = np.einsum("ra,eai->eri", dN, xl)
@@ -557,6 +621,8 @@ def _tria3_local(
     Jinv = np.linalg.inv(J)
     dNxy = np.einsum("eir,ra->eia", Jinv, dN)
     Gal = _allman_coefficients(xl, _TRI_EDGES)
+    if not drilling:
+        Gal = np.zeros_like(Gal)
 
     # MITC3 tying: e_r at (1/2, 0), e_s at (0, 1/2), both at (1/2, 1/2).
     t1 = _covariant_shear_rows(*_tri_shape(0.5, 0.0), xl)[:, 0]
@@ -658,15 +724,19 @@ def quad4_matrices(
     zoffs: ArrayLike = 0.0,
     k6rot: ArrayLike = 100.0,
     coupled_mass: bool = False,
+    drilling: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Stiffness and mass of CQUAD4 elements: MITC4 bending/shear, Allman (ITW) membrane.
+    """Stiffness and mass of CQUAD4 elements: MITC4 bending/shear, bilinear + incompatible
+    modes membrane (``drilling=True``: CQUADR, Allman (ITW) membrane).
 
     Formulation, sign conventions, drilling, offsets and mass: see the module docstring.
     """
     T, xl, h, A_, D_, S_, B_, m, zo, alpha = _prepare(
         xyz, 4, A, D, S, B, rho_area, nsm, zoffs, k6rot
     )
-    K, Nint, Mcons = _quad4_local(xl, A_, D_, S_, B_, alpha)
+    if not drilling:
+        alpha = _penalty_modulus(k6rot, A_)
+    K, Nint, Mcons = _quad4_local(xl, A_, D_, S_, B_, alpha, drilling)
     return _to_basic(K, Nint, Mcons, m, T, zo[:, None] - h, coupled_mass)
 
 
@@ -682,15 +752,19 @@ def tria3_matrices(
     zoffs: ArrayLike = 0.0,
     k6rot: ArrayLike = 100.0,
     coupled_mass: bool = False,
+    drilling: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Stiffness and mass of CTRIA3 elements: Allman membrane, MITC3 bending/shear.
+    """Stiffness and mass of CTRIA3 elements: MITC3 bending/shear, constant-strain membrane
+    (``drilling=True``: CTRIAR, Allman membrane).
 
     Formulation, sign conventions, drilling, offsets and mass: see the module docstring.
     """
     T, xl, h, A_, D_, S_, B_, m, zo, alpha = _prepare(
         xyz, 3, A, D, S, B, rho_area, nsm, zoffs, k6rot
     )
-    K, Nint, Mcons = _tria3_local(xl, A_, D_, S_, B_, alpha)
+    if not drilling:
+        alpha = _penalty_modulus(k6rot, A_)
+    K, Nint, Mcons = _tria3_local(xl, A_, D_, S_, B_, alpha, drilling)
     return _to_basic(K, Nint, Mcons, m, T, zo[:, None] - h, coupled_mass)
 
 
@@ -726,6 +800,9 @@ _PARAMS_DOC = """
     coupled_mass : bool
         False: lumped translational mass (row sums of the consistent mass). True: consistent
         translational mass. No rotary inertia either way.
+    drilling : bool
+        False (CQUAD4, CTRIA3): a membrane without ``Rz``, which enters only the drilling
+        penalty. True (CQUADR, CTRIAR): the Allman membrane with drilling rotations.
 
     Returns
     -------
