@@ -116,21 +116,33 @@ Why the CQUAD4 / CTRIA3 membranes do not use ``Rz``: NASTRAN's do not. With NAST
 mode shapes of an MSC 2005 run of an earlier pyn_mode_solid_shell_bar (beams standing on the
 corners of a CQUAD4 / CTRIA3 box), femcal's element strain energies match NASTRAN's printed
 ones to 1e-4 for the CBAR, CBEAM, CROD and CTETRA, but were 1.3-6.6 times NASTRAN's for the
-Allman shells, 1.0-1.5 times with these membranes, and 1.0-1.2 times with these and the
-K6ROT penalty alone (below). On the reference decks,
-pyn_goland's mode goes from 0.33 % to 0.29 %, pyn_mode_solid_shell_bar from 1.45 % to 0.80 %
-(within its 1 %), and the tier C pyn_bwb from 136 % to 72 %.
+Allman shells (their ``Rz`` values, free in NASTRAN, strain the Allman membrane), 0.98-1.5
+times with these membranes, and 1.0-1.2 times with these and the K6ROT penalty alone (below).
+On the reference decks, pyn_goland's mode goes from 0.33 % to 0.01 %,
+pyn_mode_solid_shell_bar from 1.45 % to 0.78 % (within its 1 %), pyn_nx_sine_solid from
+0.23 % to 0.13 %, and the tier C pyn_bwb from 136 % to 71 %.
 
 Why ``PENALTY_GAMMA = 0.1`` and not NASTRAN's K6ROT penalty alone (``1e-4 G``): a weak
 ``Rz``-``omega`` coupling lets the rotation about the normal at a node act as a partial hinge
 between non-coplanar flat neighbours (their out-of-plane rotations are different projections
-of the same nodal rotation; NASTRAN's QUAD4 is not flat). MacNeal-Harder twisted beam,
-CQUAD4 2x12 / 4x24, in-plane and out-of-plane load, measured against ``gamma`` (in units of
-G): 1e-4 (K6ROT alone): 3.9 / 3.6 times too flexible; 0.01: +3.0 / +3.1 %; 0.05: +0.5 /
-+0.9 %; 0.1: +0.2 / +0.5 %; 0.3 and 1: within 0.5 % and 1.6 %. The reference decks prefer a
-weak penalty (pyn_goland 0.03 % at 0.01, 0.29 % at 0.1, 2.8 % at 1; pyn_mode_solid_shell_bar
-0.55 %, 0.80 %, 2.1 %). 0.1 is the smallest of these that keeps the twisted beam within
-0.6 %.
+of the same nodal rotation; NASTRAN's QUAD4 is not flat). ``omega`` includes the incompatible
+modes' rotation (without it the penalty locks the membrane in in-plane bending: MacNeal-Harder
+rectangular 0.80 instead of 0.99 at ``gamma`` = 0.1 G). MacNeal-Harder twisted beam, CQUAD4,
+tip displacement against the reference for (2x12 in-plane, out-of-plane; 4x24 in-plane,
+out-of-plane), and the worst reference-deck errors, measured against ``gamma`` (units of G):
+
+=========  =============================  =========  ===========================  ============
+gamma      twisted beam                   pyn_goland pyn_mode_solid_shell_bar     pyn_bwb (C)
+=========  =============================  =========  ===========================  ============
+1e-4       2.52, 2.32, 2.53, 2.30 times   0.000 %    0.52 %                       22.5 %
+0.01       +3.0, +3.1, +3.1, +2.6 %       0.001 %    0.55 %                       22.2 %
+0.03       +0.95, +1.39, +0.94, +0.88 %   0.004 %    0.61 %                       21.9 %
+0.1        +0.21, +0.78, +0.18, +0.27 %   0.012 %    0.78 %                       70.9 %
+0.3        0.00, +0.60, -0.03, +0.08 %    0.035 %    1.18 %                       134.8 %
+1          -0.07, +0.53, -0.11, +0.03 %   0.101 %    2.00 %                       136.0 %
+=========  =============================  =========  ===========================  ============
+
+0.1 is the smallest of these that keeps the twisted beam within 1 %.
 
 Shear-rigid plates (``S=None``)
 -------------------------------
