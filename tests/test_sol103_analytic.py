@@ -303,3 +303,18 @@ def test_thin_plates_do_not_lock(write, kind, pattern, tol):
         ratio.append(modes.frequencies_hz[0] / f11)
     assert ratio[1] == pytest.approx(ratio[0], rel=0.005)
     assert ratio[1] == pytest.approx(1.0, rel=tol)
+
+
+@pytest.mark.parametrize(("kind", "tol"), [("CTRIA3", 0.03), ("CTRIA6", 0.1)])
+def test_shear_rigid_triangles_do_not_lock(write, kind, tol):
+    # PSHELL without MID3 (no transverse shear flexibility: a Kirchhoff plate), the same
+    # plate of CTRIA3, or of CTRIA6 with every midside node omitted. Its shear-rigid penalty
+    # locked MITC3 (+408 % and +441 %); with the residual bending flexibility it is +2.07 % and
+    # +8.43 %, the same as the shear-flexible thin plate above.
+    a, b, h = 600.0, 400.0, 4.0
+    E, nu, rho = 7.0e4, 0.33, 2.7e-9
+    f11 = np.pi / 2 * (1 / a**2 + 1 / b**2) * np.sqrt(E * h**2 / (12 * (1 - nu**2)) / rho)
+    text = quadratic_plate(kind, 6, 4, h, lambda i, j: True)
+    text = text.replace(f"PSHELL,1,1,{h},1,,1", f"PSHELL,1,1,{h},1")
+    modes, _ = modes_of(write, text)
+    assert modes.frequencies_hz[0] == pytest.approx(f11, rel=tol)

@@ -94,8 +94,10 @@ CTRIA3 formulation
   stabilisation of Lyly, Stenberg & Vihinen, Comput. Mech. 13, 1993, ``S t^2 / (t^2 +
   c h^2)``): a simply supported plate of 6 x 4 x 2 CTRIA3, elements 100 long, was +72 % and
   +1421 % at 4.0 and 0.25 thick, and is +2.0 and +2.1 % with it (+0.3 / +0.4 % on 12 x 8 x 2).
-  On the reference decks it takes pyn_nx_sine_solid's mode 8 from +0.56 % to +0.23 % and
-  pyn_mode_solid_shell_bar's mode 2 from -1.27 % to -1.45 % (a known gap either way).
+  Unlike the CQUAD4's, it is applied to the shear-rigid penalty too (MID3 blank, below),
+  which locks MITC3 as well (the same plate: +408 %, and +2.07 % with it). With NASTRAN's own
+  eigenvectors (see "Drilling rotation") the CTRIA3 energies are 2.2-3.2 times NASTRAN's
+  without it and 1.0-1.3 times with it.
 
 Drilling rotation (K6ROT)
 -------------------------
@@ -149,7 +151,9 @@ Shear-rigid plates (``S=None``)
 NASTRAN omits transverse shear flexibility when MID3 is blank. ``S=None`` emulates this with a
 stiff penalty ``S = 1e4 * trace(D) / area * I``, a shear-to-bending stiffness ratio of about
 ``1e4`` on the scale of one element: far stiffer than the plate's bending, and well
-conditioned because MITC4/MITC3 do not lock.
+conditioned because MITC4 does not lock. The CTRIA3 adds its residual bending flexibility to
+the penalty (MITC3 would lock), which makes the plate a Kirchhoff plate in the limit of small
+elements.
 
 Offsets (ZOFFS)
 ---------------
@@ -591,6 +595,12 @@ def _triangle_covariance(xl: np.ndarray) -> np.ndarray:
     return np.einsum("eai,eaj->eij", d, d) / 12.0
 
 
+def _corner_area(xl: np.ndarray) -> np.ndarray:
+    """(n,) area of the straight-edged polygon of corner coordinates xl (n, 3 or 4, 2)."""
+    x, y = xl[..., 0], xl[..., 1]
+    return 0.5 * np.sum(x * np.roll(y, -1, axis=1) - np.roll(x, -1, axis=1) * y, axis=1)
+
+
 def _corner_covariance(xl: np.ndarray) -> np.ndarray:
     """Area covariance (n, 2, 2) of the straight-edged triangle (n, 3, 2) or bilinear
     quadrilateral (n, 4, 2) of corner coordinates xl, length^2."""
@@ -625,10 +635,10 @@ def _tria3_local(
             f"{np.flatnonzero(detJ <= 0.0)[:10].tolist()}"
         )
     area = 0.5 * detJ
-    if S is None:
-        S = _shear_penalty(D, area)
-    else:  # constant curvature: the same missing energy as the CQUAD4's
-        S = _with_residual_bending(S, _triangle_covariance(xl), A, B, D)
+    # Constant curvature misses the CQUAD4's energy; unlike MITC4, MITC3 locks without it,
+    # so the shear-rigid penalty (MID3 blank) gets it too.
+    S = _shear_penalty(D, area) if S is None else S
+    S = _with_residual_bending(S, _triangle_covariance(xl), A, B, D)
     C = _constitutive(A, D, S, B)
     Jinv = np.linalg.inv(J)
     dNxy = np.einsum("eir,ra->eia", Jinv, dN)

@@ -551,8 +551,10 @@ def _matrices(
         sel = np.flatnonzero(which.ravel() == p)
         key = tuple(bool(x) for x in pattern)
         S_sel = None if S_ is None else S_[sel]
-        if S_sel is not None and not any(key):  # linear rotations: CQUAD4's / CTRIA3's
-            cov = shell._corner_covariance(xl[sel, :nc])  # residual bending flexibility
+        if not any(key) and (S_sel is not None or nn == 6):  # linear rotations: CQUAD4's /
+            if S_sel is None:  # CTRIA3's residual bending flexibility (MITC3 locks without)
+                S_sel = shell._shear_penalty(D_[sel], shell._corner_area(xl[sel, :nc]))
+            cov = shell._corner_covariance(xl[sel, :nc])
             S_sel = shell._with_residual_bending(S_sel, cov, A_[sel], B_[sel], D_[sel])
         if nn == 8:
             args = (_quad8_shape, _QUAD_RULE, _quad8_tying(key))
