@@ -243,9 +243,11 @@ def _quad8_tying(present: tuple[bool, bool, bool, bool] = (True,) * 4) -> Tying:
 
     An omitted midside node makes its edge straight and every field linear along it; the
     assumed strain follows, between MITC8 and MITC4 (all four omitted: MITC4's field).
-    ``e_xi`` is tied on the lines eta = -1, 0, 1 (0 only when G6 or G8 is given: the
-    quadratic variation in eta); on each line either at ``xi = +-g`` (its part linear in xi)
-    or by the mean of those two values (constant in xi). The linear part is tied on the edge
+    ``e_xi`` is tied on the lines eta = -1, 0, 1 (0 only when G6 and G8 are given: with one
+    of them alone, a curvature along eta leaves the given node's ``w`` bump, whose slope
+    along xi is a spurious ``e_xi`` quadratic in eta, and the interior line would lock); on
+    each line either at ``xi = +-g`` (its part linear in xi) or by the mean of those two
+    values (constant in xi). The linear part is tied on the edge
     eta = -1 when G5 is given, on eta = 1 when G7 is given, and on the interior line when
     both are; its variation in eta is the Lagrange interpolant over those lines only.
     ``e_eta`` likewise with (G5, G7) and (G6, G8) swapped.
