@@ -289,13 +289,15 @@ def _prepare(
     zoffs: ArrayLike,
     k6rot: ArrayLike,
     frame: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None = None,
+    drill_gamma: float | None = None,
 ) -> tuple[np.ndarray, ...]:
     """Validate and broadcast the kernel inputs; compute frame and local node coordinates.
 
     Returns ``T, xl, h, A, D, S (or None), B, m, zoffs, alpha`` with ``xl`` (n, nn, 2) the
     in-plane local coordinates, ``h`` (n, nn) the warping distances, ``m`` the mass per area
-    and ``alpha`` the drilling penalty modulus. ``frame`` gives (T, centre) of the elements
-    (default :func:`shell_frame`).
+    and ``alpha = (drill_gamma + k6rot * DRILL_SCALE) * A[2, 2]`` the drilling penalty
+    modulus (``drill_gamma`` None: :data:`DRILL_GAMMA`). ``frame`` gives (T, centre) of the
+    elements (default :func:`shell_frame`).
     """
     xyz = np.asarray(xyz, dtype=float)
     if xyz.ndim != 3 or xyz.shape[1:] != (n_nodes, 3):
@@ -309,7 +311,8 @@ def _prepare(
     S_arr = None if S is None else _per_elem(S, n, (2, 2), "S")
     m = _per_elem(rho_area, n, (), "rho_area") + _per_elem(nsm, n, (), "nsm")
     zoffs = _per_elem(zoffs, n, (), "zoffs")
-    alpha = (DRILL_GAMMA + _per_elem(k6rot, n, (), "k6rot") * DRILL_SCALE) * A[:, 2, 2]
+    gamma = DRILL_GAMMA if drill_gamma is None else drill_gamma
+    alpha = (gamma + _per_elem(k6rot, n, (), "k6rot") * DRILL_SCALE) * A[:, 2, 2]
     return T, p[..., :2], p[..., 2], A, D, S_arr, B, m, zoffs, alpha
 
 
@@ -529,9 +532,10 @@ def _quad4_local(
         for pt in ((0.0, -1.0), (0.0, 1.0), (-1.0, 0.0), (1.0, 0.0))
     }
 
-    Gal = _allman_coefficients(xl, _QUAD_EDGES)
-    if not drilling:
-        Gal = np.zeros_like(Gal)
+    if drilling:
+        Gal = _allman_coefficients(xl, _QUAD_EDGES)
+    else:  # no Allman terms
+        Gal = np.zeros((n, 2, len(_QUAD_EDGES), 4))
         J0inv = np.linalg.inv(np.einsum("ra,eai->eri", _quad_shape(0.0, 0.0)[1], xl))
         det0 = area / 4.0  # det J at the centre of a bilinear map is the mean
     k = 24 if drilling else 28  # + u, v times (1 - xi^2), (1 - eta^2), condensed below
@@ -580,12 +584,6 @@ def _quad4_local(
         Kaa_inv[ok] = np.linalg.inv(Kaa[ok])
         K = K[:, :24, :24] - K[:, :24, 24:] @ Kaa_inv @ K[:, 24:, :24]
     return K, Nint, Mcons
-
-
-def _penalty_modulus(k6rot: ArrayLike, A: np.ndarray) -> np.ndarray:
-    """(n,) CQUAD4 / CTRIA3 drilling modulus ``(PENALTY_GAMMA + k6rot 1e-6) A[2, 2]``."""
-    k6 = _per_elem(k6rot, len(A), (), "k6rot")
-    return (PENALTY_GAMMA + k6 * DRILL_SCALE) * A[:, 2, 2]
 
 
 def _triangle_covariance(xl: np.ndarray) -> np.ndarray:
@@ -642,9 +640,7 @@ def _tria3_local(
     C = _constitutive(A, D, S, B)
     Jinv = np.linalg.inv(J)
     dNxy = np.einsum("eir,ra->eia", Jinv, dN)
-    Gal = _allman_coefficients(xl, _TRI_EDGES)
-    if not drilling:
-        Gal = np.zeros_like(Gal)
+    Gal = _allman_coefficients(xl, _TRI_EDGES) if drilling else np.zeros((n, 2, 3, 3))
 
     # MITC3 tying: e_r at (1/2, 0), e_s at (0, 1/2), both at (1/2, 1/2).
     t1 = _covariant_shear_rows(*_tri_shape(0.5, 0.0), xl)[:, 0]
@@ -754,10 +750,9 @@ def quad4_matrices(
     Formulation, sign conventions, drilling, offsets and mass: see the module docstring.
     """
     T, xl, h, A_, D_, S_, B_, m, zo, alpha = _prepare(
-        xyz, 4, A, D, S, B, rho_area, nsm, zoffs, k6rot
+        xyz, 4, A, D, S, B, rho_area, nsm, zoffs, k6rot,
+        drill_gamma=DRILL_GAMMA if drilling else PENALTY_GAMMA,
     )
-    if not drilling:
-        alpha = _penalty_modulus(k6rot, A_)
     K, Nint, Mcons = _quad4_local(xl, A_, D_, S_, B_, alpha, drilling)
     return _to_basic(K, Nint, Mcons, m, T, zo[:, None] - h, coupled_mass)
 
@@ -782,10 +777,9 @@ def tria3_matrices(
     Formulation, sign conventions, drilling, offsets and mass: see the module docstring.
     """
     T, xl, h, A_, D_, S_, B_, m, zo, alpha = _prepare(
-        xyz, 3, A, D, S, B, rho_area, nsm, zoffs, k6rot
+        xyz, 3, A, D, S, B, rho_area, nsm, zoffs, k6rot,
+        drill_gamma=DRILL_GAMMA if drilling else PENALTY_GAMMA,
     )
-    if not drilling:
-        alpha = _penalty_modulus(k6rot, A_)
     K, Nint, Mcons = _tria3_local(xl, A_, D_, S_, B_, alpha, drilling)
     return _to_basic(K, Nint, Mcons, m, T, zo[:, None] - h, coupled_mass)
 
