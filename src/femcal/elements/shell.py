@@ -593,12 +593,6 @@ def _triangle_covariance(xl: np.ndarray) -> np.ndarray:
     return np.einsum("eai,eaj->eij", d, d) / 12.0
 
 
-def _corner_area(xl: np.ndarray) -> np.ndarray:
-    """(n,) area of the straight-edged polygon of corner coordinates xl (n, 3 or 4, 2)."""
-    x, y = xl[..., 0], xl[..., 1]
-    return 0.5 * np.sum(x * np.roll(y, -1, axis=1) - np.roll(x, -1, axis=1) * y, axis=1)
-
-
 def _corner_covariance(xl: np.ndarray) -> np.ndarray:
     """Area covariance (n, 2, 2) of the straight-edged triangle (n, 3, 2) or bilinear
     quadrilateral (n, 4, 2) of corner coordinates xl, length^2."""

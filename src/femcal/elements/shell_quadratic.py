@@ -108,7 +108,6 @@ on each translation. Lumped (default): HRZ (Hinton, Rock & Zienkiewicz 1976) dia
 
 from __future__ import annotations
 
-import re
 from collections.abc import Callable
 from functools import cache
 
@@ -288,12 +287,6 @@ def _quad8_tying(present: tuple[bool, bool, bool, bool] = (True,) * 4) -> Tying:
     return tuple(ties), _tying_interpolation(tuple(ties), basis, _QUAD_RULE)
 
 
-def _quad8_has_bubble(present: tuple[bool, bool, bool, bool]) -> bool:
-    """The internal ``w`` bubble enters the tied strains only through the interior lines'
-    linear parts (see :func:`_quad8_tying`); without them it is left out."""
-    return all(present)
-
-
 _TRI_CORNERS = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
 _TRI_EDGES = ((0, 1), (1, 2), (2, 0))
 
@@ -415,6 +408,17 @@ def _prepare(
 # ----------------------------------------------------------------------------------------
 
 
+class _BadJacobian(ValueError):
+    """Elements (positions in the kernel's input) whose Jacobian is not positive."""
+
+    def __init__(self, name: str, positions: np.ndarray):
+        self.name, self.positions = name, positions
+        super().__init__(
+            f"{name} with non-positive Jacobian (badly shaped, clockwise or misplaced midside "
+            f"nodes) at element index(es) {positions[:10].tolist()}"
+        )
+
+
 def _local(
     xl: np.ndarray,
     A: np.ndarray,
@@ -427,12 +431,15 @@ def _local(
     tying: Tying,
     bubble: Callable[[float, float], tuple[float, np.ndarray]] | None,
     name: str,
+    residual_bending: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Element-frame K (n, 6nn, 6nn), HRZ lumped weights (n, nn) and int(N_a N_b) (n, nn, nn).
 
     The lumped weights are areas per node: ``m`` times them is the nodal mass. ``bubble``:
     an internal ``w`` function (natural coordinates), an extra DOF that enters only the
-    tied shear strains and is condensed statically.
+    tied shear strains and is condensed statically. ``residual_bending``: add the CQUAD4's /
+    CTRIA3's residual bending flexibility to S (elements whose midside nodes are all omitted:
+    linear rotations), with the area covariance of the corners.
     """
     n, nn, _ = xl.shape
     k6 = 6 * nn
@@ -442,17 +449,15 @@ def _local(
     J = np.einsum("qra,eai->eqri", dNq, xl)  # (n, Q, 2, 2): rows d(x, y)/d(r)
     detJ = np.linalg.det(J)
     if np.any(detJ <= 0.0):
-        bad = np.flatnonzero(np.any(detJ <= 0.0, axis=1))
-        raise ValueError(
-            f"{name} with non-positive Jacobian (badly shaped, clockwise or misplaced midside "
-            f"nodes) at element index(es) {bad[:10].tolist()}"
-        )
+        raise _BadJacobian(name, np.flatnonzero(np.any(detJ <= 0.0, axis=1)))
     Jinv = np.linalg.inv(J)
     dNxy = Jinv @ dNq[None]  # (n, Q, 2, nn)
     wdet = wq * detJ  # (n, Q)
     area = wdet.sum(axis=1)
     if S is None:
         S = _shear_penalty(D, area)
+    if residual_bending:
+        S = shell._with_residual_bending(S, shell._corner_covariance(xl[:, : nn // 2]), A, B, D)
     C9 = np.zeros((n, 9, 9))
     C9[:, :8, :8] = _constitutive(A, D, S, B)
     C9[:, 8, 8] = alpha
@@ -553,24 +558,25 @@ def _matrices(
         sel = np.flatnonzero(which.ravel() == p)
         key = tuple(bool(x) for x in pattern)
         S_sel = None if S_ is None else S_[sel]
-        if not any(key) and (S_sel is not None or nn == 6):  # linear rotations: CQUAD4's /
-            if S_sel is None:  # CTRIA3's residual bending flexibility (MITC3 locks without)
-                S_sel = shell._shear_penalty(D_[sel], shell._corner_area(xl[sel, :nc]))
-            cov = shell._corner_covariance(xl[sel, :nc])
-            S_sel = shell._with_residual_bending(S_sel, cov, A_[sel], B_[sel], D_[sel])
+        # All omitted: linear rotations, with the CQUAD4's / CTRIA3's residual bending
+        # flexibility (as those, the triangle on the shear-rigid penalty too: MITC3 locks).
+        residual_bending = not any(key) and (S_sel is not None or nn == 6)
         if nn == 8:
             args = (_quad8_shape, _QUAD_RULE, _quad8_tying(key))
-            bubble = _quad8_bubble if _quad8_has_bubble(key) else None  # type: ignore[arg-type]
+            # the bubble enters the tied strains only through the interior lines' linear
+            # parts (_quad8_tying), which exist only with all four midside nodes
+            bubble = _quad8_bubble if all(key) else None  # type: ignore[arg-type]
             name = "CQUAD8"
         else:
             args = (_tria6_shape, _TRI_RULE, _tria6_tying(key))  # type: ignore[assignment]
             bubble, name = None, "CTRIA6"
         try:
             K[sel], lumped[sel], Mcons[sel] = _local(
-                xl[sel], A_[sel], D_[sel], S_sel, B_[sel], alpha[sel], *args, bubble, name
-            )
-        except ValueError as e:  # name the positions in the whole input, not the group
-            raise ValueError(_renumber(str(e), sel)) from None
+                xl[sel], A_[sel], D_[sel], S_sel, B_[sel], alpha[sel], *args, bubble, name,
+                residual_bending,
+            )  # fmt: skip
+        except _BadJacobian as e:  # name the positions in the whole input, not the group
+            raise _BadJacobian(e.name, sel[e.positions]) from None
     K, M = _to_basic(K, lumped, Mcons, m, T, zo[:, None] - h, coupled_mass)
     for j, (a, b) in enumerate(edges):
         gone = ~present[:, j]
@@ -578,15 +584,6 @@ def _matrices(
             K[gone] = _tie_midside(K[gone], nc + j, a, b)
             M[gone] = _tie_midside(M[gone], nc + j, a, b)
     return K, M
-
-
-def _renumber(message: str, sel: np.ndarray) -> str:
-    """A kernel message's ``index(es) [i, j]`` within a group, as positions in the input."""
-    m = re.search(r"index\(es\) \[([\d, ]+)\]", message)
-    if not m:
-        return message
-    pos = [int(sel[int(x)]) for x in m.group(1).split(",") if x.strip()]
-    return message[: m.start(1)] + ", ".join(map(str, pos)) + message[m.end(1) :]
 
 
 _PARAMS_DOC = """
