@@ -553,13 +553,13 @@ def _conm1(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
 
 def _shells(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
     from .elements.shell import quad4_matrices, shell_frame, tria3_matrices
-    from .elements.shell_quadratic import quad8_matrices, tria6_matrices
+    from .elements.shell_quadratic import MIDSIDE_EDGES, quad8_matrices, tria6_matrices
     from .shellsections import shell_sections
 
     m = ctx.model
     k = block.nodes.shape[1]
     corners = 4 if block.type.startswith("CQUAD") else 3
-    edges = _MIDSIDE_EDGES.get(k, ())
+    edges = MIDSIDE_EDGES.get(k, ())
     xyz = m.xyz[np.where(block.nodes < 0, 0, block.nodes)]
     for j, (a, b) in enumerate(edges, start=corners):  # omitted midside: straight edge
         gone = block.nodes[:, j] < 0
@@ -582,14 +582,14 @@ def _shells(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
         rigid = bool(sec.shear_rigid[sel[0]])
         B = sec.B[sel] if sec.B[sel].any() else None
         try:
-            # an omitted midside node (a straight edge) is tied to its corners by the kernel
-            midside = {"midside": block.nodes[sel, corners:] >= 0} if edges else {}
-            if not edges:  # CQUAD4 / CTRIA3: no drilling membrane; CQUADR / CTRIAR: Allman
-                midside = {"drilling": block.type in ("CQUADR", "CTRIAR")}
+            # quadratic shells: which midside nodes are given (the kernel ties an omitted one
+            # to its corners); linear ones: CQUADR / CTRIAR have the Allman (drilling) membrane
+            variant = ({"midside": block.nodes[sel, corners:] >= 0} if edges
+                       else {"drilling": block.type in ("CQUADR", "CTRIAR")})  # fmt: skip
             K, M = kernel(
                 xyz[sel], sec.A[sel], sec.D[sel], None if rigid else sec.S[sel], B,
                 rho_area=sec.rho_area[sel], nsm=sec.nsm[sel], zoffs=zoffs[sel],
-                k6rot=ctx.k6rot, coupled_mass=ctx.coupled, **midside,
+                k6rot=ctx.k6rot, coupled_mass=ctx.coupled, **variant,
             )  # fmt: skip
         except ValueError as e:
             ids = block.ids[sel]
@@ -616,10 +616,6 @@ def _name_positions(message: str, ids: np.ndarray) -> str:
     pos = [int(x) for x in m.group(1).split(",") if x.strip()]
     named = [int(ids[p]) for p in pos if 0 <= p < len(ids)]
     return message[: m.start()] + f"element ids {named}" + message[m.end() :]
-
-
-#: Corner pairs of the midside nodes of 8- and 6-node shells (NASTRAN order).
-_MIDSIDE_EDGES = {8: ((0, 1), (1, 2), (2, 3), (3, 0)), 6: ((0, 1), (1, 2), (2, 0))}
 
 
 def _polygon_area(xyz: np.ndarray) -> np.ndarray:

@@ -507,7 +507,7 @@ def _local(
 
 
 #: Corner pairs of the midside nodes (NASTRAN order): CQUAD8 G5-G8, CTRIA6 G4-G6.
-_MIDSIDE_EDGES = {8: ((0, 1), (1, 2), (2, 3), (3, 0)), 6: ((0, 1), (1, 2), (2, 0))}
+MIDSIDE_EDGES = {8: ((0, 1), (1, 2), (2, 3), (3, 0)), 6: ((0, 1), (1, 2), (2, 0))}
 
 
 def _tie_midside(X: np.ndarray, j: int, a: int, b: int) -> np.ndarray:
@@ -539,7 +539,7 @@ def _matrices(
     midside: ArrayLike | None,
 ) -> tuple[np.ndarray, np.ndarray]:
     nc = nn // 2
-    edges = _MIDSIDE_EDGES[nn]
+    edges = MIDSIDE_EDGES[nn]
     xyz = np.array(xyz, dtype=float)
     present = np.ones((len(xyz), nc), dtype=bool) if midside is None else np.array(midside, bool)
     if xyz.ndim != 3 or present.shape != (len(xyz), nc):
