@@ -10,8 +10,8 @@ weights). No step size is involved: the result is exact up to rounding. The degr
 checked every time at one more point (the interpolating polynomial must reproduce the
 matrices at P itself).
 
-Some dependences are smooth but not polynomial: the QUAD4's transverse shear with its
-residual bending flexibility, ``(1/(k G t) + var/D(t))^-1``, is rational in the thickness,
+Some dependences are smooth but not polynomial: the CQUAD4's and CTRIA3's transverse shear
+with residual bending flexibility, ``(1/(k G t) + var/D(t))^-1``, is rational in the thickness,
 and so is a bar's stiffness with shear flexibility in its area. When the field's degree
 does not reproduce the matrices, the degree is raised (:data:`RAISED_DEGREES`) with
 Chebyshev points over the interval the value will move in, until the interpolant

@@ -41,8 +41,8 @@ class FieldSpec:
     ``Model.materials``), ``record`` (a field of a list card's records, index for tuples),
     or ``element`` (a column of an element block's data, the id being the element id).
     k_degree, m_degree : polynomial degree of the element stiffness and mass in the value
-    (0: independent of it); where a dependence is rational (the CQUAD4's transverse shear in
-    T), :mod:`femcal.calibrate.derivatives` raises the degree it fits.
+    (0: independent of it); where a dependence is rational (the CQUAD4's and CTRIA3's
+    transverse shear in T), :mod:`femcal.calibrate.derivatives` raises the degree it fits.
     """
 
     card: str
@@ -64,8 +64,8 @@ FIELDS: dict[tuple[str, str], FieldSpec] = {
     (s.card, s.field): s
     for s in [
         _spec("PSHELL", "T", "property", "t", 3, 1,
-              "membrane and mass linear, bending cubic in T; with MID3 the CQUAD4 "
-              "transverse shear is rational in T (residual bending flexibility)"),
+              "membrane and mass linear, bending cubic in T; the CQUAD4 (with MID3) and "
+              "CTRIA3 transverse shear is rational in T (residual bending flexibility)"),
         _spec("MAT1", "E", "material", "e", 1, 0, "stiffness linear in E (G derived from E)"),
         _spec("MAT1", "RHO", "material", "rho", 0, 1, "mass linear in RHO"),
         _spec("PBAR", "A", "property", "a", 1, 1, "axial stiffness and mass linear in A"),

@@ -13,9 +13,9 @@ thicknesses (bending goes with T^3) and for products (a shell's stiffness goes w
 femcal's default (``order="exact"``) keeps every term instead: each group of elements that
 shares its parameters contributes the exact polynomial in them
 (:func:`femcal.calibrate.derivatives.group_polynomials`; where the dependence is rational,
-as the CQUAD4's transverse shear in T, an interpolant of raised degree that reproduces it to
-1e-9), so the surrogate is the full model's Rayleigh-Ritz reduction on the basis at any p,
-and only the basis is approximate.
+as the CQUAD4's and CTRIA3's transverse shear in T, an interpolant of raised degree that
+reproduces it to 1e-9), so the surrogate is the full model's Rayleigh-Ritz reduction on the
+basis at any p, and only the basis is approximate.
 The surrogate's modes come from the small dense problem
 ``K~ psi = lam M~ psi``, every mode gets the same modal damping zeta0, and the FRFs at the
 sensor channels C (n_out, r) = C_g Phi and inputs B (n_in, r) are::
