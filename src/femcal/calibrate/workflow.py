@@ -82,9 +82,10 @@ class Outcome:
 
 #: Changes whenever the surrogate's construction does, so that finished starts of an older
 #: version are not resumed.
-SURROGATE_VERSION = 6  # 5: CQUAD4 residual bending flexibility, raised-degree fits; 6: CQUAD4 /
+SURROGATE_VERSION = 7  # 5: CQUAD4 residual bending flexibility, raised-degree fits; 6: CQUAD4 /
 # CTRIA3 membranes and CTRIA3 residual bending flexibility, CQUAD8 / CTRIA6 transition shear,
-# tapered-beam lumped mass (a resumed run must not mix element formulations)
+# tapered-beam lumped mass; 7: the TETRA10 5-point stiffness rule (a resumed run must not mix
+# element formulations)
 
 
 def _fingerprint(cfg: Config, extra: str) -> str:
