@@ -66,9 +66,13 @@ def test_the_shipped_set_regenerates():
     made = make_hammer_test(FRAME / "hammer_frame.bdf", FRAME / "hammer_frame.params.toml",
                             FRAME / "hammer_frame.sensors.csv", FRAME / "hammer_frame.inputs.csv")  # fmt: skip
     shipped = read_mat(FRAME / "hammer_test.mat").H
-    # the same to rounding: ARPACK's random start vector moves the modes in the last digits
+    # the same to the eigen solver's accuracy: a change of K by rounding alone (3.6e-16 of its
+    # largest entry, when the bars' flexibility rule went from 8 to 3 Gauss points) moved H by
+    # 4.7e-7 of each channel's peak, as the Lanczos iterates converge elsewhere within their
+    # tolerance; a change of the model moves it by far more (the six CTRIA3's new bending
+    # moved the modes by 2e-6, and H near the peaks by Q times that)
     scale = np.abs(shipped).max(axis=2, keepdims=True)
-    assert np.all(np.abs(made.data.H - shipped) <= 1e-7 * scale)
+    assert np.all(np.abs(made.data.H - shipped) <= 1e-5 * scale)
 
 
 def test_bad_sensor_and_parameter_files_are_named(tmp_path):

@@ -346,7 +346,7 @@ def _bars(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
 
 
 def _beams(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
-    from .elements.line import _GAUSS_W, _GAUSS_X
+    from .elements.line import _GAUSS_W, _GAUSS_X, FLEX_X
 
     m = ctx.model
     n = len(block)
@@ -354,7 +354,8 @@ def _beams(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
     v, offt = _orientation(ctx, block)
     wa, wb = _offsets(ctx, block, offt, v)
     q = len(_GAUSS_X)
-    section = np.zeros((n, q, 5))
+    section = np.zeros((n, q, 5))  # at the mass stations _GAUSS_X
+    section_k = np.zeros((n, len(FLEX_X), 5))  # at the flexibility stations FLEX_X
     k1 = np.ones(n)
     k2 = np.ones(n)
     mids = np.zeros(n, np.int64)
@@ -372,7 +373,10 @@ def _beams(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
             ns = np.array([s.nsm for s in p.stations])
             if len(xs) == 1:
                 xs, props, ns = np.array([0.0, 1.0]), np.vstack([props, props]), np.r_[ns, ns]
-            section[i] = np.column_stack([np.interp(_GAUSS_X, xs, props[:, c]) for c in range(5)])
+            section[i], section_k[i] = (
+                np.column_stack([np.interp(x, xs, props[:, c]) for c in range(5)])
+                for x in (_GAUSS_X, FLEX_X)
+            )
             nsm[i] = np.interp(_GAUSS_X, xs, ns)
             k1[i], k2[i] = p.tail_value("k1"), p.tail_value("k2")
             nsi_a, nsi_b = p.tail_value("nsi_a"), p.tail_value("nsi_b")
@@ -388,7 +392,10 @@ def _beams(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
             # NASTRAN turns PBEAML into a PBEAM: section properties at the stations,
             # interpolated linearly between them
             props = _section(p.type, dims, block, i)
-            section[i] = np.column_stack([np.interp(_GAUSS_X, xs, props[:, c]) for c in range(5)])
+            section[i], section_k[i] = (
+                np.column_stack([np.interp(x, xs, props[:, c]) for c in range(5)])
+                for x in (_GAUSS_X, FLEX_X)
+            )
             k1[i], k2[i] = shear_factors(p.type, dims).mean(axis=0)
             nsm[i] = np.interp(_GAUSS_X, xs, ns)
             mids[i] = p.mid
@@ -401,7 +408,7 @@ def _beams(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
     mpl = (mpl_q * _GAUSS_W).sum(axis=1)  # mean mass per length
     polar_q = mat["rho"][:, None] * (section[..., 1] + section[..., 2]) + nsi
     K, M = bar_matrices(
-        xyz, v, wa, wb, mat["E"], mat["G"], section, k1, k2, mpl_q,
+        xyz, v, wa, wb, mat["E"], mat["G"], section_k, k1, k2, mpl_q,
         pa=_pins(block.data["pa"]), pb=_pins(block.data["pb"]), coupled_mass=ctx.coupled,
         torsion_inertia=polar_q,
     )  # fmt: skip

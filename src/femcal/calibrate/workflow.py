@@ -84,8 +84,8 @@ class Outcome:
 #: version are not resumed.
 SURROGATE_VERSION = 7  # 5: CQUAD4 residual bending flexibility, raised-degree fits; 6: CQUAD4 /
 # CTRIA3 membranes and CTRIA3 residual bending flexibility, CQUAD8 / CTRIA6 transition shear,
-# tapered-beam lumped mass; 7: the TETRA10 5-point stiffness rule (a resumed run must not mix
-# element formulations)
+# tapered-beam lumped mass; 7: the TETRA10 5-point stiffness rule, the tapered CBEAM's 3-point
+# flexibility rule (a resumed run must not mix element formulations)
 
 
 def _fingerprint(cfg: Config, extra: str) -> str:
