@@ -626,3 +626,42 @@ def test_cantilever_tip_deflection(kind: str, tol: float) -> None:
     delta = cantilever_tip(beam_mesh(kind, (20, 4, 4)))
     ref = timoshenko_tip()
     assert abs(delta / ref - 1) < tol, (delta, ref, delta / ref - 1)
+
+
+def test_strongly_curved_tetra10_stay_positive_semi_definite():
+    # TETRA10's 5-point stiffness rule (NASTRAN's) has a negative centre weight: on strongly
+    # curved elements it can give an indefinite K. Those are integrated with a positive rule,
+    # so every element keeps exactly its six rigid-body zero modes and no negative eigenvalue.
+    from femcal.elements import solid
+
+    rng = np.random.default_rng(7)
+    corner = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    edges = solid._EDGES["tet"]
+    xyz = []
+    while len(xyz) < 150:
+        c = corner + 0.05 * rng.standard_normal((4, 3))
+        x = np.vstack([c, [(c[i] + c[j]) / 2 for i, j in edges]])
+        for k, (i, j) in enumerate(edges):  # curve each edge: midside node off the chord
+            e = (c[j] - c[i]) / np.linalg.norm(c[j] - c[i])
+            r = rng.standard_normal(3)
+            r -= (r @ e) * e
+            x[4 + k] += 0.2 * np.linalg.norm(c[j] - c[i]) * rng.uniform() * r / np.linalg.norm(r)
+        try:  # keep the ones whose Jacobian keeps its sign
+            solid_volume("TETRA10", x[None])
+        except ValueError:
+            continue
+        xyz.append(x)
+    xyz = np.array(xyz)
+    C = isotropic_C(np.array([1.0]), np.array([0.3]))[0]
+    K, _ = solid_matrices("TETRA10", xyz, C, np.ones(len(xyz)))
+    ev = np.linalg.eigvalsh(K)
+    tol = 1e-10 * ev[:, -1:]
+    assert (ev[:, 0] > -tol[:, 0]).all()
+    assert ((np.abs(ev) < tol).sum(axis=1) == 6).all()
+    # the 5-point rule alone is indefinite on some of them, and equal to K on the others
+    el, xp = solid._prepare("TETRA10", xyz)
+    K5 = solid._stiffness(el, xp, np.broadcast_to(C, (len(xyz), 6, 6)))
+    ev5 = np.linalg.eigvalsh(K5)
+    indefinite = ev5[:, 0] < -1e-10 * ev5[:, -1]
+    assert 0 < indefinite.sum() < len(xyz)
+    assert np.allclose(K[~indefinite], K5[~indefinite], rtol=0, atol=1e-12 * np.abs(K).max())
