@@ -5,8 +5,8 @@
 pyn_trncomp12 is a 720 x 360 plate, 0.1 thick ([45/0/45] PCOMP over MAT8, RHO in weight
 units), meshed with six elements 180 to 360 long (CQUADR, CQUAD8 and CTRIA6 with omitted
 midside nodes, CTRIAR), each with its own material angle THETA; GRID PS fixes R3 everywhere
-and the x = 0 edge. Its NX 2019.2 run has 9 bending modes (1-9, below 0.01 Hz) and 20 membrane
-modes (10-29, 0.77-15 Hz): as many as the coarse mesh has mass-carrying DOF of each kind.
+and the x = 0 edge. Its NX 2019.2 run (EIGR up to 200 Hz) has 9 bending modes (1-9, below
+0.01 Hz: the coarse mesh has 9 free T3 with mass) and 20 membrane modes (10-29, 0.77-15 Hz).
 
 This script builds the same plate (the same laminate, each coarse element's region with that
 element's material angle from its G1-G2 side, the same PS constraints) on N x N cells of

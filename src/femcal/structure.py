@@ -566,11 +566,10 @@ def _shells(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
     m = ctx.model
     k = block.nodes.shape[1]
     corners = 4 if block.type.startswith("CQUAD") else 3
-    edges = MIDSIDE_EDGES.get(k, ())
+    quadratic = k in MIDSIDE_EDGES
+    # an omitted midside node (-1) gets a placeholder position: the quadratic kernels place it
+    # on its edge themselves, and frame, material angle and area use the corners only
     xyz = m.xyz[np.where(block.nodes < 0, 0, block.nodes)]
-    for j, (a, b) in enumerate(edges, start=corners):  # omitted midside: straight edge
-        gone = block.nodes[:, j] < 0
-        xyz[gone, j] = 0.5 * (xyz[gone, a] + xyz[gone, b])
     try:
         R, centre = shell_frame(xyz[:, :corners])
     except ValueError as e:
@@ -591,7 +590,7 @@ def _shells(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
         try:
             # quadratic shells: which midside nodes are given (the kernel ties an omitted one
             # to its corners); linear ones: CQUADR / CTRIAR have the Allman (drilling) membrane
-            variant = ({"midside": block.nodes[sel, corners:] >= 0} if edges
+            variant = ({"midside": block.nodes[sel, corners:] >= 0} if quadratic
                        else {"drilling": block.type in ("CQUADR", "CTRIAR")})  # fmt: skip
             K, M = kernel(
                 xyz[sel], sec.A[sel], sec.D[sel], None if rigid else sec.S[sel], B,
@@ -614,7 +613,7 @@ def _shells(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
 
 def _name_positions(message: str, ids: np.ndarray) -> str:
     """Replace the element positions ``[i, j]`` of a kernel's message (``element index(es)
-    [i, j]`` or a bare list) by the element ids they stand for."""
+    [i, j]``, ``positions [i, j]`` or a bare list) by the element ids they stand for."""
     import re
 
     m = re.search(r"(?:element )?(?:index\(es\) )?\[([\d, ]+)\]", message)
