@@ -167,6 +167,26 @@ def test_bad_shell_is_reported_by_element_id_with_threads(monkeypatch, write, co
         structure.assemble(model, structure.Options(threads=2))
 
 
+def test_distorted_solid_is_reported_by_element_id(write):
+    # a TETRA10 whose midside node (GRID 8, edge 1-4) is pulled past its corner: the
+    # Jacobian changes sign inside it, and the error names element 22, not a position
+    from femcal.deck import read_deck
+    from femcal.errors import ModelError
+    from femcal.model import build_model
+    from femcal.structure import assemble
+
+    xyz = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (0.5, 0, 0), (0.5, 0.5, 0), (0, 0.5, 0),
+           (0, 0, 1.4), (0.5, 0, 0.5), (0, 0.5, 0.5)]  # fmt: skip
+    grids = "".join(f"GRID,{i + 1},,{x:.2f},{y:.2f},{z:.2f}\n" for i, (x, y, z) in enumerate(xyz))
+    deck = write(
+        "BEGIN BULK\nPSOLID,1,1\nMAT1,1,2.1e5,,0.3,7.85e-9\n" + grids
+        + "CTETRA,22,1,1,2,3,4,5,6,+\n+,7,8,9,10\nENDDATA\n"
+    )  # fmt: skip
+    with pytest.raises(ModelError, match=r"Jacobian changes sign inside the elements at "
+                                         r"element ids \[22\]"):  # fmt: skip
+        assemble(build_model(read_deck(deck)))
+
+
 def test_node_diagonal_blocks_are_summed_apart_and_equal_the_full_scatter():
     """Lumped (node-diagonal) element matrices go to per-node blocks; mixed with coupled ones
     and single entries, the matrix equals a dense assembly, in rotated frames too."""

@@ -616,7 +616,7 @@ def _name_positions(message: str, ids: np.ndarray) -> str:
     [i, j]``, ``positions [i, j]`` or a bare list) by the element ids they stand for."""
     import re
 
-    m = re.search(r"(?:element )?(?:index\(es\) )?\[([\d, ]+)\]", message)
+    m = re.search(r"(?:element )?(?:index\(es\) |positions )?\[([\d, ]+)\]", message)
     if not m:
         return message
     pos = [int(x) for x in m.group(1).split(",") if x.strip()]
