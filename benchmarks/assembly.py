@@ -4,8 +4,9 @@ block of about 100 000 CHEXA.
     python benchmarks/assembly.py [--plate 500] [--hexa 47]
 
 Each case runs in a fresh process: the deck is written once (benchmarks/_work), read and
-turned into a model (not timed), then ``femcal.structure.assemble`` is timed. Peak memory is
-the process's peak resident set after assembly, and its growth over the peak before it.
+turned into a model (not timed), then ``femcal.assembly.structure.assemble`` is timed. Peak
+memory is the process's peak resident set after assembly, and its growth over the peak before
+it.
 """
 
 from __future__ import annotations
@@ -80,9 +81,9 @@ def hexa_deck(n: int) -> Path:
 
 
 def child(deck: str) -> None:
+    from femcal.assembly.structure import assemble
     from femcal.deck import read_deck
     from femcal.model import build_model
-    from femcal.structure import assemble
 
     model = build_model(read_deck(deck))
     before = _rss_mb()

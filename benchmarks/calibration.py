@@ -97,11 +97,11 @@ def noise_free(max_cycles: int = 40, near: float | None = None, residual: bool =
     from femcal.calibrate.parameters import read_parameters, with_values
     from femcal.calibrate.workflow import run
     from femcal.deck import read_deck
-    from femcal.frf import channel_matrix, modal_frf
-    from femcal.frfdata import FRFData, read_frf, write_npz
-    from femcal.modal import EigenRequest
     from femcal.model import build_model
-    from femcal.sol103 import solve_sol103
+    from femcal.response.frf import channel_matrix, modal_frf
+    from femcal.solve.eigen import EigenRequest
+    from femcal.solve.normal_modes import solve_sol103
+    from femcal.testdata.data import FRFData, read_frf, write_npz
 
     WORK.mkdir(parents=True, exist_ok=True)
     deck = read_deck(FRAME / "hammer_frame.bdf")

@@ -28,7 +28,7 @@ def main() -> int:
     from femcal.deck import read_deck
     from femcal.errors import FemcalError
     from femcal.model import build_model
-    from femcal.sol103 import solve_sol103
+    from femcal.solve.normal_modes import solve_sol103
 
     print("| deck | tier | modes | worst error | at mode | tolerance | time s | result |")
     print("|---|---|---|---|---|---|---|---|")

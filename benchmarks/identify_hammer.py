@@ -4,7 +4,7 @@ modes, and side by side with sdypy-ema's LSCF on the same data (issue 7).
     make bench-identify      # installs sdypy-ema into .venv-ema for the LSCF side
 
 The true modes are recomputed from the deck with the hidden parameter values and the cross
-support (:func:`femcal.synthtest.hidden_frame`, same seed as the shipped set). Each
+support (:func:`femcal.testdata.synth.hidden_frame`, same seed as the shipped set). Each
 identified mode is paired with the true mode of the nearest frequency; MAC is against the
 true shape at the 72 sensor channels. Prints one table per method and a summary.
 """
@@ -27,7 +27,7 @@ EMA_PY = ROOT / ".venv-ema" / "bin" / "python"
 
 
 def true_modes():
-    from femcal.synthtest import SynthSettings, hidden_frame
+    from femcal.testdata.synth import SynthSettings, hidden_frame
 
     s = SynthSettings()
     model, modes, _ = hidden_frame(FRAME / "hammer_frame.bdf", FRAME / "hammer_frame.params.toml",
@@ -37,7 +37,7 @@ def true_modes():
 
 
 def sensor_shapes(model, modes, data) -> np.ndarray:
-    from femcal.frf import direction_matrix
+    from femcal.response.frf import direction_matrix
 
     axes = {"X": (1, 0, 0), "Y": (0, 1, 0), "Z": (0, 0, 1)}
     pts = []
@@ -135,8 +135,8 @@ def main(argv=None) -> int:
     ap.add_argument("--no-lscf", action="store_true", help="femcal only")
     ap.add_argument("--lscf-order", type=int, default=40)
     args = ap.parse_args(argv)
-    from femcal.frfdata import read_mat
     from femcal.identify import identify
+    from femcal.testdata.data import read_mat
 
     data = read_mat(FRAME / "hammer_test.mat")
     model, modes, true_z = true_modes()

@@ -22,10 +22,10 @@ sys.path.insert(0, str(HERE))
 
 def matrices(deck_path: Path):
     """(K_aa, M_aa) of a deck after constraints and AUTOSPC, as solve_sol103 forms them."""
-    from femcal.constraints import autospc, build_reduction
+    from femcal.assembly.constraints import autospc, build_reduction
+    from femcal.assembly.structure import Options, assemble
     from femcal.deck import read_deck
     from femcal.model import build_model
-    from femcal.structure import Options, assemble
 
     deck = read_deck(deck_path)
     model = build_model(deck)
@@ -40,7 +40,7 @@ def matrices(deck_path: Path):
 
 def main() -> int:
     import eigen_vs_calculix as plate
-    from femcal.modal import EigenRequest, solve_modes
+    from femcal.solve.eigen import EigenRequest, solve_modes
 
     plate.WORK.mkdir(parents=True, exist_ok=True)
     cases = [("200x200 plate", plate.nastran_deck(200), 20),

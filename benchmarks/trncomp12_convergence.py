@@ -78,7 +78,7 @@ def refined_deck(n: int, membrane_only: bool) -> str:
 def modes_hz(path: Path, count: int) -> np.ndarray:
     from femcal.deck import read_deck
     from femcal.model import build_model
-    from femcal.sol103 import solve_sol103
+    from femcal.solve.normal_modes import solve_sol103
 
     deck = read_deck(path)
     modes, _ = solve_sol103(deck, build_model(deck))

@@ -37,11 +37,11 @@ def solve_cantilever(coupled_mass: bool, n_modes: int = 1000):
     """The 10-CBAR cantilever reference deck solved for its lowest modes: (model, matrices,
     modes, reduction). With coupled mass every DOF (T2 and R3 of 10 grids) has a finite
     mode; with lumped mass the rotations are massless."""
+    from femcal.assembly.structure import Options, assemble
     from femcal.deck import read_deck
-    from femcal.modal import EigenRequest
     from femcal.model import build_model
-    from femcal.sol103 import solve_sol103
-    from femcal.structure import Options, assemble
+    from femcal.solve.eigen import EigenRequest
+    from femcal.solve.normal_modes import solve_sol103
 
     deck = read_deck(REFDECKS / "cofe_cantilever_cbar" / "noReduction.dat")
     model = build_model(deck)

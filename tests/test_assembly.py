@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from femcal.assembly import Assembler, Pattern
+from femcal.assembly.pattern import Assembler, Pattern
 
 
 def rotation(rng):
@@ -79,7 +79,7 @@ def test_entry_outside_the_pattern_is_refused():
 def test_compact_drops_stored_zeros_and_keeps_empty_rows():
     import scipy.sparse as sp
 
-    from femcal.structure import _compact
+    from femcal.assembly.structure import _compact
 
     A = sp.csr_matrix(np.array([[1.0, 0, 2], [0, 0, 0], [0, 0, 3.0]]))
     A.data[0] = 0.0  # a stored zero in row 0; row 1 has no entries at all
@@ -108,9 +108,9 @@ def reference_pattern(dof_start, ndof, pairs):
 
 @pytest.mark.parametrize("nodes_per_pass", [1, 2, 3, 5, 4096])
 def test_pattern_is_the_same_whatever_the_expansion_pass_size(monkeypatch, nodes_per_pass):
-    import femcal.assembly
+    import femcal.assembly.pattern
 
-    monkeypatch.setattr(femcal.assembly, "_EXPAND_NODES", nodes_per_pass)
+    monkeypatch.setattr(femcal.assembly.pattern, "_EXPAND_NODES", nodes_per_pass)
     rng = np.random.default_rng(7)
     ndof = rng.choice([1, 6], size=23, p=[0.3, 0.7])
     dof_start = np.concatenate([[0], np.cumsum(ndof)[:-1]])
@@ -126,7 +126,7 @@ def test_pattern_is_the_same_whatever_the_expansion_pass_size(monkeypatch, nodes
 def test_threaded_assembly_gives_bitwise_the_same_matrices(monkeypatch):
     """Kernels on worker threads, scatter in order: the sums do not depend on the thread
     count (shells and solids in small chunks, so that many run at once)."""
-    import femcal.structure as structure
+    import femcal.assembly.structure as structure
     from femcal.deck import read_deck
     from femcal.model import build_model
 
@@ -149,7 +149,7 @@ def test_threaded_assembly_gives_bitwise_the_same_matrices(monkeypatch):
     [((2.05, 0.05), "Jacobian"), ((1.5, 0.5), "degenerate")],  # concave; diagonals parallel
 )
 def test_bad_shell_is_reported_by_element_id_with_threads(monkeypatch, write, corner, what):
-    import femcal.structure as structure
+    import femcal.assembly.structure as structure
     from femcal.deck import read_deck
     from femcal.errors import ModelError
     from femcal.model import build_model
@@ -170,10 +170,10 @@ def test_bad_shell_is_reported_by_element_id_with_threads(monkeypatch, write, co
 def test_distorted_solid_is_reported_by_element_id(write):
     # a TETRA10 whose midside node (GRID 8, edge 1-4) is pulled past its corner: the
     # Jacobian changes sign inside it, and the error names element 22, not a position
+    from femcal.assembly.structure import assemble
     from femcal.deck import read_deck
     from femcal.errors import ModelError
     from femcal.model import build_model
-    from femcal.structure import assemble
 
     xyz = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (0.5, 0, 0), (0.5, 0.5, 0), (0, 0.5, 0),
            (0, 0, 1.4), (0.5, 0, 0.5), (0, 0.5, 0.5)]  # fmt: skip

@@ -8,9 +8,9 @@ import pytest
 import scipy.linalg as sl
 import scipy.sparse as sp
 
-from femcal.blocklanczos import LanczosNotConverged, block_lanczos
-from femcal.linalg import factorize
-from femcal.modal import EigenRequest, solve_modes
+from femcal.solve.eigen import EigenRequest, solve_modes
+from femcal.solve.factor import factorize
+from femcal.solve.lanczos import LanczosNotConverged, block_lanczos
 
 
 def twin_chains(n: int = 400) -> tuple[sp.csr_matrix, sp.csr_matrix]:
@@ -67,7 +67,7 @@ def test_too_small_a_basis_says_so_and_solve_modes_falls_back_to_arpack(monkeypa
     solve, _ = factorize((K + 10.0 * M).tocsc())
     with pytest.raises(LanczosNotConverged, match=r"of 30 roots converged with a basis of"):
         block_lanczos(solve, M, -10.0, 30, block=4, max_dim=40)
-    import femcal.modal as modal
+    import femcal.solve.eigen as modal
 
     real = modal.block_lanczos
     monkeypatch.setattr(modal, "block_lanczos",

@@ -8,6 +8,8 @@ import pytest
 import scipy.linalg as sla
 import scipy.sparse as sp
 
+from femcal.assembly.constraints import build_reduction
+from femcal.assembly.structure import assemble
 from femcal.calibrate.derivatives import (
     DerivativeError,
     eigenvalue_sensitivities,
@@ -20,10 +22,8 @@ from femcal.calibrate.parameters import (
     with_values,
     write_calibrated_deck,
 )
-from femcal.constraints import build_reduction
 from femcal.deck import read_deck
 from femcal.model import build_model
-from femcal.structure import assemble
 
 from .calib_decks import PARAMS_TOML, plate_deck, write_plate
 

@@ -10,7 +10,7 @@ from femcal.calibrate.gradient import first_order_correction
 from femcal.calibrate.metric import jacobian, log_frequencies, residuals
 from femcal.calibrate.starts import Problem
 from femcal.calibrate.surrogate import build_surrogate
-from femcal.frfdata import Channel
+from femcal.testdata.data import Channel
 
 from .calib_decks import write_plate
 

@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
+from femcal.assembly.structure import assemble
 from femcal.calibrate.metric import jacobian, log_frequencies, residuals
 from femcal.calibrate.parameters import with_values
 from femcal.calibrate.surrogate import build_surrogate
-from femcal.frf import channel_matrix, modal_frf
-from femcal.frfdata import Channel
-from femcal.modal import EigenRequest
-from femcal.sol103 import solve_sol103
-from femcal.structure import assemble
+from femcal.response.frf import channel_matrix, modal_frf
+from femcal.solve.eigen import EigenRequest
+from femcal.solve.normal_modes import solve_sol103
+from femcal.testdata.data import Channel
 
 from .calib_decks import write_plate
 
@@ -147,7 +147,7 @@ def test_derivative_vectors_lumped_mass_shortcut_and_reused_factor_change_nothin
     vectors span the same space as the general path's with their own factorisation."""
     from femcal.calibrate import surrogate as sur_mod
     from femcal.calibrate.derivatives import group_polynomials
-    from femcal.linalg import factorize
+    from femcal.solve.factor import factorize
 
     deck, model, params = setup
     c = np.linspace(0.05, -0.05, len(params))
@@ -216,11 +216,11 @@ def test_surrogate_soft_modes_are_accurate_beside_stiff_directions():
 
 def test_residual_flexibility_surrogate_is_the_full_model_at_its_centre_with_its_jacobian(setup):
     """residual=True: the FRFs add the residual flexibility of the modes beyond n_modes. At
-    the centre the surrogate is the full model's modal sum plus femcal.frf's residual
+    the centre the surrogate is the full model's modal sum plus femcal.response.frf's residual
     flexibility; its Jacobian matches central differences of the full model (the static
     responses in the basis hold nearly massless directions with eigenvalues ~1e17: a repeated
     -pair threshold relative to those dropped the coupling of the two lowest modes)."""
-    from femcal.frf import residual_flexibility
+    from femcal.response.frf import residual_flexibility
 
     deck, model, params = setup
 

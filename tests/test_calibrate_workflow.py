@@ -14,11 +14,11 @@ from femcal.calibrate.parameters import current_value, with_values
 from femcal.calibrate.workflow import run
 from femcal.cli import main
 from femcal.deck import read_deck
-from femcal.frf import channel_matrix, modal_frf
-from femcal.frfdata import Channel, FRFData, write_npz
-from femcal.modal import EigenRequest
 from femcal.model import build_model
-from femcal.sol103 import solve_sol103
+from femcal.response.frf import channel_matrix, modal_frf
+from femcal.solve.eigen import EigenRequest
+from femcal.solve.normal_modes import solve_sol103
+from femcal.testdata.data import Channel, FRFData, write_npz
 
 from .calib_decks import PARAMS_TOML, plate_deck, write_plate
 
@@ -119,7 +119,7 @@ def test_a_second_run_resumes_from_the_finished_starts(study):
 
 
 def test_report_pictures_and_page(study):
-    from femcal.calibrate.report import write_report
+    from femcal.viz.calibration import write_report
 
     d, _, outcome, _ = study
     page = write_report(outcome, d / "out")
@@ -215,7 +215,7 @@ def test_a_synthetic_tests_truth_sets_each_error_against_its_crlb(study, tmp_pat
     its error and |error| / CRLB to the report; it does not change the run (the finished
     starts are resumed)."""
     from femcal.calibrate.parameters import read_truth
-    from femcal.calibrate.report import write_report
+    from femcal.viz.calibration import write_report
 
     d, params, outcome, _ = study
     lines = ["# the plate's hidden values"]

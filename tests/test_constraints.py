@@ -1,4 +1,4 @@
-"""The a-set selection of rows and columns (femcal.constraints.select_symmetric)."""
+"""The a-set selection of rows and columns (femcal.assembly.constraints.select_symmetric)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from femcal.constraints import select_symmetric
+from femcal.assembly.constraints import select_symmetric
 
 
 @pytest.mark.parametrize("n", [1, 5, 50, 700])

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from femcal.correlate import (
+from femcal.correlate.shapes import (
     frequency_difference,
     mac,
     modal_scale_factor,

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from femcal.deck import read_deck
-from femcal.frf import (
+from femcal.model import build_model
+from femcal.response.frf import (
     Rayleigh,
     direct_frf,
     direction_matrix,
@@ -14,8 +15,7 @@ from femcal.frf import (
     point_matrix,
     residual_flexibility,
 )
-from femcal.model import build_model
-from femcal.sol103 import solve_sol103
+from femcal.solve.normal_modes import solve_sol103
 
 from .conftest import solve_cantilever
 

@@ -7,8 +7,11 @@ import pytest
 
 from femcal.cli import main
 from femcal.deck import read_deck
-from femcal.frf import modal_frf, point_matrix
-from femcal.frfdata import (
+from femcal.model import build_model
+from femcal.response.frf import modal_frf, point_matrix
+from femcal.solve.eigen import EigenRequest
+from femcal.solve.normal_modes import solve_sol103
+from femcal.testdata.data import (
     Channel,
     FRFData,
     assemble_runs,
@@ -21,9 +24,6 @@ from femcal.frfdata import (
     write_npz,
     write_uff,
 )
-from femcal.modal import EigenRequest
-from femcal.model import build_model
-from femcal.sol103 import solve_sol103
 
 from .conftest import REFDECKS
 

@@ -9,7 +9,6 @@ import itertools
 import numpy as np
 import pytest
 
-from femcal.frfdata import FRFData
 from femcal.identify import (
     Settings,
     equalize_damping,
@@ -22,7 +21,8 @@ from femcal.identify import (
     subspace_basis,
 )
 from femcal.identify.lsq import Resolvent, cost, response
-from femcal.statespace import modal_to_poles, poles_to_modal
+from femcal.response.statespace import modal_to_poles, poles_to_modal
+from femcal.testdata.data import FRFData
 
 FN = np.array([12.0, 21.0, 33.0, 47.0, 52.0, 80.0, 130.0, 200.0])  # Hz
 ZETA = np.array([0.01, 0.02, 0.015, 0.01, 0.012, 0.02, 0.01, 0.01])
@@ -115,7 +115,7 @@ def test_damping_equalisation_keeps_damped_frequencies_and_residues():
         "kpm,kf->pmf", res.conj(), 1 / (s[None] - lam.conj()[:, None]))
     rest = model.system
     n_phys = 2 * k
-    from femcal.statespace import StateSpace
+    from femcal.response.statespace import StateSpace
 
     tail = StateSpace(rest.A[n_phys:, n_phys:], rest.B[n_phys:], rest.C[:, n_phys:], rest.D)
     np.testing.assert_allclose(eq.frf(f).H, phys + frequency_response(tail, f), rtol=1e-9,
@@ -191,8 +191,8 @@ def test_cli_writes_the_model_summary_and_pictures(tmp_path, capsys):
     import json
 
     from femcal.cli import main
-    from femcal.frfdata import write_uff
-    from femcal.identify.io import read_model
+    from femcal.io.identified import read_model
+    from femcal.testdata.data import write_uff
 
     data, _ = modal_set(noise=0.01, seed=8)
     H = data.H.copy()
@@ -232,7 +232,7 @@ def test_cli_reports_bad_input(tmp_path, capsys):
     assert main(["identify", str(tmp_path / "none.npz"), "--band", "1", "2"]) == 2
     assert "No such file or directory" in capsys.readouterr().err
     data, _ = modal_set()
-    from femcal.frfdata import write_npz
+    from femcal.testdata.data import write_npz
 
     src = write_npz(tmp_path / "d.npz", data)
     assert main(["identify", str(src), "--band", "15", "500"]) == 2

@@ -7,7 +7,7 @@ import pytest
 
 from femcal.elements.line import bar_matrices, bush_matrices, line_frame, rod_matrices
 from femcal.elements.mass import conm1_matrix, conm2_matrix
-from femcal.elements.sections import section_properties, shear_factors
+from femcal.properties.sections import section_properties, shear_factors
 
 RNG = np.random.default_rng(7)
 

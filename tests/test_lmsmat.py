@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import scipy.io
 
-from femcal.frfdata import convert_units, quantity_of_units, read_frf, read_mat
-from femcal.lmsmat import channel_label, read_lms_mat, split_function_name
+from femcal.testdata.data import convert_units, quantity_of_units, read_frf, read_mat
+from femcal.testdata.lms import channel_label, read_lms_mat, split_function_name
 
 G = 9.80665
 
@@ -113,7 +113,7 @@ def test_errors_name_the_file_block_and_pair(tmp_path):
 
 
 def test_unit_conversion_refuses_other_quantities():
-    from femcal.frfdata import FRFData
+    from femcal.testdata.data import FRFData
 
     d = FRFData.from_labels([1.0, 2.0], np.ones((1, 1, 2)), ["1:+X"], ["2:+Y"],
                             "accelerance", "g/N")  # fmt: skip

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from femcal import modal
 from femcal.cli import main
 from femcal.errors import SolverError
-from femcal.linalg import HAVE_CHOLMOD
-from femcal.modal import EigenRequest, solve_modes
+from femcal.solve import eigen as modal
+from femcal.solve.eigen import EigenRequest, solve_modes
+from femcal.solve.factor import HAVE_CHOLMOD
 
 from .conftest import REFDECKS
 

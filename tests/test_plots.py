@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from femcal.frfdata import FRFData
-from femcal.plots import frf_overlay
+from femcal.testdata.data import FRFData
+from femcal.viz.frf import frf_overlay
 
 
 def data(scale: float = 1.0) -> FRFData:

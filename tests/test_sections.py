@@ -2,7 +2,7 @@
 brute-force integration over a fine grid of independently described shapes, torsion and shear
 factors, dimension checks, the older types unchanged, and a bar model using a library section.
 
-Geometry (y up, z to the right, as in femcal.elements.sections): L has its legs along +y and
+Geometry (y up, z to the right, as in femcal.properties.sections): L has its legs along +y and
 +z from the corner, so I12 < 0; Z has its top flange on -z and its bottom flange on +z, so
 I12 < 0; BOX1 has DIM5 on the right (+z) and DIM6 on the left.
 """
@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from femcal.deck import read_deck
-from femcal.elements.sections import section_properties, shear_factors
 from femcal.model import build_model
-from femcal.sol103 import solve_sol103
+from femcal.properties.sections import section_properties, shear_factors
+from femcal.solve.normal_modes import solve_sol103
 
 NEW_TYPES = ["I", "I1", "CHAN", "CHAN1", "CHAN2", "T", "T1", "T2", "L", "H", "Z", "CROSS",
              "HAT", "BOX1"]  # fmt: skip

@@ -7,9 +7,9 @@ import pytest
 
 from femcal.deck import read_deck
 from femcal.deck.fields import INT_BLANK
-from femcal.materials import MaterialTables
 from femcal.model import build_model
-from femcal.shellsections import shell_sections
+from femcal.properties.materials import MaterialTables
+from femcal.properties.shells import shell_sections
 
 HEAD = "SOL 103\nCEND\nBEGIN BULK\nGRID,1\nGRID,2,,1.\nGRID,3,,1.,1.\nGRID,4,,0.,1.\n"
 

@@ -10,7 +10,7 @@ import pytest
 from femcal.deck import read_deck
 from femcal.errors import ModelError
 from femcal.model import build_model
-from femcal.sol103 import solve_sol103
+from femcal.solve.normal_modes import solve_sol103
 
 HEAD = "SOL 103\nCEND\nMETHOD = 1\nSPC = 1\nBEGIN BULK\n"
 
@@ -173,8 +173,8 @@ def test_autospc_reports_singular_rotations(write):
 def test_grid_point_weight_generator(write):
     # Two masses: 2 t at (100, 0, 0) with inertia, 1 t at (0, 300, 50): total 3 t, centre of
     # gravity (200/3, 100, 50/3); inertia about the CG by the parallel-axis theorem.
-    from femcal.structure import assemble
-    from femcal.weight import weight_summary
+    from femcal.assembly.structure import assemble
+    from femcal.assembly.weight import weight_summary
 
     text = ("EIGRL   1                       1\nGRID,1,,100.,0.,0.\nGRID,2,,0.,300.,50.\n"
             "CONM2,1,1,,2.,,,,,+\n+,10.,,20.,,,30.\nCONM2,2,2,,1.\n")  # fmt: skip

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from femcal.frf import modal_frf, point_matrix
-from femcal.statespace import (
+from femcal.response.frf import modal_frf, point_matrix
+from femcal.response.statespace import (
     StateSpace,
     frequency_response,
     from_modes,

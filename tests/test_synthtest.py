@@ -8,8 +8,8 @@ import tomllib
 import numpy as np
 import pytest
 
-from femcal.frfdata import read_mat, read_uff
-from femcal.synthtest import make_hammer_test
+from femcal.testdata.data import read_mat, read_uff
+from femcal.testdata.synth import make_hammer_test
 
 from .conftest import ROOT
 
@@ -76,7 +76,7 @@ def test_the_shipped_set_regenerates():
 
 
 def test_bad_sensor_and_parameter_files_are_named(tmp_path):
-    from femcal.synthtest import read_points
+    from femcal.testdata.synth import read_points
 
     bad = tmp_path / "s.csv"
     bad.write_text("label,grid,directions\nA,1,123\nB,x1,123\n")

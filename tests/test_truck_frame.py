@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from femcal.deck import read_deck
+from femcal.examples.truck_frame import FrameDimensions, write_frame
 from femcal.model import build_model
-from femcal.models.truck_frame import FrameDimensions, write_frame
-from femcal.sol103 import solve_sol103
+from femcal.solve.normal_modes import solve_sol103
 
 from .conftest import ROOT
 

@@ -34,9 +34,9 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from ..assembly.structure import Options, assemble
 from ..errors import FemcalError
 from ..model.model import Model
-from ..structure import Options, assemble
 from .parameters import Parameter, affected_elements, current_value, subset, with_values
 
 #: Relative half-width of the interpolation points around P.

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from ..linalg import factorize
+from ..solve.factor import factorize
 from .derivatives import GroupPolynomial
 from .metric import jacobian
 from .surrogate import (

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atomic import write_atomic
+from ..io.atomic import write_atomic
 from .lm import levenberg_marquardt
 from .metric import jacobian, residuals
 from .surrogate import Surrogate

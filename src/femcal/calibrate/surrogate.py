@@ -40,13 +40,13 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
+from ..assembly.structure import Options, assemble
 from ..deck.deck import Deck
-from ..frf import QUANTITIES, channel_matrix
-from ..linalg import NotPositiveDefinite, factorize
-from ..modal import DEFAULT_SHIFT_HZ, EigenRequest
 from ..model.model import Model
-from ..sol103 import solve_sol103
-from ..structure import Options, assemble
+from ..response.frf import QUANTITIES, channel_matrix
+from ..solve.eigen import DEFAULT_SHIFT_HZ, EigenRequest
+from ..solve.factor import NotPositiveDefinite, factorize
+from ..solve.normal_modes import solve_sol103
 from .derivatives import GroupPolynomial, group_polynomials
 from .parameters import Parameter, with_values
 
@@ -120,7 +120,7 @@ class Surrogate:
         ``C K~^-1 B^T - sum_{j < n_frf} (C psi_j)(B psi_j)^T / lam_j``, which is the sum
         over the other Ritz modes (no cancellation). The basis then holds the static
         responses to the inputs, so at the centre this is the full model's residual
-        flexibility (:func:`femcal.frf.residual_flexibility`).
+        flexibility (:func:`femcal.response.frf.residual_flexibility`).
     exact : the full model's exact FRF derivatives at the centre
         (:class:`femcal.calibrate.gradient.CentreDerivatives`), when asked for.
     """
@@ -433,11 +433,11 @@ def derivative_vectors(polys: list[GroupPolynomial], center: np.ndarray, K: obje
     Parameters
     ----------
     K, M : g-set matrices at the centre (sparse). red : the constraint reduction
-        (:class:`femcal.constraints.Reduction`): the solves are on its a-set.
+        (:class:`femcal.assembly.constraints.Reduction`): the solves are on its a-set.
     Phi : (n_g, r) M-orthonormal basis at the centre whose first len(lam_basis) columns are
         the modes, lam_basis their eigenvalues; the first m modes get derivative vectors.
     solve : a factor of the a-set's K - STATIC_SHIFT M if one is at hand (the eigen
-        solution's, :func:`femcal.modal.solve_modes` ``on_factor``); factored here if not.
+        solution's, :func:`femcal.solve.eigen.solve_modes` ``on_factor``); factored here if not.
 
     Returns
     -------
@@ -518,7 +518,7 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
 
     Parameters
     ----------
-    outputs, inputs : channels (``femcal.frfdata.Channel``) of the test data.
+    outputs, inputs : channels (``femcal.testdata.data.Channel``) of the test data.
     order : ``exact`` (every polynomial term) or ``first-order`` (FEMCali's).
     polynomials : the model's group polynomials about p = 0 with their constant terms
         (:func:`femcal.calibrate.derivatives.group_polynomials` with ``constant=True``);
@@ -530,7 +530,7 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
         the Jacobian right at the centre (the modes alone truncate the eigenvector
         derivatives), which the trust-region cycles near the solution need.
     residual : the FRFs get the residual flexibility of the modes beyond the ``frf_modes``
-        lowest (as :func:`femcal.frf.residual_flexibility`), the basis the static responses
+        lowest (as :func:`femcal.response.frf.residual_flexibility`), the basis the static responses
         to the inputs and their parameter derivatives (:func:`static_vectors`). Needs a
         restrained model.
     frf_modes : the FRFs sum this many lowest modes (default ``n_modes``); with
@@ -541,7 +541,8 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
 
     Returns
     -------
-    The surrogate and the full model's modes at the centre (:class:`femcal.sol103.Modes`).
+    The surrogate and the full model's modes at the centre
+    (:class:`femcal.solve.normal_modes.Modes`).
     """
     if quantity not in QUANTITIES:
         raise ValueError(f"quantity must be one of {', '.join(QUANTITIES)}")

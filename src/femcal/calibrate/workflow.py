@@ -36,14 +36,14 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atomic import write_atomic
-from ..correlate import mac, pair_modes, pseudo_orthogonality, serep_mass
+from ..correlate.shapes import mac, pair_modes, pseudo_orthogonality, serep_mass
 from ..deck import read_deck
-from ..frf import channel_matrix
-from ..frfdata import FRFData, convert_units, read_frf
 from ..identify import Settings, equalize_damping, identify
-from ..identify.io import read_model, write_model, write_summary
+from ..io.atomic import write_atomic
+from ..io.identified import read_model, write_model, write_summary
 from ..model import build_model
+from ..response.frf import channel_matrix
+from ..testdata.data import FRFData, convert_units, read_frf
 from .config import Config
 from .derivatives import group_polynomials
 from .fisher import fisher

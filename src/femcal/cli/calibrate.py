@@ -46,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
         return 2
     rep = outcome.report
     if cfg.pictures and not args.no_pictures:
-        from ..calibrate.report import write_report
+        from ..viz.calibration import write_report
 
         write_report(outcome, args.out, progress=progress)
     print(f"{'parameter':<10} {'nominal':>12} {'calibrated':>12} {'change %':>9} "

@@ -10,13 +10,13 @@ from pathlib import Path
 
 import numpy as np
 
+from ..assembly.structure import Options, assemble
 from ..deck import read_deck
-from ..frf import QUANTITIES, modal_frf, point_matrix, residual_flexibility
-from ..frfdata import FRFData, write_csv, write_mat, write_npz, write_uff
-from ..modal import EigenRequest
 from ..model import build_model
-from ..sol103 import solve_sol103
-from ..structure import Options, assemble
+from ..response.frf import QUANTITIES, modal_frf, point_matrix, residual_flexibility
+from ..solve.eigen import EigenRequest
+from ..solve.normal_modes import solve_sol103
+from ..testdata.data import FRFData, write_csv, write_mat, write_npz, write_uff
 
 _WRITERS = {".npz": write_npz, ".csv": write_csv, ".uff": write_uff, ".unv": write_uff,
             ".mat": write_mat}  # fmt: skip

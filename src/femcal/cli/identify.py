@@ -10,9 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..frfdata import convert_units, read_frf, write_npz
 from ..identify import Settings, identify
-from ..identify.io import write_model, write_summary
+from ..io.identified import write_model, write_summary
+from ..testdata.data import convert_units, read_frf, write_npz
 
 
 def _order(text: str) -> int | None:
@@ -104,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _write_out(out: Path, data, model, progress) -> None:
-    from ..plots import frf_overlay, stabilization_diagram
+    from ..viz.frf import frf_overlay, stabilization_diagram
 
     out.mkdir(parents=True, exist_ok=True)
     write_model(out / "model.npz", model)

@@ -27,7 +27,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..models.truck_frame import write_frame
+    from ..examples.truck_frame import write_frame
 
     paths = write_frame(args.variant, args.out)
     for path in paths:
@@ -41,8 +41,8 @@ def run(args: argparse.Namespace) -> int:
 def _pictures(deck_path: Path, out: Path) -> list[Path]:
     from ..deck import read_deck
     from ..model import build_model
-    from ..sol103 import solve_sol103
-    from ..viz import render_mesh, render_modes
+    from ..solve.normal_modes import solve_sol103
+    from ..viz.render import render_mesh, render_modes
 
     deck = read_deck(deck_path)
     model = build_model(deck)

@@ -8,13 +8,13 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+from ..assembly.structure import Options, assemble
+from ..assembly.weight import weight_summary, weight_table
 from ..deck import read_deck
 from ..deck.writer import write_text_atomic
+from ..io.modes import eigen_table, modes_json, write_json, write_npz, write_vtu
 from ..model import build_model
-from ..results import eigen_table, modes_json, write_json, write_npz, write_vtu
-from ..sol103 import eigen_request, solve_sol103
-from ..structure import Options, assemble
-from ..weight import weight_summary, weight_table
+from ..solve.normal_modes import eigen_request, solve_sol103
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -76,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
         write_text_atomic(args.out / "eigenvalues.txt", table)
         progress(f"wrote {args.out}/modes.npz, modes.vtu, eigenvalues.txt")
     if args.png:
-        from ..viz import render_modes
+        from ..viz.render import render_modes
 
         paths = render_modes(modes, model, args.png, title=args.deck.name)
         progress(f"wrote {len(paths)} pictures to {args.png}")

@@ -1,5 +1,5 @@
 """``femcal synth-test DECK --params TOML --sensors CSV --inputs CSV --out DIR [--seed N]``:
-lab-like hammer-test FRFs from a deck with hidden parameters (see femcal.synthtest)."""
+lab-like hammer-test FRFs from a deck with hidden parameters (see femcal.testdata.synth)."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import tomllib
 from pathlib import Path
 
 from ..deck.writer import write_text_atomic
-from ..frfdata import write_mat, write_uff
-from ..synthtest import SynthSettings, make_hammer_test, truth_toml
+from ..testdata.data import write_mat, write_uff
+from ..testdata.synth import SynthSettings, make_hammer_test, truth_toml
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

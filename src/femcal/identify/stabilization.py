@@ -21,8 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..correlate import mac
-from ..statespace import poles_to_modal
+from ..correlate.shapes import mac
+from ..response.statespace import poles_to_modal
 from .lsq import lsfd
 from .subspace import default_block_rows, model_of_order, subspace_basis
 

@@ -37,8 +37,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..frfdata import Channel, FRFData
-from ..statespace import StateSpace, frequency_response, poles_to_modal
+from ..response.statespace import StateSpace, frequency_response, poles_to_modal
+from ..testdata.data import Channel, FRFData
 from .channels import consistency_error, outliers
 from .lsq import FixedPoleModel, Resolvent, fit_c, fit_fixed_poles, response
 from .stabilization import Stabilization, physical_poles, poles_at_modes, stabilization

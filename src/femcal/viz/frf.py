@@ -6,8 +6,8 @@ import os
 
 import numpy as np
 
-from .atomic import write_atomic
-from .frfdata import FRFData
+from ..io.atomic import write_atomic
+from ..testdata.data import FRFData
 
 
 def frf_overlay(

@@ -19,15 +19,15 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from .assembly import Assembler, Pattern
-from .deck.fields import INT_BLANK
-from .elements.line import bar_matrices, bush_matrices, line_frame, rod_matrices
-from .elements.mass import conm1_matrix, conm2_matrix
-from .elements.sections import section_properties, shear_factors
-from .errors import ModelError
-from .materials import MaterialTables, mat1_moduli
-from .model.coords import displacement_frames
-from .model.model import ElementBlock, Model
+from ..deck.fields import INT_BLANK
+from ..elements.line import bar_matrices, bush_matrices, line_frame, rod_matrices
+from ..elements.mass import conm1_matrix, conm2_matrix
+from ..errors import ModelError
+from ..model.coords import displacement_frames
+from ..model.model import ElementBlock, Model
+from ..properties.materials import MaterialTables, mat1_moduli
+from ..properties.sections import section_properties, shear_factors
+from .pattern import Assembler, Pattern
 
 #: Elements per kernel call. It bounds the kernels' temporaries to about 10 MB each, small
 #: enough for the C library to reuse freed memory rather than map fresh pages per call (which
@@ -346,7 +346,7 @@ def _bars(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
 
 
 def _beams(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
-    from .elements.line import _GAUSS_W, _GAUSS_X, FLEX_X
+    from ..elements.line import _GAUSS_W, _GAUSS_X, FLEX_X
 
     m = ctx.model
     n = len(block)
@@ -559,9 +559,9 @@ def _conm1(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
 
 
 def _shells(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
-    from .elements.shell import quad4_matrices, shell_frame, tria3_matrices
-    from .elements.shell_quadratic import MIDSIDE_EDGES, quad8_matrices, tria6_matrices
-    from .shellsections import shell_sections
+    from ..elements.shell import quad4_matrices, shell_frame, tria3_matrices
+    from ..elements.shell_quadratic import MIDSIDE_EDGES, quad8_matrices, tria6_matrices
+    from ..properties.shells import shell_sections
 
     m = ctx.model
     k = block.nodes.shape[1]
@@ -658,7 +658,7 @@ def _material_angle(
 
 
 def _shear_panels(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
-    from .elements.shear import shear_panel_matrices
+    from ..elements.shear import shear_panel_matrices
 
     m = ctx.model
     t, rows = _property(m, "PSHEAR", block)
@@ -689,7 +689,7 @@ _SOLID_KINDS = {
 
 
 def _solids(ctx: _Context, block: ElementBlock, asm: Assembler) -> float:
-    from .elements.solid import solid_matrices, solid_volume
+    from ..elements.solid import solid_matrices, solid_volume
 
     m = ctx.model
     t, rows = _property(m, "PSOLID", block)

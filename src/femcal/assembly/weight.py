@@ -8,8 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from .elements.line import skew
-from .model.model import Model
+from ..elements.line import skew
+from ..model.model import Model
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,7 @@
 """Real eigenvalue analysis (SOL 103): K phi = lambda M phi on the a-set.
 
 Shift-invert Lanczos on a factor of K - sigma M for large problems (block Lanczos,
-:mod:`femcal.blocklanczos`, by default; ARPACK's eigsh with our own OPinv on request or when
+:mod:`femcal.solve.lanczos`, by default; ARPACK's eigsh with our own OPinv on request or when
 the block iteration does not converge), a dense solution for small ones. The shift is
 negative so free-free models give their rigid-body modes. EIGRL semantics: all roots in
 [V1, V2] (Hz), at most ND of them.
@@ -18,9 +18,9 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from threadpoolctl import threadpool_limits
 
-from .blocklanczos import LanczosNotConverged, block_lanczos
-from .errors import SolverError
-from .linalg import NotPositiveDefinite, factorize
+from ..errors import SolverError
+from .factor import NotPositiveDefinite, factorize
+from .lanczos import LanczosNotConverged, block_lanczos
 
 #: Below this a-set size the dense solver is used.
 DENSE_LIMIT = 600
@@ -89,7 +89,7 @@ def solve_modes(
         give infinite eigenvalues, which are never returned).
     shift_hz : |sigma| of the negative shift, sigma = -(2 pi shift_hz)^2.
     backend : factorisation for the sparse path ("auto", "cholmod", "superlu").
-    method : the sparse path's Lanczos: "block" (:mod:`femcal.blocklanczos`, one solve per
+    method : the sparse path's Lanczos: "block" (:mod:`femcal.solve.lanczos`, one solve per
         block of 8 vectors; ARPACK if it does not converge) or "arpack" (scipy's eigsh with
         our OPinv, one solve per vector).
     progress : called with short status lines during long solves.

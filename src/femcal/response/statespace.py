@@ -60,7 +60,7 @@ def from_modes(
     """Real modal state-space model (2k states) of k modes.
 
     shapes (n_g, k) mass-normalised; omega (k,) rad/s; damping as for
-    :func:`femcal.frf.modal_frf`; C (n_out, n_g) sensors; B (n_g, n_in) loads; output
+    :func:`femcal.response.frf.modal_frf`; C (n_out, n_g) sensors; B (n_g, n_in) loads; output
     displacement, velocity or acceleration (the latter with feedthrough D).
     """
     if output not in OUTPUTS:

@@ -15,11 +15,11 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from .deck.deck import Deck
-from .deck.fields import INT_BLANK
-from .elements.line import skew
-from .errors import ModelError
-from .model.model import Model
+from ..deck.deck import Deck
+from ..deck.fields import INT_BLANK
+from ..elements.line import skew
+from ..errors import ModelError
+from ..model.model import Model
 
 #: NASTRAN PARAM EPZERO: a grid point's 3 x 3 stiffness block is singular in a direction
 #: whose eigenvalue is below this fraction of the block's largest.

@@ -2,7 +2,8 @@
 pseudo-orthogonality with the mass reduced to the sensors.
 
 Shapes are columns of (n_sensors, k) arrays at the same sensor channels (the FE shapes taken
-to the sensor directions with :func:`femcal.frf.channel_matrix`); test shapes may be complex.
+to the sensor directions with :func:`femcal.response.frf.channel_matrix`); test shapes may be
+complex.
 """
 
 from __future__ import annotations

@@ -7,10 +7,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import write_atomic
-from .model.model import Model
-from .results import basic_translations, mesh_cells
-from .sol103 import Modes
+from ..io.atomic import write_atomic
+from ..io.modes import basic_translations, mesh_cells
+from ..model.model import Model
+from ..solve.normal_modes import Modes
 
 _VTK_TYPES = {
     "vertex": 1, "line": 3, "triangle": 5, "quad": 9, "tetra": 10, "hexahedron": 12,

@@ -24,7 +24,7 @@ cut: the spider's rigid patch stands for the bolt head and washer.
 
 Coordinates: X from the front end rearwards, Y to the left, Z up; the rails' webs at
 Y = +-430, the frame's mid-height at Z = 0. Everything is built on shared station lines
-(:mod:`femcal.models.mesher`), so the rails, liners, end plates and brackets are conforming
+(:mod:`femcal.examples.mesher`), so the rails, liners, end plates and brackets are conforming
 where they meet and the decks regenerate byte-identically.
 """
 
@@ -480,7 +480,7 @@ def deck_lines(f: _Frame, title: str) -> list[str]:
     """The frame as NASTRAN SOL 103 text (small field where exact)."""
     out = [
         f"$ {title}",
-        "$ written by femcal.models.truck_frame: units mm, tonne, s, N, MPa",
+        "$ written by femcal.examples.truck_frame: units mm, tonne, s, N, MPa",
         "SOL 103",
         "CEND",
         f"TITLE = {title}",
@@ -598,7 +598,7 @@ def params_toml(params: list[dict]) -> list[str]:
     """TOML text of the parameter table (one [[parameter]] table per parameter)."""
     lines = [
         "# Calibration parameters of the hammer frame: P = P0 (1 + p), within [lower, upper].",
-        "# Written by femcal.models.truck_frame; the study's 30 parameters (see METHOD.md).",
+        "# Written by femcal.examples.truck_frame; the study's 30 parameters (see METHOD.md).",
     ]
     for p in params:
         lines += ["", "[[parameter]]"]

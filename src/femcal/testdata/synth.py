@@ -12,7 +12,7 @@ The "real" frame differs from the FE model in three ways, as a test article does
 It is then "measured" as the study did: the sensor positions are visited a few triaxial
 sensors at a time, once per hammer input; every run gets its own noise (a fraction of each
 FRF's magnitude, plus a floor), and the runs are assembled into one MIMO set
-(:func:`femcal.frfdata.assemble_runs`). Accelerance (mm/s^2/N) from 0.05 Hz to 150 Hz in
+(:func:`femcal.testdata.data.assemble_runs`). Accelerance (mm/s^2/N) from 0.05 Hz to 150 Hz in
 0.05 Hz steps by default.
 """
 
@@ -25,13 +25,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .deck import read_deck
-from .frf import modal_frf, point_matrix
-from .frfdata import FRFData, assemble_runs
-from .modal import EigenRequest
-from .model import build_model
-from .sol103 import solve_sol103
-from .structure import Options, assemble
+from ..assembly.structure import Options, assemble
+from ..deck import read_deck
+from ..model import build_model
+from ..response.frf import modal_frf, point_matrix
+from ..solve.eigen import EigenRequest
+from ..solve.normal_modes import solve_sol103
+from .data import FRFData, assemble_runs
 
 #: Parameter tables and the column each field lives in.
 _FIELDS = {("PSHELL", "T"): ("properties", "pid", "t"), ("PBAR", "A"): ("properties", "pid", "a"),
@@ -114,8 +114,8 @@ def hidden_frame(deck_path: str | Path, params_path: str | Path, settings: Synth
     Returns
     -------
     (model, modes, truth): the model with the hidden values, its modes
-    (:class:`femcal.sol103.Modes`) and per parameter a dict (name, card, id, field, nominal,
-    true, p). With ``rng = np.random.default_rng(settings.seed)`` this is the frame behind
+    (:class:`femcal.solve.normal_modes.Modes`) and per parameter a dict (name, card, id, field,
+    nominal, true, p). With ``rng = np.random.default_rng(settings.seed)`` this is the frame behind
     :func:`make_hammer_test`'s data (it draws the parameters first).
     """
     s = settings

@@ -20,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import write_atomic
-from .frf import QUANTITIES
+from ..io.atomic import write_atomic
+from ..response.frf import QUANTITIES
 
 _LABEL = re.compile(r"^\s*(\d+)\s*:\s*([+-]?(?:[1-6]|R?[XYZ]))\s*$", re.IGNORECASE)
 
@@ -399,7 +399,7 @@ def write_mat(path: str | os.PathLike[str], data: FRFData) -> Path:
 def read_mat(path: str | os.PathLike[str], *, quantity: str | None = None) -> FRFData:
     """Read a MATLAB file (version 5 to 7.2): what :func:`write_mat` writes, or the LMS
     Test.Lab export layout (structs with ``x_values`` and ``y_values``; see
-    :mod:`femcal.lmsmat`, where ``quantity`` is used). KeyError names a missing variable."""
+    :mod:`femcal.testdata.lms`, where ``quantity`` is used). KeyError names a missing variable."""
     import scipy.io
 
     z = scipy.io.loadmat(str(path), squeeze_me=True)
@@ -409,7 +409,7 @@ def read_mat(path: str | os.PathLike[str], *, quantity: str | None = None) -> FR
                    and "y_values" in v.dtype.names for v in z.values()):  # fmt: skip
             raise KeyError(f"{path}: missing {', '.join(sorted(missing))} (and no Test.Lab "
                            "struct with x_values and y_values)")  # fmt: skip
-        from .lmsmat import read_lms_mat
+        from .lms import read_lms_mat
 
         return read_lms_mat(path, quantity=quantity)
     f = np.atleast_1d(np.asarray(z["frequency_hz"], float))

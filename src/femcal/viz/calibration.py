@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atomic import write_atomic
-from ..correlate import modal_scale_factor, pair_modes
+from ..correlate.shapes import modal_scale_factor, pair_modes
+from ..io.atomic import write_atomic
 
 
 def _plt():
@@ -24,7 +24,7 @@ def _plt():
 
 
 def _save(fig, path: Path) -> Path:
-    from ..plots import save_figure
+    from .frf import save_figure
 
     save_figure(fig, path, dpi=100)
     return path
@@ -150,7 +150,7 @@ def vector_plot(path: Path, outcome) -> Path | None:
     """Test shape against FE shape (after calibration, scaled by the modal scale factor),
     component by component, for each paired mode: points on the diagonal agree."""
     plt = _plt()
-    from ..frf import channel_matrix
+    from ..response.frf import channel_matrix
 
     Cg = channel_matrix(outcome.model, outcome.outputs)
     fe = np.asarray(Cg @ outcome.modes_after.shapes)
@@ -286,8 +286,8 @@ def write_report(outcome, out: str | os.PathLike[str], *,
         if vp is not None:
             pictures["Paired shapes, component against component"] = vp
     say("rendering the calibrated model's paired modes")
-    from ..frf import channel_matrix
-    from ..viz import render_modes
+    from ..response.frf import channel_matrix
+    from .render import render_modes
 
     fe = np.asarray(channel_matrix(outcome.model, outcome.outputs) @ outcome.modes_after.shapes)
     which: list[int] = []

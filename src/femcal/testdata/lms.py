@@ -22,7 +22,7 @@ A name that is not response/reference is an error: an FRF without its reference 
 useless for assembling a MIMO set.
 
 The values are returned in the display unit of the file (``unit_transformation`` applied),
-the unit recorded in :attr:`FRFData.units`; :func:`femcal.frfdata.convert_units` changes it.
+the unit recorded in :attr:`FRFData.units`; :func:`femcal.testdata.data.convert_units` changes it.
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .frfdata import FRFData, quantity_of_units
+from .data import FRFData, quantity_of_units
 
 _POINT = re.compile(r"^(?:.*:)?\s*[A-Za-z_]*\s*(\d+)\s*:\s*([+-]?(?:R?[XYZ]|[1-6]))\s*$", re.I)
 

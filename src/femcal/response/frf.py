@@ -33,7 +33,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .model.model import Model
+from ..model.model import Model
 
 QUANTITIES = ("receptance", "mobility", "accelerance")
 
@@ -116,7 +116,7 @@ _AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
 
 def channel_matrix(model: Model, channels: Sequence) -> sp.csr_matrix:
     """Sensor matrix (n, n_g) of measurement channels labelled ``GRID:DIR`` (objects with
-    ``label``, ``grid`` and ``direction``, as :class:`femcal.frfdata.Channel`).
+    ``label``, ``grid`` and ``direction``, as :class:`femcal.testdata.data.Channel`).
 
     A signed axis (``+X``, ``-Y``, ``+RZ``) is a direction in the basic frame, taken into
     the node's displacement frame (:func:`direction_matrix`); a component number (``1``-``6``)

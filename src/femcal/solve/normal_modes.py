@@ -7,13 +7,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .constraints import Reduction, autospc, build_reduction
-from .deck.deck import Deck
-from .deck.fields import INT_BLANK
-from .errors import ModelError
-from .modal import EigenRequest, EigenResult, solve_modes
-from .model.model import Model
-from .structure import Matrices, Options, assemble
+from ..assembly.constraints import Reduction, autospc, build_reduction
+from ..assembly.structure import Matrices, Options, assemble
+from ..deck.deck import Deck
+from ..deck.fields import INT_BLANK
+from ..errors import ModelError
+from ..model.model import Model
+from .eigen import EigenRequest, EigenResult, solve_modes
 
 
 @dataclass(frozen=True)
@@ -145,7 +145,7 @@ def solve_sol103(
 
     PARAM AUTOSPC (default YES) is honoured; DOF with neither stiffness nor mass are always
     removed. Returns the modes and the constraint reduction used. ``on_factor`` receives the
-    factor of the a-set's K - sigma M (see :func:`femcal.modal.solve_modes`).
+    factor of the a-set's K - sigma M (see :func:`femcal.solve.eigen.solve_modes`).
     """
     say = progress or (lambda s: None)
     check_supported(deck)
