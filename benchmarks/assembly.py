@@ -83,7 +83,7 @@ def hexa_deck(n: int) -> Path:
 def child(deck: str) -> None:
     from femcal.assembly.structure import assemble
     from femcal.deck import read_deck
-    from femcal.model import build_model
+    from femcal.model.build import build_model
 
     model = build_model(read_deck(deck))
     before = _rss_mb()

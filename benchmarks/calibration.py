@@ -97,10 +97,10 @@ def noise_free(max_cycles: int = 40, near: float | None = None, residual: bool =
     from femcal.calibrate.parameters import read_parameters, with_values
     from femcal.calibrate.workflow import run
     from femcal.deck import read_deck
-    from femcal.model import build_model
+    from femcal.model import EigenRequest
+    from femcal.model.build import build_model
     from femcal.response.frf import channel_matrix, modal_frf
-    from femcal.solve.eigen import EigenRequest
-    from femcal.solve.normal_modes import solve_sol103
+    from femcal.solve.normal_modes import solve_normal_modes
     from femcal.testdata.data import FRFData, read_frf, write_npz
 
     WORK.mkdir(parents=True, exist_ok=True)
@@ -109,14 +109,14 @@ def noise_free(max_cycles: int = 40, near: float | None = None, residual: bool =
     params = read_parameters(FRAME / "hammer_frame.params.toml", model)
     true_v = truth()
     m = with_values(model, params, [true_v[q.name] for q in params])
-    modes, _ = solve_sol103(deck, m, request=EigenRequest(nd=100))
+    modes, _ = solve_normal_modes(m, request=EigenRequest(nd=100))
     shipped = read_frf(FRAME / "hammer_test.mat")  # its channels and frequencies
     f = shipped.frequency_hz
     if residual:  # the same FRF definition as the calibration's: + residual flexibility
         from femcal.calibrate.surrogate import build_surrogate
 
         p_true = np.array([true_v[q.name] / q.nominal - 1.0 for q in params])
-        sur, _ = build_surrogate(deck, model, params, p_true, shipped.outputs, shipped.inputs,
+        sur, _ = build_surrogate(model, params, p_true, shipped.outputs, shipped.inputs,
                                  n_modes=100, zeta=0.01, residual=True,
                                  frf_hz=modal_hz)  # fmt: skip
         H = sur.frf(p_true, f)

@@ -27,8 +27,8 @@ SHELL_SOLID = {"CQUAD4", "CTRIA3", "CQUAD8", "CTRIA6", "CQUADR", "CTRIAR", "CSHE
 def main() -> int:
     from femcal.deck import read_deck
     from femcal.errors import FemcalError
-    from femcal.model import build_model
-    from femcal.solve.normal_modes import solve_sol103
+    from femcal.model.build import build_model
+    from femcal.solve.normal_modes import solve_normal_modes
 
     print("| deck | tier | modes | worst error | at mode | tolerance | time s | result |")
     print("|---|---|---|---|---|---|---|---|")
@@ -40,7 +40,7 @@ def main() -> int:
         t0 = time.perf_counter()
         try:
             deck = read_deck(ref_path.parent / ref["deck"]["main_file"])
-            modes, _ = solve_sol103(deck, build_model(deck))
+            modes, _ = solve_normal_modes(build_model(deck))
         except FemcalError as e:
             msg = str(e).splitlines()[-1].strip()[:90]
             print(f"| {ref['name']} | {tier} | {len(valid)} | - | - | {tol:.0e} | - | {msg} |")

@@ -21,16 +21,14 @@ sys.path.insert(0, str(HERE))
 
 
 def matrices(deck_path: Path):
-    """(K_aa, M_aa) of a deck after constraints and AUTOSPC, as solve_sol103 forms them."""
+    """(K_aa, M_aa) of a deck after constraints and AUTOSPC, as solve_normal_modes forms them."""
     from femcal.assembly.constraints import autospc, build_reduction
     from femcal.assembly.structure import Options, assemble
-    from femcal.deck import read_deck
-    from femcal.model import build_model
+    from femcal.model.build import load_model
 
-    deck = read_deck(deck_path)
-    model = build_model(deck)
+    model = load_model(deck_path)
     mats = assemble(model, Options())
-    red = build_reduction(deck, model)
+    red = build_reduction(model)
     K, M = red.reduce(mats.K), red.reduce(mats.M)
     red = autospc(model, red, K, M, enabled=True)
     if len(red.autospc):
@@ -40,7 +38,8 @@ def matrices(deck_path: Path):
 
 def main() -> int:
     import eigen_vs_calculix as plate
-    from femcal.solve.eigen import EigenRequest, solve_modes
+    from femcal.model import EigenRequest
+    from femcal.solve.eigen import solve_modes
 
     plate.WORK.mkdir(parents=True, exist_ok=True)
     cases = [("200x200 plate", plate.nastran_deck(200), 20),

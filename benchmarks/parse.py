@@ -67,7 +67,7 @@ def child(reader: str, deck: str) -> None:
     """Run one read in this process and print {seconds, peak_mb, base_mb} as JSON."""
     if reader.startswith("femcal"):
         from femcal.deck import read_deck
-        from femcal.model import build_model
+        from femcal.model.build import build_model
 
         base = _rss_mb()
         t = time.perf_counter()

@@ -77,11 +77,11 @@ def refined_deck(n: int, membrane_only: bool) -> str:
 
 def modes_hz(path: Path, count: int) -> np.ndarray:
     from femcal.deck import read_deck
-    from femcal.model import build_model
-    from femcal.solve.normal_modes import solve_sol103
+    from femcal.model.build import build_model
+    from femcal.solve.normal_modes import solve_normal_modes
 
     deck = read_deck(path)
-    modes, _ = solve_sol103(deck, build_model(deck))
+    modes, _ = solve_normal_modes(build_model(deck))
     return modes.frequencies_hz[:count]
 
 

@@ -115,13 +115,11 @@ upper_rel = 0.5
 
 def write_plate(folder: Path):
     """Write ``plate.bdf`` and ``p.toml`` (all nine parameters) into ``folder``; return the
-    deck, its model and the parameters."""
+    deck's model and the parameters."""
     from femcal.calibrate.parameters import read_parameters
-    from femcal.deck import read_deck
-    from femcal.model import build_model
+    from femcal.model.build import load_model
 
     (folder / "plate.bdf").write_text(plate_deck())
     (folder / "p.toml").write_text(PARAMS_TOML)
-    deck = read_deck(folder / "plate.bdf")
-    model = build_model(deck)
-    return deck, model, read_parameters(folder / "p.toml", model)
+    model = load_model(folder / "plate.bdf")
+    return model, read_parameters(folder / "p.toml", model)

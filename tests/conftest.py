@@ -39,12 +39,12 @@ def solve_cantilever(coupled_mass: bool, n_modes: int = 1000):
     mode; with lumped mass the rotations are massless."""
     from femcal.assembly.structure import Options, assemble
     from femcal.deck import read_deck
-    from femcal.model import build_model
-    from femcal.solve.eigen import EigenRequest
-    from femcal.solve.normal_modes import solve_sol103
+    from femcal.model import EigenRequest
+    from femcal.model.build import build_model
+    from femcal.solve.normal_modes import solve_normal_modes
 
     deck = read_deck(REFDECKS / "cofe_cantilever_cbar" / "noReduction.dat")
     model = build_model(deck)
     mats = assemble(model, Options(coupled_mass=coupled_mass))
-    modes, red = solve_sol103(deck, model, matrices=mats, request=EigenRequest(nd=n_modes))
+    modes, red = solve_normal_modes(model, matrices=mats, request=EigenRequest(nd=n_modes))
     return model, mats, modes, red

@@ -128,7 +128,7 @@ def test_threaded_assembly_gives_bitwise_the_same_matrices(monkeypatch):
     count (shells and solids in small chunks, so that many run at once)."""
     import femcal.assembly.structure as structure
     from femcal.deck import read_deck
-    from femcal.model import build_model
+    from femcal.model.build import build_model
 
     from .conftest import REFDECKS
 
@@ -152,7 +152,7 @@ def test_bad_shell_is_reported_by_element_id_with_threads(monkeypatch, write, co
     import femcal.assembly.structure as structure
     from femcal.deck import read_deck
     from femcal.errors import ModelError
-    from femcal.model import build_model
+    from femcal.model.build import build_model
 
     xy = [(0, 0), (1, 0), (1, 1), (0, 1), (2, 0), (2, 1), (3, 0), corner]
     grids = "".join(f"GRID,{i + 1},,{x:.2f},{y:.2f},0.\n" for i, (x, y) in enumerate(xy))
@@ -173,7 +173,7 @@ def test_distorted_solid_is_reported_by_element_id(write):
     from femcal.assembly.structure import assemble
     from femcal.deck import read_deck
     from femcal.errors import ModelError
-    from femcal.model import build_model
+    from femcal.model.build import build_model
 
     xyz = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (0.5, 0, 0), (0.5, 0.5, 0), (0, 0.5, 0),
            (0, 0, 1.4), (0.5, 0, 0.5), (0, 0.5, 0.5)]  # fmt: skip

@@ -8,7 +8,8 @@ import pytest
 import scipy.linalg as sl
 import scipy.sparse as sp
 
-from femcal.solve.eigen import EigenRequest, solve_modes
+from femcal.model import EigenRequest
+from femcal.solve.eigen import solve_modes
 from femcal.solve.factor import factorize
 from femcal.solve.lanczos import LanczosNotConverged, block_lanczos
 

@@ -23,7 +23,7 @@ from femcal.calibrate.parameters import (
     write_calibrated_deck,
 )
 from femcal.deck import read_deck
-from femcal.model import build_model
+from femcal.model.build import build_model
 
 from .calib_decks import PARAMS_TOML, plate_deck, write_plate
 
@@ -31,8 +31,8 @@ from .calib_decks import PARAMS_TOML, plate_deck, write_plate
 @pytest.fixture(scope="module")
 def plate(tmp_path_factory):
     d = tmp_path_factory.mktemp("plate")
-    deck, model, params = write_plate(d)
-    return d / "plate.bdf", deck, model, params
+    model, params = write_plate(d)
+    return d / "plate.bdf", model, params
 
 
 def _rel(A, B) -> float:
@@ -43,7 +43,7 @@ def _rel(A, B) -> float:
 
 
 def test_parameters_read_their_nominal_from_the_deck(plate):
-    _, _, model, params = plate
+    _, model, params = plate
     got = {p.name: (p.nominal, p.lower, p.upper) for p in params}
     assert got["t"] == pytest.approx((5.0, 4.0, 6.0))
     assert got["k_bush"] == pytest.approx((60.0, 30.0, 90.0))
@@ -58,7 +58,7 @@ def test_parameters_read_their_nominal_from_the_deck(plate):
 @pytest.mark.parametrize("name", ["t", "E_steel", "rho_steel", "A_bar", "I1_bar", "A_rod",
                                   "k_bush", "k_spring", "m_tip"])  # fmt: skip
 def test_dk_and_dm_equal_central_differences(plate, name):
-    _, _, model, params = plate
+    _, model, params = plate
     par = next(p for p in params if p.name == name)
     dK, dM = parameter_matrices(model, par)
     h = 1e-4 * par.nominal
@@ -76,9 +76,9 @@ def test_dk_and_dm_equal_central_differences(plate, name):
         assert dM.nnz == 0 and abs(fd_M).max() == 0
 
 
-def _modes(deck, model, red=None):
+def _modes(model, red=None):
     mats = assemble(model)
-    red = red or build_reduction(deck, model)
+    red = red or build_reduction(model)
     K, M = red.reduce(mats.K).toarray(), red.reduce(mats.M).toarray()
     mu, v = sla.eigh(M, K)  # M is singular (massless rotations): 1 / lambda, K-normalised
     keep = np.argsort(mu)[::-1][:12]
@@ -88,16 +88,16 @@ def _modes(deck, model, red=None):
 
 @pytest.mark.parametrize("name", ["t", "E_steel", "rho_steel", "A_bar", "k_bush", "m_tip"])
 def test_eigen_sensitivities_equal_central_differences(plate, name):
-    _, deck, model, params = plate
+    _, model, params = plate
     par = next(p for p in params if p.name == name)
-    mats, red, lam, phi = _modes(deck, model)
+    mats, red, lam, phi = _modes(model)
     dK, dM = parameter_matrices(model, par)
     dKa, dMa = red.reduce(dK), red.reduce(dM)
     n = 5
     dlam = eigenvalue_sensitivities(phi[:, :n], lam[:n], dKa, dMa)
     h = 1e-4 * par.nominal
     # fourth-order central differences: (8 (f(h) - f(-h)) - (f(2h) - f(-2h))) / 12 h
-    runs = {s: _modes(deck, with_values(model, [par], [par.nominal + s * h]), red)[2:]
+    runs = {s: _modes(with_values(model, [par], [par.nominal + s * h]), red)[2:]
             for s in (-2, -1, 1, 2)}  # fmt: skip
 
     def fd(get):
@@ -146,7 +146,7 @@ def test_a_dependence_no_raised_degree_reproduces_is_refused(tmp_path, monkeypat
 
 
 def test_bad_parameter_files_are_named(plate, tmp_path):
-    _, _, model, _ = plate
+    _, model, _ = plate
     bad = [('card = "PSHELL"\nid = 1\nfield = "T"\nnominal = 6.0\nlower = 4.0\nupper = 7.0',
             "nominal 6.0 but the deck has 5.0"),
            ('card = "PSHELL"\nid = 1\nfield = "MID1"\nlower = 4.0\nupper = 7.0',
@@ -163,7 +163,7 @@ def test_bad_parameter_files_are_named(plate, tmp_path):
 
 
 def test_calibrated_deck_carries_the_new_values(plate, tmp_path):
-    deck_path, _, _, params = plate
+    deck_path, _, params = plate
     values = [p.nominal * (1.0 + 0.01 * (k + 1)) for k, p in enumerate(params)]
     out = write_calibrated_deck(deck_path, params, values, tmp_path / "cal.bdf")
     back = build_model(read_deck(out))

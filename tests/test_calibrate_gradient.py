@@ -30,17 +30,17 @@ def test_exact_centre_jacobian_equals_central_differences_of_the_full_model(setu
     parameter (fourth order): the exact Jacobian matches to the differences' accuracy; the surrogate's own
     Jacobian (eigenvector derivatives truncated to its basis) is further off. Also with all
     the basis's modes in the FRFs (the series for the top modes stops at its cap)."""
-    deck, model, params = setup
+    model, params = setup
     n = len(params)
     c = np.linspace(0.05, -0.05, n)
     f = log_frequencies(10.0, 250.0, 0.02, 2.0)
     kw = dict(n_modes=20, zeta=0.02, residual=residual, frf_modes=frf_modes)
 
     def full(p):
-        sur, _ = build_surrogate(deck, model, params, p, OUTS, INS, **kw)
+        sur, _ = build_surrogate(model, params, p, OUTS, INS, **kw)
         return sur.frf(p, f)
 
-    sur, _ = build_surrogate(deck, model, params, c, OUTS, INS, exact_gradient=True, **kw)
+    sur, _ = build_surrogate(model, params, c, OUTS, INS, exact_gradient=True, **kw)
     H, dH = sur.exact.frf_and_jacobian(f, 0.02, "accelerance")
     H_s, dH_s = sur.frf_and_jacobian(c, f)
     np.testing.assert_allclose(H, H_s, rtol=1e-9, atol=1e-11 * np.abs(H).max())
@@ -68,11 +68,11 @@ def test_exact_centre_jacobian_equals_central_differences_of_the_full_model(setu
 
 
 def test_first_order_correction_gives_the_full_jacobian_at_the_centre(setup):
-    deck, model, params = setup
+    model, params = setup
     n = len(params)
     c = np.linspace(-0.04, 0.04, n)
     f = log_frequencies(10.0, 250.0, 0.02, 2.0)
-    sur, _ = build_surrogate(deck, model, params, c, OUTS, INS, n_modes=20, zeta=0.02,
+    sur, _ = build_surrogate(model, params, c, OUTS, INS, n_modes=20, zeta=0.02,
                              frf_modes=8, exact_gradient=True)  # fmt: skip
     H_test = sur.frf(np.zeros(n), f)  # some other point's FRFs
     E = first_order_correction(sur, sur.exact, f, H_test, "complex-log")

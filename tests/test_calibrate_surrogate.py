@@ -11,9 +11,9 @@ from femcal.assembly.structure import assemble
 from femcal.calibrate.metric import jacobian, log_frequencies, residuals
 from femcal.calibrate.parameters import with_values
 from femcal.calibrate.surrogate import build_surrogate
+from femcal.model import EigenRequest
 from femcal.response.frf import channel_matrix, modal_frf
-from femcal.solve.eigen import EigenRequest
-from femcal.solve.normal_modes import solve_sol103
+from femcal.solve.normal_modes import solve_normal_modes
 from femcal.testdata.data import Channel
 
 from .calib_decks import write_plate
@@ -27,20 +27,20 @@ def setup(tmp_path_factory):
     return write_plate(tmp_path_factory.mktemp("sur"))
 
 
-def full_frf(deck, model, params, p, f, zeta, n_modes):
+def full_frf(model, params, p, f, zeta, n_modes):
     m = with_values(model, params, [q.value(x) for q, x in zip(params, p, strict=True)])
-    modes, _ = solve_sol103(deck, m, request=EigenRequest(nd=n_modes))
+    modes, _ = solve_normal_modes(m, request=EigenRequest(nd=n_modes))
     C = channel_matrix(m, OUTS)
     B = channel_matrix(m, INS).T
     return modal_frf(modes.shapes, modes.radians, C, B, f, zeta, "accelerance"), modes
 
 
 def test_surrogate_at_its_centre_is_the_full_model(setup):
-    deck, model, params = setup
+    model, params = setup
     p = np.linspace(-0.1, 0.1, len(params))
-    sur, modes = build_surrogate(deck, model, params, p, OUTS, INS, n_modes=40, zeta=0.02)
+    sur, modes = build_surrogate(model, params, p, OUTS, INS, n_modes=40, zeta=0.02)
     f = np.linspace(5, 300, 80)
-    H_full, _ = full_frf(deck, model, params, p, f, 0.02, 40)
+    H_full, _ = full_frf(model, params, p, f, 0.02, 40)
     np.testing.assert_allclose(sur.frf(p, f), H_full, rtol=1e-8, atol=1e-10 * np.abs(H_full).max())
     np.testing.assert_allclose(sur.frequencies_hz(p), modes.frequencies_hz, rtol=1e-9)
 
@@ -52,9 +52,9 @@ def _ritz(model, params, p, Phi):
 
 
 def test_exact_surrogate_is_the_ritz_model_anywhere(setup):
-    deck, model, params = setup
+    model, params = setup
     center = np.linspace(0.05, -0.05, len(params))
-    sur, modes0 = build_surrogate(deck, model, params, center, OUTS, INS, n_modes=40,
+    sur, modes0 = build_surrogate(model, params, center, OUTS, INS, n_modes=40,
                                   zeta=0.02)  # fmt: skip
     rng = np.random.default_rng(7)
     for _ in range(3):  # every parameter at once, thickness and products of E, A, T included
@@ -64,8 +64,8 @@ def test_exact_surrogate_is_the_ritz_model_anywhere(setup):
 
 
 def test_first_order_surrogate_is_exact_for_one_linear_parameter(setup):
-    deck, model, params = setup
-    sur, modes0 = build_surrogate(deck, model, params, np.zeros(len(params)), OUTS, INS,
+    model, params = setup
+    sur, modes0 = build_surrogate(model, params, np.zeros(len(params)), OUTS, INS,
                                   n_modes=40, zeta=0.02, order="first-order")  # fmt: skip
     # K and M are linear in each of these and no two of them multiply each other (E and A of
     # one rod would: its stiffness is E A / L), so FEMCali's first-order K~(p) is exact
@@ -81,8 +81,8 @@ def test_first_order_surrogate_is_exact_for_one_linear_parameter(setup):
 
 @pytest.mark.parametrize("metric", ["log-magnitude", "complex-log"])
 def test_metric_jacobian_equals_central_differences(setup, metric):
-    deck, model, params = setup
-    sur, _ = build_surrogate(deck, model, params, np.zeros(len(params)), OUTS, INS,
+    model, params = setup
+    sur, _ = build_surrogate(model, params, np.zeros(len(params)), OUTS, INS,
                              n_modes=30, zeta=0.02)  # fmt: skip
     f = log_frequencies(10.0, 250.0, 0.02, 2.0)
     rng = np.random.default_rng(4)
@@ -117,18 +117,18 @@ def test_enriched_basis_makes_the_jacobian_at_the_centre_that_of_the_full_model(
     model at its centre (its n_modes lowest modes make the FRFs), and its Jacobian there is
     closer to central differences of the full model than the modes-only surrogate's, whose
     eigenvector derivatives are truncated to the basis."""
-    deck, model, params = setup
+    model, params = setup
     n = len(params)
     c = np.linspace(0.05, -0.05, n)
     f = log_frequencies(10.0, 250.0, 0.02, 2.0)
     h = 1e-5
-    J_full = np.array([(full_frf(deck, model, params, c + h * e, f, 0.02, 20)[0]
-                        - full_frf(deck, model, params, c - h * e, f, 0.02, 20)[0]) / (2 * h)
+    J_full = np.array([(full_frf(model, params, c + h * e, f, 0.02, 20)[0]
+                        - full_frf(model, params, c - h * e, f, 0.02, 20)[0]) / (2 * h)
                        for e in np.eye(n)])  # fmt: skip
-    H_full, modes = full_frf(deck, model, params, c, f, 0.02, 20)
+    H_full, modes = full_frf(model, params, c, f, 0.02, 20)
     worst = {}
     for enrich in (None, 250.0):
-        sur, _ = build_surrogate(deck, model, params, c, OUTS, INS, n_modes=20, zeta=0.02,
+        sur, _ = build_surrogate(model, params, c, OUTS, INS, n_modes=20, zeta=0.02,
                                  enrich_hz=enrich)  # fmt: skip
         H, dH = sur.frf_and_jacobian(c, f)
         np.testing.assert_allclose(H, H_full, rtol=1e-6, atol=1e-8 * np.abs(H_full).max())
@@ -149,12 +149,12 @@ def test_derivative_vectors_lumped_mass_shortcut_and_reused_factor_change_nothin
     from femcal.calibrate.derivatives import group_polynomials
     from femcal.solve.factor import factorize
 
-    deck, model, params = setup
+    model, params = setup
     c = np.linspace(0.05, -0.05, len(params))
     m = with_values(model, params, [q.value(x) for q, x in zip(params, c, strict=True)])
     mats = assemble(m)
     assert sur_mod._mass_root(mats.M) is not None  # the plate's mass is lumped
-    modes, red = solve_sol103(deck, m, matrices=mats, request=EigenRequest(nd=20))
+    modes, red = solve_normal_modes(m, matrices=mats, request=EigenRequest(nd=20))
     polys = group_polynomials(model, params, np.zeros(len(params)), constant=True)
     args = (polys, c, mats.K, mats.M, red, modes.shapes, modes.eigenvalues, 12, 30)
     Ka, Ma = red.reduce(mats.K), red.reduce(mats.M)
@@ -222,11 +222,11 @@ def test_residual_flexibility_surrogate_is_the_full_model_at_its_centre_with_its
     -pair threshold relative to those dropped the coupling of the two lowest modes)."""
     from femcal.response.frf import residual_flexibility
 
-    deck, model, params = setup
+    model, params = setup
 
     def full(p, f):
         m = with_values(model, params, [q.value(x) for q, x in zip(params, p, strict=True)])
-        modes, red = solve_sol103(deck, m, request=EigenRequest(nd=20))
+        modes, red = solve_normal_modes(m, request=EigenRequest(nd=20))
         C, B = channel_matrix(m, OUTS), channel_matrix(m, INS).T
         R = residual_flexibility(red.reduce(assemble(m).K), red.T, C, B, modes.shapes,
                                  modes.radians)  # fmt: skip
@@ -234,13 +234,13 @@ def test_residual_flexibility_surrogate_is_the_full_model_at_its_centre_with_its
 
     c = np.linspace(0.05, -0.05, len(params))
     f = log_frequencies(10.0, 250.0, 0.02, 2.0)
-    sur, _ = build_surrogate(deck, model, params, c, OUTS, INS, n_modes=20, zeta=0.02,
+    sur, _ = build_surrogate(model, params, c, OUTS, INS, n_modes=20, zeta=0.02,
                              residual=True)  # fmt: skip
     H_full = full(c, f)
     H, dH = sur.frf_and_jacobian(c, f)
     np.testing.assert_allclose(H, H_full, rtol=1e-8, atol=1e-9 * np.abs(H_full).max())
     np.testing.assert_allclose(sur.frf(c, f), H, rtol=1e-12, atol=1e-14 * np.abs(H).max())
-    without = full_frf(deck, model, params, c, f, 0.02, 20)[0]
+    without = full_frf(model, params, c, f, 0.02, 20)[0]
     assert (np.abs(without - H_full) / np.abs(H_full)).max() > 0.05  # it does matter
     h = 1e-5
     for i in range(len(params)):

@@ -14,10 +14,10 @@ from femcal.calibrate.parameters import current_value, with_values
 from femcal.calibrate.workflow import run
 from femcal.cli import main
 from femcal.deck import read_deck
-from femcal.model import build_model
+from femcal.model import EigenRequest
+from femcal.model.build import build_model
 from femcal.response.frf import channel_matrix, modal_frf
-from femcal.solve.eigen import EigenRequest
-from femcal.solve.normal_modes import solve_sol103
+from femcal.solve.normal_modes import solve_normal_modes
 from femcal.testdata.data import Channel, FRFData, write_npz
 
 from .calib_decks import PARAMS_TOML, plate_deck, write_plate
@@ -49,10 +49,10 @@ identifiable_crlb = 0.01
 @pytest.fixture(scope="module")
 def study(tmp_path_factory):
     d = tmp_path_factory.mktemp("study")
-    deck, model, params = write_plate(d)
+    model, params = write_plate(d)
     true_model = with_values(model, params, [p.value(x) for p, x in zip(params, TRUE_P,
                                                                         strict=True)])  # fmt: skip
-    modes, _ = solve_sol103(deck, true_model, request=EigenRequest(nd=40))
+    modes, _ = solve_normal_modes(true_model, request=EigenRequest(nd=40))
     outs = [Channel.parse(s) for s in OUTS]
     ins = [Channel.parse(s) for s in INS]
     f = np.arange(2.0, 750.0, 0.25)

@@ -5,8 +5,8 @@ import math
 import pytest
 
 from femcal.deck import read_deck
-from femcal.deck.fields import INT_BLANK
 from femcal.errors import DeckError
+from femcal.markers import INT_BLANK
 
 HEAD = "SOL 103\nCEND\nBEGIN BULK\n"
 

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from femcal.deck import read_deck
 from femcal.deck.cards import CARDS
 from femcal.errors import DeckError, ModelError
-from femcal.model import build_model
+from femcal.model.build import build_model
 
 HEAD = "SOL 103\nCEND\nBEGIN BULK\n"
 CARD_NAMES = [

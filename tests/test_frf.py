@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from femcal.deck import read_deck
-from femcal.model import build_model
+from femcal.model.build import build_model
 from femcal.response.frf import (
     Rayleigh,
     direct_frf,
@@ -15,7 +15,7 @@ from femcal.response.frf import (
     point_matrix,
     residual_flexibility,
 )
-from femcal.solve.normal_modes import solve_sol103
+from femcal.solve.normal_modes import solve_normal_modes
 
 from .conftest import solve_cantilever
 
@@ -35,7 +35,7 @@ ENDDATA
 def test_one_mode_oscillator_is_the_textbook_receptance(write):
     deck = read_deck(write(OSCILLATOR))
     model = build_model(deck)
-    modes, _ = solve_sol103(deck, model)
+    modes, _ = solve_normal_modes(model)
     k, m, zeta = 400.0, 0.25, 0.02
     wn = np.sqrt(k / m)
     assert modes.radians[0] == pytest.approx(wn, rel=1e-12)

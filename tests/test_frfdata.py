@@ -7,10 +7,10 @@ import pytest
 
 from femcal.cli import main
 from femcal.deck import read_deck
-from femcal.model import build_model
+from femcal.model import EigenRequest
+from femcal.model.build import build_model
 from femcal.response.frf import modal_frf, point_matrix
-from femcal.solve.eigen import EigenRequest
-from femcal.solve.normal_modes import solve_sol103
+from femcal.solve.normal_modes import solve_normal_modes
 from femcal.testdata.data import (
     Channel,
     FRFData,
@@ -76,7 +76,7 @@ def test_frf_command_writes_the_modal_frf(tmp_path):
     assert d.H.shape == (2, 1, 29) and d.frequency_hz[0] == 1.0 and d.frequency_hz[-1] == 197.0
     deck = read_deck(deck_path)
     model = build_model(deck)
-    modes, _ = solve_sol103(deck, model, request=EigenRequest(v2=2 * 197.0, nd=None))
+    modes, _ = solve_normal_modes(model, request=EigenRequest(v2=2 * 197.0, nd=None))
     C = point_matrix(model, [(11, 2), (6, 6)])
     B = point_matrix(model, [(11, 2)]).T
     assert np.allclose(d.H, modal_frf(modes.shapes, modes.radians, C, B, d.frequency_hz, 0.03))

@@ -10,8 +10,9 @@ import scipy.sparse as sp
 
 from femcal.cli import main
 from femcal.errors import SolverError
+from femcal.model import EigenRequest
 from femcal.solve import eigen as modal
-from femcal.solve.eigen import EigenRequest, solve_modes
+from femcal.solve.eigen import solve_modes
 from femcal.solve.factor import HAVE_CHOLMOD
 
 from .conftest import REFDECKS

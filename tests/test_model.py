@@ -7,7 +7,7 @@ import pytest
 
 from femcal.deck import read_deck
 from femcal.errors import ModelError
-from femcal.model import build_model
+from femcal.model.build import build_model
 
 HEAD = "SOL 103\nCEND\nBEGIN BULK\n"
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from femcal.deck import read_deck, write_deck
-from femcal.model import build_model
+from femcal.model.build import build_model
 
 from .conftest import REFDECKS, refdeck_cases
 

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from femcal.deck import read_deck
-from femcal.model import build_model
+from femcal.model.build import build_model
 from femcal.properties.sections import section_properties, shear_factors
-from femcal.solve.normal_modes import solve_sol103
+from femcal.solve.normal_modes import solve_normal_modes
 
 NEW_TYPES = ["I", "I1", "CHAN", "CHAN1", "CHAN2", "T", "T1", "T2", "L", "H", "Z", "CROSS",
              "HAT", "BOX1"]  # fmt: skip
@@ -402,7 +402,7 @@ def test_pbarl_l_bar_model_equals_pbar_with_its_properties(write):
     freqs = []
     for prop, name in ((pbarl, "pbarl.bdf"), (pbar, "pbar.bdf")):
         deck = read_deck(write(common + prop + "ENDDATA\n", name))
-        modes, _ = solve_sol103(deck, build_model(deck))
+        modes, _ = solve_normal_modes(build_model(deck))
         freqs.append(modes.frequencies_hz[:6])
     assert np.all(freqs[0] > 0)
     assert freqs[0] == pytest.approx(freqs[1], rel=1e-9)

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from femcal.deck import read_deck
-from femcal.deck.fields import INT_BLANK
-from femcal.model import build_model
+from femcal.markers import INT_BLANK
+from femcal.model.build import build_model
 from femcal.properties.materials import MaterialTables
 from femcal.properties.shells import shell_sections
 

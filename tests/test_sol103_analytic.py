@@ -9,15 +9,15 @@ import pytest
 
 from femcal.deck import read_deck
 from femcal.errors import ModelError
-from femcal.model import build_model
-from femcal.solve.normal_modes import solve_sol103
+from femcal.model.build import build_model
+from femcal.solve.normal_modes import solve_normal_modes
 
 HEAD = "SOL 103\nCEND\nMETHOD = 1\nSPC = 1\nBEGIN BULK\n"
 
 
 def modes_of(write, text):
     deck = read_deck(write(HEAD + text + "ENDDATA\n"))
-    modes, red = solve_sol103(deck, build_model(deck))
+    modes, red = solve_normal_modes(build_model(deck))
     return modes, red
 
 
@@ -231,7 +231,7 @@ def test_omitted_midside_node_is_a_straight_edge(write):
     deck_text = cquad8_plate(omit=False, mpc=True)
     deck = read_deck(write(HEAD.replace("SPC = 1\n", "SPC = 1\nMPC = 1\n") + deck_text
                            + "ENDDATA\n", "tied.bdf"))  # fmt: skip
-    tied, _ = solve_sol103(deck, build_model(deck))
+    tied, _ = solve_normal_modes(build_model(deck))
     assert np.all(omitted.frequencies_hz[:3] < tied.frequencies_hz[:3])
     assert omitted.frequencies_hz[0] == pytest.approx(f11, rel=2e-3)
 

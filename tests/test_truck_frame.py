@@ -12,8 +12,8 @@ import pytest
 
 from femcal.deck import read_deck
 from femcal.examples.truck_frame import FrameDimensions, write_frame
-from femcal.model import build_model
-from femcal.solve.normal_modes import solve_sol103
+from femcal.model.build import build_model
+from femcal.solve.normal_modes import solve_normal_modes
 
 from .conftest import ROOT
 
@@ -33,7 +33,7 @@ def test_committed_files_regenerate_byte_identically(tmp_path: Path, variant: st
 def solved():
     deck = read_deck(DECK)
     model = build_model(deck)
-    modes, _ = solve_sol103(deck, model)
+    modes, _ = solve_normal_modes(model)
     return deck, model, modes
 
 
@@ -173,5 +173,5 @@ def test_rig_frames_stand_on_seven_actuators_with_sensors_near_them(stem: str):
     assert model.elements["CBUSH"].ids.size == 7
     if stem.endswith("battery"):
         assert "CONM2" in model.elements
-    modes, _ = solve_sol103(deck, model)
+    modes, _ = solve_normal_modes(model)
     assert modes.frequencies_hz[0] > 5.0  # held by the actuators: no rigid-body modes

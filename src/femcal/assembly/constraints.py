@@ -1,11 +1,11 @@
 """Constraints by exact elimination: u_g = T u_a.
 
-Sources, in NASTRAN's terms: multipoint constraints (MPC/MPCADD selected in case control)
-and rigid elements (RBE2, RBAR, RBE3) make dependent DOF; single-point constraints (SPC,
-SPC1, SPCADD selected in case control, GRID and GRDSET PS) fix DOF; AUTOSPC fixes the DOF
-where the stiffness is singular at a grid point. Chains of rigid elements (a dependent DOF
-that another element uses as independent) are resolved. Everything is in the nodes'
-displacement (CD) frames, so T applies directly to the assembled K_gg and M_gg.
+From the model's :class:`~femcal.model.constraints.Constraints`: multipoint equations and
+rigid elements (RBE2, RBAR, RBE3) make dependent DOF; single-point constraints fix DOF;
+AUTOSPC fixes the DOF where the stiffness is singular at a grid point. Chains of rigid
+elements (a dependent DOF that another element uses as independent) are resolved.
+Everything is in the nodes' displacement (CD) frames, so T applies directly to the assembled
+K_gg and M_gg.
 """
 
 from __future__ import annotations
@@ -15,10 +15,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from ..deck.deck import Deck
-from ..deck.fields import INT_BLANK
 from ..elements.line import skew
 from ..errors import ModelError
+from ..model.constraints import Interpolation, RigidBar
 from ..model.model import Model
 
 #: NASTRAN PARAM EPZERO: a grid point's 3 x 3 stiffness block is singular in a direction
@@ -110,20 +109,14 @@ class _Equations:
         self.vals.append(vals[keep])
 
 
-def _dof_label(model: Model, dof: int) -> str:
-    node = int(np.searchsorted(model.dof_start, dof, side="right") - 1)
-    comp = dof - int(model.dof_start[node]) + (1 if model.is_grid[node] else 0)
-    return f"{'GRID' if model.is_grid[node] else 'SPOINT'} {model.node_ids[node]} C{comp}"
+def _node_dofs(model: Model, node: int) -> np.ndarray:
+    """g-set DOF of a node (index): 6 at a GRID, 1 at a scalar point."""
+    return model.dof_start[node] + np.arange(6 if model.is_grid[node] else 1)
 
 
-def _node_dofs(model: Model, gid: int) -> np.ndarray:
-    i = int(model.node_index(gid)[0])
-    return model.dof_start[i] + np.arange(6 if model.is_grid[i] else 1)
-
-
-def _rigid_map(model: Model, gm: int, gn: int) -> np.ndarray:
-    """6 x 6 matrix G with u_m = G u_n (both in their displacement frames) for a rigid link."""
-    im, i_n = int(model.node_index(gm)[0]), int(model.node_index(gn)[0])
+def _rigid_map(model: Model, im: int, i_n: int) -> np.ndarray:
+    """6 x 6 matrix G with u_m = G u_n (both in their displacement frames) for a rigid link
+    from node n to node m (indices)."""
     r = model.xyz[im] - model.xyz[i_n]
     B = np.eye(6)
     B[0:3, 3:6] = -skew(r)  # u_m = u_n + theta_n x r = u_n - r x theta_n
@@ -135,72 +128,61 @@ def _rigid_map(model: Model, gm: int, gn: int) -> np.ndarray:
     return L @ B @ R
 
 
-def _comps(code: int) -> list[int]:
-    return [] if code in (INT_BLANK, 0) else [int(c) - 1 for c in str(code)]
-
-
-def _rigid_equations(deck: Deck, model: Model, eq: _Equations) -> None:
-    for r in deck.records_of("RBE2"):
-        cols = _node_dofs(model, r.gn)
-        for gm in r.gm:
-            G = _rigid_map(model, gm, r.gn)
+def _rigid_equations(model: Model, eq: _Equations) -> None:
+    c = model.constraints
+    for link in c.rigid_links:
+        cols = _node_dofs(model, link.independent)
+        for gm in link.dependent:
+            G = _rigid_map(model, gm, link.independent)
             dofs = _node_dofs(model, gm)
-            for c in _comps(r.cm):
-                eq.add(int(dofs[c]), cols, G[c], f"RBE2 {r.eid}")
-    t = deck.tables.get("RBAR")
-    if t is not None:
-        c = t.columns
-        for i in range(len(t)):
-            _rbar(model, eq, {k: int(v[i]) if k != "alpha" else v[i] for k, v in c.items()})
-    for r in deck.records_of("RBE3"):
-        _rbe3(model, eq, r)
+            for k in link.components:
+                eq.add(int(dofs[k]), cols, G[k], f"RBE2 {link.id}")
+    for bar in c.rigid_bars:
+        _rbar(model, eq, bar)
+    for interp in c.interpolations:
+        _rbe3(model, eq, interp)
 
 
-def _rbar(model: Model, eq: _Equations, c: dict) -> None:
+def _rbar(model: Model, eq: _Equations, bar: RigidBar) -> None:
     """RBAR: the 12 DOF of GA and GB obey the 6 rigid-bar relations; CNA/CNB independent."""
-    eid, ga, gb = c["eid"], c["ga"], c["gb"]
-    ind = [k for k in _comps(c["cna"])] + [6 + k for k in _comps(c["cnb"])]
-    dep = [k for k in _comps(c["cma"])] + [6 + k for k in _comps(c["cmb"])]
-    if not dep:  # blank CMA and CMB: every DOF not independent is dependent
-        dep = [k for k in range(12) if k not in ind]
+    ind, dep = list(bar.independent), list(bar.dependent)
     if len(ind) != 6 or set(ind) & set(dep):
-        eq.errors.append(f"RBAR {eid}: CNA and CNB must give exactly 6 independent components "
-                         f"(found {len(ind)}), distinct from CMA/CMB")  # fmt: skip
+        eq.errors.append(f"RBAR {bar.id}: CNA and CNB must give exactly 6 independent "
+                         f"components (found {len(ind)}), distinct from CMA/CMB")  # fmt: skip
         return
+    ga, gb = bar.nodes
     # Rigid relations in the displacement frames: E @ [u_a; u_b] = 0, E = [G_ba, -I] (6 x 12)
     E = np.hstack([_rigid_map(model, gb, ga), -np.eye(6)])
     Ei, Ed = E[:, ind], E[:, dep]
     if np.linalg.matrix_rank(E[:, [k for k in range(12) if k not in ind]]) < 6:
-        eq.errors.append(f"RBAR {eid}: the independent components do not fix the bar's motion")
+        eq.errors.append(f"RBAR {bar.id}: the independent components do not fix the bar's motion")
         return
     X, *_ = np.linalg.lstsq(Ed, -Ei, rcond=None)  # u_dep = X u_ind
     dofs = np.concatenate([_node_dofs(model, ga), _node_dofs(model, gb)])
     for row, k in enumerate(dep):
-        eq.add(int(dofs[k]), dofs[ind], X[row], f"RBAR {eid}")
+        eq.add(int(dofs[k]), dofs[ind], X[row], f"RBAR {bar.id}")
 
 
-def _rbe3(model: Model, eq: _Equations, r) -> None:
+def _rbe3(model: Model, eq: _Equations, r: Interpolation) -> None:
     """RBE3: the reference grid moves as the weighted least-squares rigid fit of the
     independent grids' motion (translations and rotations weighted by WT; rotations use a
     length scale as NASTRAN does)."""
-    if r.um:
-        eq.errors.append(f"RBE3 {r.eid}: UM (other dependent DOF) is not supported yet")
+    if r.other_dependent:
+        eq.errors.append(f"RBE3 {r.id}: UM (other dependent DOF) is not supported yet")
         return
-    iref = int(model.node_index(r.refgrid)[0])
-    xr = model.xyz[iref]
+    xr = model.xyz[r.reference]
     pts, wts, comps = [], [], []
     for g in r.groups:
-        for gid in g.grids:
-            pts.append(gid)
+        for node in g.nodes:
+            pts.append(node)
             wts.append(g.weight)
-            comps.append(_comps(g.components))
-    xs = model.xyz[model.node_index(pts)]
+            comps.append(g.components)
+    xs = model.xyz[pts]
     # characteristic length: mean distance of the independent grids from their centroid
     Lc = float(np.mean(np.linalg.norm(xs - xs.mean(axis=0), axis=1))) or 1.0
     rows_G, rows_W, cols = [], [], []
-    for gid, w, cs, x in zip(pts, wts, comps, xs, strict=True):
-        i = int(model.node_index(gid)[0])
-        Fi = model.cd_frames[i]
+    for node, w, cs, x in zip(pts, wts, comps, xs, strict=True):
+        Fi = model.cd_frames[node]
         # motion of point i (basic) from the reference's rigid motion (basic): [I, -skew(r)]
         B = np.zeros((6, 6))
         B[0:3, 0:3] = np.eye(3)
@@ -209,7 +191,7 @@ def _rbe3(model: Model, eq: _Equations, r) -> None:
         F6 = np.zeros((6, 6))
         F6[0:3, 0:3] = F6[3:6, 3:6] = Fi.T
         Bi = F6 @ B  # independent components (their CD frame) from reference motion (basic)
-        dofs = _node_dofs(model, gid)
+        dofs = _node_dofs(model, node)
         for c in cs:
             rows_G.append(Bi[c])
             rows_W.append(w * (1.0 if c < 3 else Lc**2))
@@ -218,89 +200,39 @@ def _rbe3(model: Model, eq: _Equations, r) -> None:
     W = np.array(rows_W)
     N = G.T @ (W[:, None] * G)
     if np.linalg.matrix_rank(N) < 6:
-        eq.errors.append(f"RBE3 {r.eid}: the independent grids and components do not define "
+        eq.errors.append(f"RBE3 {r.id}: the independent grids and components do not define "
                          "all six rigid motions of the reference grid")  # fmt: skip
         return
     X = np.linalg.solve(N, G.T * W)  # reference motion (basic) = X @ u_independent
-    Fr = model.cd_frames[iref]
+    Fr = model.cd_frames[r.reference]
     F6 = np.zeros((6, 6))
     F6[0:3, 0:3] = F6[3:6, 3:6] = Fr.T
     Xr = F6 @ X
-    ref_dofs = _node_dofs(model, r.refgrid)
+    ref_dofs = _node_dofs(model, r.reference)
     cols_a = np.array(cols)
-    for c in _comps(r.refc):
-        eq.add(int(ref_dofs[c]), cols_a, Xr[c], f"RBE3 {r.eid}")
+    for c in r.reference_components:
+        eq.add(int(ref_dofs[c]), cols_a, Xr[c], f"RBE3 {r.id}")
 
 
-def _selected_sets(deck: Deck, key: str, add_card: str) -> set[int]:
-    value = deck.case.value(key)
-    if value is None:
-        return set()
-    try:
-        sid = int(value.split()[0])
-    except ValueError as e:
-        raise ModelError(f"case control {key} = {value}: expected a set id") from e
-    sets = {sid}
-    grow = True
-    while grow:
-        grow = False
-        for r in deck.records_of(add_card):
-            if r.sid in sets and not set(r.sets) <= sets:
-                sets |= set(r.sets)
-                grow = True
-    return sets
-
-
-def _mpc_equations(deck: Deck, model: Model, eq: _Equations) -> None:
-    sets = _selected_sets(deck, "MPC", "MPCADD")
-    for r in deck.records_of("MPC"):
-        if r.sid not in sets:
-            continue
-        gids = np.array([t[0] for t in r.terms])
-        comps = np.array([t[1] for t in r.terms])
-        grid = model.is_grid[model.node_index(gids)]
+def _mpc_equations(model: Model, eq: _Equations) -> None:
+    for e in model.constraints.equations:
+        grid = model.is_grid[e.nodes]
+        comps = e.components
         bad = (grid & (comps < 1)) | (~grid & (comps > 0))
         if bad.any():
-            eq.errors.append(f"MPC set {r.sid}: GRID {gids[bad].tolist()} need a component 1-6 "
-                             "(SPOINTs take 0 or blank)")  # fmt: skip
+            eq.errors.append(f"MPC set {e.set_id}: GRID {model.node_ids[e.nodes[bad]].tolist()} "
+                             "need a component 1-6 (SPOINTs take 0 or blank)")  # fmt: skip
             continue
-        dofs = model.dof_index(gids, comps)
-        a = np.array([t[2] for t in r.terms])
+        dofs = model.dof_start[e.nodes] + np.where(grid, comps - 1, 0)
+        a = e.coefficients
         if a[0] == 0.0:
-            eq.errors.append(f"MPC set {r.sid}: the first coefficient (dependent DOF) is zero")
+            eq.errors.append(f"MPC set {e.set_id}: the first coefficient (dependent DOF) is zero")
             continue
-        eq.add(int(dofs[0]), dofs[1:], -a[1:] / a[0], f"MPC set {r.sid}")
+        eq.add(int(dofs[0]), dofs[1:], -a[1:] / a[0], f"MPC set {e.set_id}")
 
 
-def spc_dofs(deck: Deck, model: Model) -> np.ndarray:
-    """g-set DOF fixed by GRID/GRDSET PS and the SPC set selected in case control."""
-    fixed: set[int] = set()
-    for i in np.flatnonzero(model.ps):
-        fixed.update(int(model.dof_start[i]) + c for c in _comps(int(model.ps[i])))
-    sets = _selected_sets(deck, "SPC", "SPCADD")
-
-    def fix(g: int, code: int) -> None:
-        i = int(model.node_index(g)[0])
-        if not model.is_grid[i]:
-            fixed.add(int(model.dof_start[i]))
-        else:
-            fixed.update(int(model.dof_start[i]) + c for c in _comps(code))
-
-    for r in deck.records_of("SPC1"):
-        if r.sid in sets:
-            for g in r.ids:
-                fix(g, r.components)
-    t = deck.tables.get("SPC")
-    if t is not None:
-        c = t.columns
-        for s, g, comp in zip(c["sid"], c["g"], c["c"], strict=True):
-            if s in sets:
-                fix(int(g), int(comp))
-    return np.array(sorted(fixed), dtype=np.int64)
-
-
-def build_reduction(deck: Deck, model: Model) -> Reduction:
-    """Dependent equations and SPCs of a deck -> :class:`Reduction` (AUTOSPC not yet applied).
+def build_reduction(model: Model) -> Reduction:
+    """The model's constraints -> :class:`Reduction` (AUTOSPC not yet applied).
 
     Raises
     ------
@@ -309,14 +241,14 @@ def build_reduction(deck: Deck, model: Model) -> Reduction:
         a cycle of rigid elements, or an ill-posed rigid element.
     """
     eq = _Equations()
-    _rigid_equations(deck, model, eq)
-    _mpc_equations(deck, model, eq)
+    _rigid_equations(model, eq)
+    _mpc_equations(model, eq)
     n = model.n_dof
-    spc = spc_dofs(deck, model)
+    spc = model.constraints.fixed
     for d in spc.tolist():
         if d in eq.owner:
             eq.errors.append(
-                f"{_dof_label(model, d)} is both constrained (SPC/PS) and dependent ({eq.owner[d]})"
+                f"{model.dof_label(d)} is both constrained (SPC/PS) and dependent ({eq.owner[d]})"
             )
     if eq.errors:
         raise ModelError("constraints:\n  " + "\n  ".join(eq.errors[:50]))
@@ -333,7 +265,7 @@ def build_reduction(deck: Deck, model: Model) -> Reduction:
             (np.concatenate(eq.vals), (np.concatenate(eq.rows), np.concatenate(eq.cols))),
             shape=(n, n),
         )
-        X = _resolve_chains(G, is_dep, model, eq)
+        X = _resolve_chains(G, is_dep, eq)
     else:
         X = sp.csr_matrix((n, n))
     # T: identity on the a-set, the resolved equations on dependent DOF (SPC'd columns drop out)
@@ -348,7 +280,7 @@ def build_reduction(deck: Deck, model: Model) -> Reduction:
     return Reduction((ident + Td).tocsr(), a_dofs, spc, dependent=dep)
 
 
-def _resolve_chains(G: sp.csr_matrix, is_dep: np.ndarray, model: Model, eq: _Equations):
+def _resolve_chains(G: sp.csr_matrix, is_dep: np.ndarray, eq: _Equations):
     """Rows of G for dependent DOF in terms of independent DOF only (chains substituted)."""
     n = G.shape[0]
     D = sp.diags(is_dep.astype(float))
@@ -394,9 +326,9 @@ def autospc(
 def _singular_blocks(model: Model, red: Reduction, K_aa: sp.csr_matrix) -> np.ndarray:
     na = len(red.a_dofs)
     fix = np.zeros(na, bool)
-    node = np.searchsorted(model.dof_start, red.a_dofs, side="right") - 1
-    comp = red.a_dofs - model.dof_start[node]
+    node, comp = model.dof_owner(red.a_dofs)
     grid = model.is_grid[node]
+    comp = comp - 1  # 0-based within the grid (only grids are checked)
     for group in (0, 1):
         sel = np.flatnonzero(grid & (comp // 3 == group))
         if not len(sel):

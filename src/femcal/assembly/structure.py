@@ -19,10 +19,10 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from ..deck.fields import INT_BLANK
 from ..elements.line import bar_matrices, bush_matrices, line_frame, rod_matrices
 from ..elements.mass import conm1_matrix, conm2_matrix
 from ..errors import ModelError
+from ..markers import INT_BLANK
 from ..model.coords import displacement_frames
 from ..model.model import ElementBlock, Model
 from ..properties.materials import MaterialTables, mat1_moduli
@@ -52,7 +52,7 @@ class Matrices:
 
 @dataclass(frozen=True)
 class Options:
-    """Assembly options; None means "as the deck's PARAMs say" (NASTRAN defaults otherwise)."""
+    """Assembly options; None means "as the model's PARAMs say" (``Model.params``)."""
 
     coupled_mass: bool | None = None
     wtmass: float | None = None
@@ -69,16 +69,6 @@ def _usable_cores() -> int:
     return os.cpu_count() or 1
 
 
-def _param(model: Model, name: str, default: float) -> float:
-    v = model.params.get(name)
-    if not v:
-        return default
-    try:
-        return float(v[0])
-    except (TypeError, ValueError):
-        return default
-
-
 def assemble(model: Model, options: Options | None = None) -> Matrices:
     """Stiffness and mass matrices of the whole model (g-set, before constraints).
 
@@ -89,11 +79,10 @@ def assemble(model: Model, options: Options | None = None) -> Matrices:
         type, ...), naming the element ids.
     """
     opt = options or Options()
-    coupled = (
-        opt.coupled_mass if opt.coupled_mass is not None else _param(model, "COUPMASS", -1) > 0
-    )
-    wtmass = opt.wtmass if opt.wtmass is not None else _param(model, "WTMASS", 1.0)
-    k6rot = opt.k6rot if opt.k6rot is not None else _param(model, "K6ROT", 100.0)
+    par = model.params
+    coupled = opt.coupled_mass if opt.coupled_mass is not None else par.coupled_mass
+    wtmass = opt.wtmass if opt.wtmass is not None else par.wtmass
+    k6rot = opt.k6rot if opt.k6rot is not None else par.k6rot
     ndof = np.where(model.is_grid, 6, 1)
     pairs = [_pairs(b) for b in model.elements.values()]
     threads = opt.threads if opt.threads is not None else min(4, _usable_cores())

@@ -41,12 +41,12 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from ..assembly.structure import Options, assemble
-from ..deck.deck import Deck
+from ..model import EigenRequest
 from ..model.model import Model
 from ..response.frf import QUANTITIES, channel_matrix
-from ..solve.eigen import DEFAULT_SHIFT_HZ, EigenRequest
+from ..solve.eigen import DEFAULT_SHIFT_HZ
 from ..solve.factor import NotPositiveDefinite, factorize
-from ..solve.normal_modes import solve_sol103
+from ..solve.normal_modes import solve_normal_modes
 from .derivatives import GroupPolynomial, group_polynomials
 from .parameters import Parameter, with_values
 
@@ -505,7 +505,7 @@ def static_vectors(polys: list[GroupPolynomial], center: np.ndarray, solve: Call
     return np.hstack(cols)
 
 
-def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center: np.ndarray,
+def build_surrogate(model: Model, params: list[Parameter], p_center: np.ndarray,
                     outputs: Sequence, inputs: Sequence, *, n_modes: int = 100,
                     zeta: float = 0.01, quantity: str = "accelerance", order: str = "exact",
                     polynomials: list | None = None, options: Options | None = None,
@@ -558,7 +558,7 @@ def build_surrogate(deck: Deck, model: Model, params: list[Parameter], p_center:
         if abs(sigma - STATIC_SHIFT) <= 1e-12 * abs(STATIC_SHIFT):
             factor["solve"] = solve
 
-    modes, red = solve_sol103(deck, model_c, matrices=mats, request=EigenRequest(nd=n_modes),
+    modes, red = solve_normal_modes(model_c, matrices=mats, request=EigenRequest(nd=n_modes),
                               on_factor=keep_factor if enrich_hz is not None or exact_gradient
                               else None)  # fmt: skip
     Phi = modes.shapes  # (n_g, r), mass-normalised

@@ -41,7 +41,7 @@ from ..deck import read_deck
 from ..identify import Settings, equalize_damping, identify
 from ..io.atomic import write_atomic
 from ..io.identified import read_model, write_model, write_summary
-from ..model import build_model
+from ..model.build import build_model
 from ..response.frf import channel_matrix
 from ..testdata.data import FRFData, convert_units, read_frf
 from .config import Config
@@ -211,7 +211,7 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
     def surrogate_at(p: np.ndarray):
         say(f"surrogate at p = [{', '.join(f'{x:+.4f}' for x in p)}]")
         sur, modes = build_surrogate(
-            deck, model, params, p, outputs, inputs, n_modes=cfg.reduction_modes, zeta=zeta0,
+            model, params, p, outputs, inputs, n_modes=cfg.reduction_modes, zeta=zeta0,
             quantity=quantity, order=cfg.surrogate, polynomials=polys,
             enrich_hz=cfg.enrich_hz or None, n_enrich=cfg.enrich_vectors,
             residual=cfg.residual, frf_modes=frf_modes[0] if frf_modes else None,

@@ -11,11 +11,10 @@ from pathlib import Path
 import numpy as np
 
 from ..assembly.structure import Options, assemble
-from ..deck import read_deck
-from ..model import build_model
+from ..model import EigenRequest
+from ..model.build import load_model
 from ..response.frf import QUANTITIES, modal_frf, point_matrix, residual_flexibility
-from ..solve.eigen import EigenRequest
-from ..solve.normal_modes import solve_sol103
+from ..solve.normal_modes import solve_normal_modes
 from ..testdata.data import FRFData, write_csv, write_mat, write_npz, write_uff
 
 _WRITERS = {".npz": write_npz, ".csv": write_csv, ".uff": write_uff, ".unv": write_uff,
@@ -110,8 +109,7 @@ def run(args: argparse.Namespace) -> int:
         )
         return 2
     progress(f"reading {args.deck}")
-    deck = read_deck(args.deck)
-    model = build_model(deck)
+    model = load_model(args.deck)
     try:
         C = point_matrix(model, args.output)
         B = point_matrix(model, args.input).T
@@ -121,9 +119,8 @@ def run(args: argparse.Namespace) -> int:
     f = args.freq
     top = args.modes_to if args.modes_to is not None else 2.0 * float(f[-1])
     mats = assemble(model, Options())
-    modes, red = solve_sol103(
-        deck, model, matrices=mats, request=EigenRequest(v2=top, nd=None), progress=progress
-    )
+    modes, red = solve_normal_modes(model, matrices=mats, request=EigenRequest(v2=top, nd=None),
+                                    progress=progress)  # fmt: skip
     progress(f"{len(modes.eigenvalues)} modes up to {top:g} Hz")
     R = None
     if args.residual:

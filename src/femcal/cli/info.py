@@ -8,7 +8,7 @@ from pathlib import Path
 
 from ..deck import read_deck
 from ..deck.writer import write_text_atomic
-from ..model import build_model
+from ..model.build import build_model
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -37,7 +37,7 @@ def summarise(path: Path) -> dict:
         "n_elements": sum(len(b) for b in model.elements.values()),
         "elements": {k: len(b) for k, b in model.elements.items()},
         "coordinate_systems": sorted(int(c) for c in model.coords),
-        "params": {k: list(v) for k, v in model.params.items()},
+        "params": {k: list(v) for k, v in model.params.cards.items()},
         "unsupported": deck.unused_count,
     }
 

@@ -39,14 +39,12 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _pictures(deck_path: Path, out: Path) -> list[Path]:
-    from ..deck import read_deck
-    from ..model import build_model
-    from ..solve.normal_modes import solve_sol103
+    from ..model.build import load_model
+    from ..solve.normal_modes import solve_normal_modes
     from ..viz.render import render_mesh, render_modes
 
-    deck = read_deck(deck_path)
-    model = build_model(deck)
-    modes, _ = solve_sol103(deck, model)
+    model = load_model(deck_path)
+    modes, _ = solve_normal_modes(model)
     flexible = [i for i, f in enumerate(modes.frequencies_hz) if f > 5.0][:4]
     title = deck_path.stem.replace("_", " ")
     paths = [render_mesh(model, out / "mesh.png", title=f"{title}: {model.n_dof} DOF")]

@@ -10,11 +10,10 @@ from pathlib import Path
 
 from ..assembly.structure import Options, assemble
 from ..assembly.weight import weight_summary, weight_table
-from ..deck import read_deck
 from ..deck.writer import write_text_atomic
 from ..io.modes import eigen_table, modes_json, write_json, write_npz, write_vtu
-from ..model import build_model
-from ..solve.normal_modes import eigen_request, solve_sol103
+from ..model.build import load_model
+from ..solve.normal_modes import solve_normal_modes
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -34,11 +33,10 @@ def run(args: argparse.Namespace) -> int:
         print(f"[{time.perf_counter() - t0:7.1f} s] {msg}", file=sys.stderr, flush=True)
 
     progress(f"reading {args.deck}")
-    deck = read_deck(args.deck)
-    model = build_model(deck)
+    model = load_model(args.deck)
     progress(f"{model.n_grids} grids, {sum(len(b) for b in model.elements.values())} elements, "
              f"{model.n_dof} DOF")  # fmt: skip
-    request = eigen_request(deck)
+    request = model.eigen.request()
     if args.modes is not None:
         if args.modes < 1:
             print(f"femcal solve: --modes {args.modes}: expected a number of modes >= 1",
@@ -46,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
             return 2
         request = replace(request, nd=args.modes)
     mats = assemble(model, Options())
-    modes, _ = solve_sol103(deck, model, matrices=mats, request=request, progress=progress)
+    modes, _ = solve_normal_modes(model, matrices=mats, request=request, progress=progress)
     progress(f"{len(modes.eigenvalues)} modes ({modes.backend})")
     table = list(eigen_table(modes))
     print("\n".join(table))
@@ -55,9 +53,8 @@ def run(args: argparse.Namespace) -> int:
         more = f" and {len(modes.autospc) - 12} more" if len(modes.autospc) > 12 else ""
         print(f"\nAUTOSPC fixed {len(modes.autospc)} DOF (grid:component): {shown}{more}")
     summary = modes_json(modes, model)
-    grdpnt = model.params.get("GRDPNT")
-    if grdpnt and isinstance(grdpnt[0], int) and grdpnt[0] >= 0:
-        ws = weight_summary(model, mats.M, int(grdpnt[0]))
+    if model.params.grdpnt is not None:
+        ws = weight_summary(model, mats.M, model.params.grdpnt)
         print()
         print("\n".join(weight_table(ws)))
         summary["weight"] = {

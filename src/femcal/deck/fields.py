@@ -16,11 +16,6 @@ import re
 
 import numpy as np
 
-#: Stored in integer columns for a blank field that has no default.
-INT_BLANK = -(2**62)
-#: Stored in real columns for a blank field that has no default.
-REAL_BLANK = math.nan
-
 _EXP_NO_E = re.compile(r"^([+-]?(?:\d+\.\d*|\.\d+))([+-]\d+)$")
 _REAL_D = re.compile(r"^[+-]?(?:\d+\.?\d*|\.\d+)D[+-]?\d+$")
 

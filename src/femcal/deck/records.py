@@ -9,9 +9,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from ..markers import INT_BLANK, REAL_BLANK
 from .fields import (
-    INT_BLANK,
-    REAL_BLANK,
     BadField,
     is_int_text,
     parse_components,

@@ -27,9 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..markers import INT_BLANK, REAL_BLANK
 from .fields import (
-    INT_BLANK,
-    REAL_BLANK,
     BadField,
     is_int_text,
     is_real_text,

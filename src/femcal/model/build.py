@@ -1,16 +1,26 @@
-"""Deck -> Model: resolve coordinates, number nodes and DOF, index elements, check references."""
+"""Deck -> Model: resolve coordinates, number nodes and DOF, index elements, check references,
+and turn constraints, PARAMs and eigenvalue requests into the model's typed values.
+
+>>> from femcal.model.build import load_model
+>>> model = load_model("models/truck_frame/hammer_frame.bdf")
+"""
 
 from __future__ import annotations
 
 import dataclasses
+import os
 
 import numpy as np
 
 from ..deck.deck import Deck
-from ..deck.fields import INT_BLANK
+from ..deck.reader import read_deck
 from ..deck.spec import Table
 from ..errors import ModelError
+from ..markers import INT_BLANK
+from .build_analysis import eigen_of, params_of, unsupported_of
+from .build_constraints import constraints_of
 from .coords import BASIC, CoordSystem, axes_from_points, displacement_frames, to_basic
+from .ids import IdIndex
 from .model import ElementBlock, Model
 
 #: Node columns of each element card.
@@ -187,10 +197,9 @@ def build_model(deck: Deck) -> Model:
     dof_start = np.concatenate([[0], np.cumsum(ndof_per)[:-1]]).astype(np.int64)
     n_dof = int(ndof_per.sum())
 
-    model_stub = Model(
-        node_ids, is_grid, xyz, cp_all, cd_all, ps_all, frames, dof_start, n_dof, coords,
-        {}, {}, {}, {}, list(deck.files),
-    )  # fmt: skip
+    model_stub = Model(node_ids, is_grid, xyz, cp_all, cd_all, ps_all, frames, dof_start, n_dof,
+                       coords, elements={}, properties={}, materials={},
+                       files=list(deck.files))  # fmt: skip
     elements = _elements(deck, p, model_stub)
     properties = _properties(deck, p)
     materials = _materials(deck, p)
@@ -199,10 +208,24 @@ def build_model(deck: Deck) -> Model:
     _check_material_refs(deck, p, properties, materials, elements, used)
     _check_constraint_refs(deck, p, model_stub)
     p.raise_if_any()
-    params = {r.name: r.values for r in deck.records_of("PARAM")}
     return dataclasses.replace(
-        model_stub, elements=elements, properties=properties, materials=materials, params=params
-    )
+        model_stub, elements=elements, properties=properties, materials=materials,
+        params=params_of(deck), constraints=constraints_of(deck, model_stub),
+        eigen=eigen_of(deck), unsupported=unsupported_of(deck),
+    )  # fmt: skip
+
+
+def load_model(path: str | os.PathLike[str]) -> Model:
+    """Read a deck file (with its INCLUDEs) and build its model.
+
+    Raises
+    ------
+    DeckError
+        For text that is not a valid deck, naming file, line, card and field.
+    ModelError
+        For cards that do not make a consistent model.
+    """
+    return build_model(read_deck(path))
 
 
 def _duplicates(
@@ -260,7 +283,7 @@ def _resolve_coordinates(
     xyz = np.full((len(gid), 3), np.nan)
     local = np.column_stack([g["x1"], g["x2"], g["x3"]]) if len(gid) else np.zeros((0, 3))
     done = np.zeros(len(gid), bool)
-    id_to_row = {int(v): i for i, v in enumerate(gid)} if pending1 else {}
+    grid_rows = IdIndex(gid)
 
     def place(cid: int, kind: str, origin: np.ndarray, axes: np.ndarray | None, loc) -> None:
         if axes is None:
@@ -285,9 +308,9 @@ def _resolve_coordinates(
                 progress = True
         for cid in list(pending1):
             kind, gg, f, ln = pending1[cid]
-            rows = [id_to_row.get(x) for x in gg]
-            if any(r is None for r in rows):
-                missing = [x for x, r in zip(gg, rows, strict=True) if r is None]
+            rows = [int(r) for r in grid_rows.rows(list(gg))]
+            if any(r < 0 for r in rows):
+                missing = [x for x, r in zip(gg, rows, strict=True) if r < 0]
                 p.add(
                     f"CORD1{kind} {cid} refers to GRID {missing}, which do not exist",
                     missing,

@@ -1,8 +1,11 @@
-"""The Model: frozen arrays built from a Deck.
+"""The Model: a structure as frozen arrays, built from a deck (:mod:`femcal.model.build`) or
+in code (:mod:`femcal.model.builder`).
 
-Below this layer nothing knows a card. NASTRAN ids stay here with one mapping each way:
+Below this layer nothing reads a card. NASTRAN ids stay here with one mapping each way:
 nodes (GRID and SPOINT) are numbered 0..n-1 in ascending id order, as NASTRAN sequences
-them; the DOF map gives 6 DOF per GRID and 1 per SPOINT in that order.
+them; the DOF map gives 6 DOF per GRID and 1 per SPOINT in that order. Element, property and
+material data keep NASTRAN's field names (lower case), so the property layer can say what
+each one means; constraints, PARAMs and the eigenvalue request are typed values.
 """
 
 from __future__ import annotations
@@ -11,7 +14,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .analysis import EigenSetup, Params
+from .constraints import Constraints
 from .coords import CoordSystem
+from .ids import IdIndex
 
 
 @dataclass(frozen=True)
@@ -61,10 +67,15 @@ class Model:
     n_dof : g-set size (6 per GRID + 1 per SPOINT).
     coords : cid -> resolved :class:`CoordSystem` (0 is basic).
     elements : card name -> :class:`ElementBlock`, for every element type present.
-    properties, materials : card name -> the deck's table (dict of (n,) arrays) or list of
-        records, for property and material cards present.
-    params : PARAM name -> value(s).
-    files : source files (locations index into it).
+    properties, materials : card name -> a table (dict of (n,) arrays keyed by field name)
+        or a list of records, for the property and material cards present.
+    params : the PARAMs that change the answer (:class:`~femcal.model.analysis.Params`).
+    files : source files (the elements' ``file`` indexes into it).
+    constraints : fixed DOF, rigid elements and multipoint equations.
+    eigen : the eigenvalue requests and the one selected.
+    unsupported : features of the deck that change the normal modes and that femcal does not
+        model (a reduction to an a-set, component modes, direct matrix input); solving such
+        a model is refused rather than answered differently.
     """
 
     node_ids: np.ndarray
@@ -80,8 +91,11 @@ class Model:
     elements: dict[str, ElementBlock]
     properties: dict[str, object]
     materials: dict[str, object]
-    params: dict[str, tuple]
+    params: Params = field(default_factory=Params)
     files: list[str] = field(default_factory=list)
+    constraints: Constraints = field(default_factory=Constraints)
+    eigen: EigenSetup = field(default_factory=EigenSetup)
+    unsupported: tuple[str, ...] = ()
 
     @property
     def n_nodes(self) -> int:
@@ -97,12 +111,7 @@ class Model:
 
     def node_index(self, ids: np.ndarray | list[int] | int) -> np.ndarray:
         """0-based node indices of NASTRAN ids; -1 where an id is not a node."""
-        ids = np.atleast_1d(np.asarray(ids, dtype=np.int64))
-        pos = np.searchsorted(self.node_ids, ids)
-        pos = np.clip(pos, 0, max(len(self.node_ids) - 1, 0))
-        ok = len(self.node_ids) > 0
-        found = (self.node_ids[pos] == ids) if ok else np.zeros(len(ids), bool)
-        return np.where(found, pos, -1)
+        return IdIndex(self.node_ids, ascending=True).rows(ids)
 
     def dof_index(
         self, ids: np.ndarray | list[int], components: np.ndarray | list[int]
@@ -112,3 +121,16 @@ class Model:
         comp = np.asarray(components, dtype=np.int64)
         off = np.where(self.is_grid[idx], comp - 1, 0)
         return self.dof_start[idx] + off
+
+    def dof_owner(self, dofs: np.ndarray | list[int] | int) -> tuple[np.ndarray, np.ndarray]:
+        """(node indices, components) of g-set DOF: components 1-6 at a GRID, 0 at a scalar
+        point."""
+        d = np.atleast_1d(np.asarray(dofs, dtype=np.int64))
+        node = np.searchsorted(self.dof_start, d, side="right") - 1
+        return node, d - self.dof_start[node] + np.where(self.is_grid[node], 1, 0)
+
+    def dof_label(self, dof: int) -> str:
+        """``GRID 12 C3`` or ``SPOINT 7 C0``: a g-set DOF as errors name it."""
+        node, comp = self.dof_owner(dof)
+        kind = "GRID" if self.is_grid[node[0]] else "SPOINT"
+        return f"{kind} {self.node_ids[node[0]]} C{comp[0]}"

@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..deck.fields import INT_BLANK
 from ..errors import ModelError
+from ..markers import INT_BLANK
 from .materials import MaterialTables, rotate_plane, rotate_shear
 
 

@@ -19,6 +19,7 @@ import scipy.sparse.linalg as spla
 from threadpoolctl import threadpool_limits
 
 from ..errors import SolverError
+from ..model.analysis import EigenRequest
 from .factor import NotPositiveDefinite, factorize
 from .lanczos import LanczosNotConverged, block_lanczos
 
@@ -26,17 +27,6 @@ from .lanczos import LanczosNotConverged, block_lanczos
 DENSE_LIMIT = 600
 #: |sigma| of the default negative shift, sigma = -(2 pi DEFAULT_SHIFT_HZ)^2.
 DEFAULT_SHIFT_HZ = 1.0
-
-
-@dataclass(frozen=True)
-class EigenRequest:
-    """What to compute: frequencies in [v1, v2] Hz (None: unbounded), at most nd roots,
-    mass or MAX normalisation."""
-
-    v1: float | None = None
-    v2: float | None = None
-    nd: int | None = 10
-    norm: str = "MASS"
 
 
 @dataclass(frozen=True)

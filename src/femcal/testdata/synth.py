@@ -27,10 +27,10 @@ import numpy as np
 
 from ..assembly.structure import Options, assemble
 from ..deck import read_deck
-from ..model import build_model
+from ..model import EigenRequest
+from ..model.build import build_model
 from ..response.frf import modal_frf, point_matrix
-from ..solve.eigen import EigenRequest
-from ..solve.normal_modes import solve_sol103
+from ..solve.normal_modes import solve_normal_modes
 from .data import FRFData, assemble_runs
 
 #: Parameter tables and the column each field lives in.
@@ -154,7 +154,7 @@ def hidden_frame(deck_path: str | Path, params_path: str | Path, settings: Synth
             d = int(model.dof_start[node]) + comp
             K[d, d] = K[d, d] + s.support_stiffness
     mats = replace(mats, K=K.tocsr())
-    modes, _ = solve_sol103(deck, model, matrices=mats,
+    modes, _ = solve_normal_modes(model, matrices=mats,
                             request=EigenRequest(v2=s.modes_to, nd=None))  # fmt: skip
     return model, modes, truth
 
