@@ -4,7 +4,7 @@ block of about 100 000 CHEXA.
     python benchmarks/assembly.py [--plate 500] [--hexa 47]
 
 Each case runs in a fresh process: the deck is written once (benchmarks/_work), read and
-turned into a model (not timed), then ``femcal.assembly.structure.assemble`` is timed. Peak
+turned into a model (not timed), then ``femcal.assembly.assemble`` is timed. Peak
 memory is the process's peak resident set after assembly, and its growth over the peak before
 it.
 """
@@ -81,7 +81,7 @@ def hexa_deck(n: int) -> Path:
 
 
 def child(deck: str) -> None:
-    from femcal.assembly.structure import assemble
+    from femcal.assembly import assemble
     from femcal.deck import read_deck
     from femcal.model.build import build_model
 

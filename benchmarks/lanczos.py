@@ -22,8 +22,8 @@ sys.path.insert(0, str(HERE))
 
 def matrices(deck_path: Path):
     """(K_aa, M_aa) of a deck after constraints and AUTOSPC, as solve_normal_modes forms them."""
+    from femcal.assembly import Options, assemble
     from femcal.assembly.constraints import autospc, build_reduction
-    from femcal.assembly.structure import Options, assemble
     from femcal.model.build import load_model
 
     model = load_model(deck_path)

@@ -37,7 +37,7 @@ def solve_cantilever(coupled_mass: bool, n_modes: int = 1000):
     """The 10-CBAR cantilever reference deck solved for its lowest modes: (model, matrices,
     modes, reduction). With coupled mass every DOF (T2 and R3 of 10 grids) has a finite
     mode; with lumped mass the rotations are massless."""
-    from femcal.assembly.structure import Options, assemble
+    from femcal.assembly import Options, assemble
     from femcal.deck import read_deck
     from femcal.model import EigenRequest
     from femcal.model.build import build_model

@@ -79,7 +79,7 @@ def test_entry_outside_the_pattern_is_refused():
 def test_compact_drops_stored_zeros_and_keeps_empty_rows():
     import scipy.sparse as sp
 
-    from femcal.assembly.structure import _compact
+    from femcal.assembly.matrices import _compact
 
     A = sp.csr_matrix(np.array([[1.0, 0, 2], [0, 0, 0], [0, 0, 3.0]]))
     A.data[0] = 0.0  # a stored zero in row 0; row 1 has no entries at all
@@ -126,7 +126,8 @@ def test_pattern_is_the_same_whatever_the_expansion_pass_size(monkeypatch, nodes
 def test_threaded_assembly_gives_bitwise_the_same_matrices(monkeypatch):
     """Kernels on worker threads, scatter in order: the sums do not depend on the thread
     count (shells and solids in small chunks, so that many run at once)."""
-    import femcal.assembly.structure as structure
+    import femcal.assembly.context as context
+    from femcal.assembly import Options, assemble
     from femcal.deck import read_deck
     from femcal.model.build import build_model
 
@@ -135,9 +136,9 @@ def test_threaded_assembly_gives_bitwise_the_same_matrices(monkeypatch):
     deck = REFDECKS / "pyn_mode_solid_shell_bar" / "mode_solid_shell_bar.bdf"
     model = build_model(read_deck(deck))
     assert {"CQUAD4", "CHEXA"} <= set(model.elements)
-    monkeypatch.setattr(structure, "KERNEL_CHUNK", 1)
-    one = structure.assemble(model, structure.Options(threads=1))
-    three = structure.assemble(model, structure.Options(threads=3))
+    monkeypatch.setattr(context, "KERNEL_CHUNK", 1)
+    one = assemble(model, Options(threads=1))
+    three = assemble(model, Options(threads=3))
     for a, b in ((one.K, three.K), (one.M, three.M)):
         assert np.array_equal(a.indptr, b.indptr) and np.array_equal(a.indices, b.indices)
         assert np.array_equal(a.data, b.data)
@@ -149,7 +150,8 @@ def test_threaded_assembly_gives_bitwise_the_same_matrices(monkeypatch):
     [((2.05, 0.05), "Jacobian"), ((1.5, 0.5), "degenerate")],  # concave; diagonals parallel
 )
 def test_bad_shell_is_reported_by_element_id_with_threads(monkeypatch, write, corner, what):
-    import femcal.assembly.structure as structure
+    import femcal.assembly.context as context
+    from femcal.assembly import Options, assemble
     from femcal.deck import read_deck
     from femcal.errors import ModelError
     from femcal.model.build import build_model
@@ -162,15 +164,15 @@ def test_bad_shell_is_reported_by_element_id_with_threads(monkeypatch, write, co
         + "ENDDATA\n"
     )  # fmt: skip
     model = build_model(read_deck(deck))
-    monkeypatch.setattr(structure, "KERNEL_CHUNK", 1)
+    monkeypatch.setattr(context, "KERNEL_CHUNK", 1)
     with pytest.raises(ModelError, match=rf"CQUAD4: .*{what}.*element ids \[13\]"):
-        structure.assemble(model, structure.Options(threads=2))
+        assemble(model, Options(threads=2))
 
 
 def test_distorted_solid_is_reported_by_element_id(write):
     # a TETRA10 whose midside node (GRID 8, edge 1-4) is pulled past its corner: the
     # Jacobian changes sign inside it, and the error names element 22, not a position
-    from femcal.assembly.structure import assemble
+    from femcal.assembly import assemble
     from femcal.deck import read_deck
     from femcal.errors import ModelError
     from femcal.model.build import build_model

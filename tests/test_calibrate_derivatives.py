@@ -8,8 +8,8 @@ import pytest
 import scipy.linalg as sla
 import scipy.sparse as sp
 
+from femcal.assembly import assemble
 from femcal.assembly.constraints import build_reduction
-from femcal.assembly.structure import assemble
 from femcal.calibrate.derivatives import (
     DerivativeError,
     eigenvalue_sensitivities,

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from femcal.assembly.structure import assemble
+from femcal.assembly import assemble
 from femcal.calibrate.metric import jacobian, log_frequencies, residuals
 from femcal.calibrate.parameters import with_values
 from femcal.calibrate.surrogate import build_surrogate

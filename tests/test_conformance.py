@@ -129,8 +129,8 @@ def test_tet10_static_response_matches_nastran():
     response depends on the stiffness rule: NASTRAN's is matched to print precision (9e-8 of
     the largest displacement) by the 5-point (degree 3) rule, where the 4-point rule is off by
     1.4 % and an exact rule by 0.9 %."""
+    from femcal.assembly import assemble
     from femcal.assembly.constraints import autospc, build_reduction
-    from femcal.assembly.structure import assemble
 
     deck = read_deck(next(c[1] for c in refdeck_cases() if c[0] == "pyn_tet10_simple"))
     model = build_model(deck)
@@ -152,7 +152,7 @@ def test_fmondsp_rigid_body_mass_matches_nastran_gpwg():
     models/aero/fmondsp.f06, MSC.Nastran 2005.1, page 17: MO about the origin). Its tubes
     taper, so the lumped CBEAM mass shows how each member's mass is shared between its ends:
     the centre-keeping shares give NASTRAN's MO to 7e-7, half each would be 1.4e-3 off."""
-    from femcal.assembly.structure import assemble
+    from femcal.assembly import assemble
     from femcal.assembly.weight import weight_summary
 
     deck = read_deck(next(c[1] for c in refdeck_cases() if c[0] == "pyn_fmondsp"))

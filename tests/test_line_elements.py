@@ -168,7 +168,7 @@ def test_tapered_beam_mass_keeps_total_mass_centre_and_rotary_inertia(coupled):
     # (coupled, whose Hermite shapes hold the rigid rotation exactly) second moment
     # L^3 (m_a + 3 m_b) / 12. The lumped ends are the centre-keeping shares
     # L (2 m_a + m_b) / 6 and L (m_a + 2 m_b) / 6; the torsion inertia is shared the same way.
-    from femcal.elements.line import _GAUSS_X
+    from femcal.elements.line import MASS_X
 
     L, ma, mb, ja, jb = 2.5, 3.0, 11.0, 0.2, 0.9
     xyz = np.array([[[0, 0, 0], [L, 0, 0]]], float)
@@ -176,8 +176,8 @@ def test_tapered_beam_mass_keeps_total_mass_centre_and_rotary_inertia(coupled):
     _, M = bar_matrices(
         xyz, np.array([[0, 1.0, 0]]), np.zeros((1, 3)), np.zeros((1, 3)),
         np.array([1.0]), np.array([0.4]), sec, np.array([np.nan]), np.array([np.nan]),
-        (ma + (mb - ma) * _GAUSS_X)[None], coupled_mass=coupled,
-        torsion_inertia=(ja + (jb - ja) * _GAUSS_X)[None],
+        (ma + (mb - ma) * MASS_X)[None], coupled_mass=coupled,
+        torsion_inertia=(ja + (jb - ja) * MASS_X)[None],
     )  # fmt: skip
     M = M[0]
     total = L * (ma + mb) / 2

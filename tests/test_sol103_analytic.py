@@ -173,7 +173,7 @@ def test_autospc_reports_singular_rotations(write):
 def test_grid_point_weight_generator(write):
     # Two masses: 2 t at (100, 0, 0) with inertia, 1 t at (0, 300, 50): total 3 t, centre of
     # gravity (200/3, 100, 50/3); inertia about the CG by the parallel-axis theorem.
-    from femcal.assembly.structure import assemble
+    from femcal.assembly import assemble
     from femcal.assembly.weight import weight_summary
 
     text = ("EIGRL   1                       1\nGRID,1,,100.,0.,0.\nGRID,2,,0.,300.,50.\n"

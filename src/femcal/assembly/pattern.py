@@ -10,11 +10,13 @@ per-element Python loop.
 
 from __future__ import annotations
 
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+
+from ..parallel import in_background
 
 #: Elements handled per scatter chunk (bounds the temporary index arrays).
 CHUNK_ELEMENTS = 16384
@@ -104,12 +106,7 @@ class Pattern:
         nnz = int(indptr[-1])
         itype = np.int32 if max(nnz, n_dof) < 2**31 - 1 else np.int64
         args = (dof_start, ndof, b, blk, node_ptr, start_of_row, row_len_node, nnz, itype)
-        if background:
-            pool = ThreadPoolExecutor(1, thread_name_prefix="femcal-pattern")
-            indices = pool.submit(_expand_columns, *args)
-            pool.shutdown(wait=False)
-        else:
-            indices = _expand_columns(*args)
+        indices = in_background(_expand_columns, *args) if background else _expand_columns(*args)
         indptr = indptr.astype(itype)  # scipy wants indptr and indices of one dtype
         return cls(n, n_dof, dof_start, ndof, dof_node, indptr, [indices], keys, prefix)
 

@@ -34,7 +34,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ..assembly.structure import Options, assemble
+from ..assembly import Options, assemble
 from ..errors import FemcalError
 from ..model.model import Model
 from .parameters import Parameter, affected_elements, current_value, subset, with_values

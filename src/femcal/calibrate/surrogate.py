@@ -40,7 +40,7 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
-from ..assembly.structure import Options, assemble
+from ..assembly import Options, assemble
 from ..model import EigenRequest
 from ..model.model import Model
 from ..response.frf import QUANTITIES, channel_matrix

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..assembly.structure import Options, assemble
+from ..assembly import Options, assemble
 from ..model import EigenRequest
 from ..model.build import load_model
 from ..response.frf import QUANTITIES, modal_frf, point_matrix, residual_flexibility

@@ -8,7 +8,7 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
-from ..assembly.structure import Options, assemble
+from ..assembly import Options, assemble
 from ..assembly.weight import weight_summary, weight_table
 from ..deck.writer import write_text_atomic
 from ..io.modes import eigen_table, modes_json, write_json, write_npz, write_vtu

@@ -31,7 +31,7 @@ def _gauss01(n: int) -> tuple[np.ndarray, np.ndarray]:
 
 #: Gauss-Legendre stations on [0, 1] at which a member's mass per length is integrated (exact
 #: for the linear taper with the cubic shapes of the coupled mass).
-_GAUSS_X, _GAUSS_W = _gauss01(8)
+MASS_X, MASS_W = _gauss01(8)
 #: Stations of the flexibility integral: NASTRAN's 3-point rule (exact for a uniform member).
 FLEX_X, FLEX_W = _gauss01(3)
 
@@ -228,18 +228,18 @@ def beam_stiffness_local(
 
 
 def _along(values: np.ndarray, n: int) -> np.ndarray:
-    """(n,) uniform or (n, q) values at the Gauss stations ``_GAUSS_X`` -> (n, q)."""
+    """(n,) uniform or (n, q) values at the Gauss stations ``MASS_X`` -> (n, q)."""
     values = np.asarray(values, dtype=float)
     if values.ndim == 1:
-        return np.broadcast_to(values[:, None], (n, len(_GAUSS_X)))
+        return np.broadcast_to(values[:, None], (n, len(MASS_X)))
     return values
 
 
 def _end_shares(L: np.ndarray, per_length: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Lumped end values of a quantity per length (n, q): the shares that keep its total and
     its centre, int q (1 - x/L) dx at end A and int q x/L dx at end B; (n,) each."""
-    wl = L[:, None] * _GAUSS_W[None, :] * per_length
-    return (wl * (1.0 - _GAUSS_X)).sum(axis=1), (wl * _GAUSS_X).sum(axis=1)
+    wl = L[:, None] * MASS_W[None, :] * per_length
+    return (wl * (1.0 - MASS_X)).sum(axis=1), (wl * MASS_X).sum(axis=1)
 
 
 def beam_mass_local(
@@ -251,7 +251,7 @@ def beam_mass_local(
 ) -> np.ndarray:
     """Local 12 x 12 mass of bars/beams.
 
-    ``mass_per_length``: (n,) uniform, or (n, q) at the Gauss stations ``_GAUSS_X`` of a
+    ``mass_per_length``: (n,) uniform, or (n, q) at the Gauss stations ``MASS_X`` of a
     tapered member (mass/length). ``torsion_inertia``: mass moment of inertia per length about
     the axis, (n,) or (n, q) (CBEAM: rho (I1 + I2) + NSI); None for CBAR, which NASTRAN gives
     none.
@@ -279,8 +279,8 @@ def beam_mass_local(
             M[:, k, k] = end_a
             M[:, k + 6, k + 6] = end_b
         return M
-    x = _GAUSS_X
-    wl = L[:, None] * _GAUSS_W[None, :] * mq  # (n, q)
+    x = MASS_X
+    wl = L[:, None] * MASS_W[None, :] * mq  # (n, q)
     # axial: the mean of lumped and consistent (m [[5, 1], [1, 5]] / 12 when uniform), as
     # NASTRAN's coupled mass has it (all 278 modes of refdecks/yeti_full_cbar_rbe2 to 5e-7)
     lin = np.stack([1.0 - x, x])  # (2, q)
@@ -327,7 +327,7 @@ def bar_matrices(
     E, G : (n,) moduli.
     section : (n, 5) uniform A, I1, I2, I12, J, or (n, 3, 5) at the stations ``FLEX_X``.
     k1, k2 : (n,) shear factors (0 or NaN: no shear flexibility).
-    mass_per_length : (n,) rho A + nsm, or (n, 8) at the Gauss stations ``_GAUSS_X``.
+    mass_per_length : (n,) rho A + nsm, or (n, 8) at the Gauss stations ``MASS_X``.
     pa, pb : (n,) pin-flag codes (e.g. 456: release rotations at that end, element frame);
         0 or None for none. Released DOF carry no force: statically condensed out of K.
     coupled_mass : NASTRAN COUPMASS (see :func:`beam_mass_local`).

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ModelError
+from ..model.ids import IdIndex
 
 
 def mat1_moduli(
@@ -25,6 +26,16 @@ def mat1_moduli(
     with np.errstate(divide="ignore", invalid="ignore"):
         nu2 = np.where(n_, nu, np.where(e_ & g_, E / (2.0 * G) - 1.0, 0.0))
     return E2, G2, nu2
+
+
+@dataclass(frozen=True)
+class IsotropicMaterial:
+    """Isotropic materials (MAT1) of n elements: E, G, NU and RHO, each (n,)."""
+
+    E: np.ndarray
+    G: np.ndarray
+    nu: np.ndarray
+    rho: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -48,17 +59,47 @@ class PlaneMaterial:
 class MaterialTables:
     """Lookup of MAT1 / MAT2 / MAT8 / MAT9 tables from ``Model.materials``."""
 
+    #: Material cards in the order a material id is looked up.
+    CARDS = ("MAT1", "MAT2", "MAT8", "MAT9")
+
     def __init__(self, materials: dict[str, dict[str, np.ndarray]]):
         self.tables = materials
-        self.where: dict[int, tuple[str, int]] = {}
-        for card in ("MAT1", "MAT2", "MAT8", "MAT9"):
-            t = materials.get(card)
-            if t is not None:
-                for row, mid in enumerate(t["mid"].tolist()):
-                    self.where[mid] = (card, row)
+        self._index = {card: IdIndex(materials[card]["mid"]) for card in self.CARDS
+                       if card in materials}  # fmt: skip
+
+    def where(self, mid: int) -> tuple[str, int]:
+        """(card, row) of material ``mid``; ("", 0) if no card defines it."""
+        for card, index in self._index.items():
+            row = int(index.rows(mid)[0])
+            if row >= 0:
+                return card, row
+        return "", 0
 
     def kinds(self, mids: np.ndarray) -> list[str]:
-        return [self.where.get(int(m), ("", 0))[0] for m in mids]
+        return [self.where(int(m))[0] for m in mids]
+
+    def mat1(self, mids: np.ndarray, who: str, eids: np.ndarray) -> IsotropicMaterial:
+        """Moduli and density of MAT1 materials ``mids`` (n,), with NASTRAN's rules for a
+        blank E, G or NU; ``who`` and ``eids`` name the elements in errors.
+
+        Raises
+        ------
+        ModelError
+            If a material is not a MAT1 (or the model has none).
+        """
+        table = self.tables.get("MAT1")
+        if table is None:
+            raise ModelError(f"{who} elements need MAT1 materials; the deck has none", eids[:20])
+        rows = self._index["MAT1"].rows(mids)
+        if (rows < 0).any():
+            bad = np.flatnonzero(rows < 0)
+            raise ModelError(
+                f"{who} elements {eids[bad][:20].tolist()} refer to materials "
+                f"{np.unique(mids[bad])[:20].tolist()} that are not MAT1",
+                eids[bad][:20],
+            )
+        E, G, nu = mat1_moduli(table["e"][rows], table["g"][rows], table["nu"][rows])
+        return IsotropicMaterial(E, G, nu, table["rho"][rows])
 
     def plane(self, mids: np.ndarray, who: str) -> PlaneMaterial:
         """Plane-stress data of materials ``mids`` (n,), for shells."""
@@ -73,7 +114,7 @@ class MaterialTables:
         rho = np.zeros(n)
         iso = np.zeros(n, bool)
         for i, mid in enumerate(np.asarray(mids).tolist()):
-            card, row = self.where.get(mid, ("", 0))
+            card, row = self.where(mid)
             t = self.tables.get(card)
             if card == "MAT1":
                 E, G, nu = _mat1_row(t, row)
@@ -117,7 +158,7 @@ class MaterialTables:
         rho = np.zeros(n)
         iso = np.zeros(n, bool)
         for i, mid in enumerate(np.asarray(mids).tolist()):
-            card, row = self.where.get(mid, ("", 0))
+            card, row = self.where(mid)
             t = self.tables.get(card)
             if card == "MAT1":
                 E, G, nu = _mat1_row(t, row)

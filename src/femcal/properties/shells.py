@@ -21,6 +21,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..markers import INT_BLANK
+from ..model.ids import IdIndex
 from .materials import MaterialTables, rotate_plane, rotate_shear
 
 
@@ -74,7 +75,7 @@ def shell_sections(
     done = np.zeros(n, bool)
     pshell = properties.get("PSHELL")
     if pshell is not None:
-        rows = _rows(pshell["pid"], pids)
+        rows = IdIndex(pshell["pid"]).rows(pids)
         sel = np.flatnonzero(rows >= 0)
         if len(sel):
             _pshell(pshell, rows[sel], sel, mats, theta, element_t, tflag, eids, etype,
@@ -96,12 +97,6 @@ def shell_sections(
         bad = eids[~done][:20]
         raise ModelError(f"{etype} {bad.tolist()} have no PSHELL, PCOMP or PCOMPG", bad)
     return ShellSections(A, B, D, S, rigid, rho_area, nsm)
-
-
-def _rows(ids: np.ndarray, query: np.ndarray) -> np.ndarray:
-    order = np.argsort(ids, kind="stable")
-    pos = np.minimum(np.searchsorted(ids[order], query), len(ids) - 1)
-    return np.where(ids[order][pos] == query, order[pos], -1)
 
 
 def _pshell(t, rows, sel, mats, theta, element_t, tflag, eids, etype,

@@ -8,8 +8,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..assembly import Matrices, Options, assemble
 from ..assembly.constraints import Reduction, autospc, build_reduction
-from ..assembly.structure import Matrices, Options, assemble
 from ..errors import ModelError
 from ..model.analysis import EigenRequest
 from ..model.model import Model

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..assembly.structure import Options, assemble
+from ..assembly import Options, assemble
 from ..deck import read_deck
 from ..model import EigenRequest
 from ..model.build import build_model

@@ -1,0 +1,70 @@
+"""What the element handlers of the assembly share: the model, the PARAM-derived options,
+material lookups, and running a handler's kernels in chunks on worker threads."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from ..model.model import Model
+from ..parallel import executor, ordered
+from ..properties.materials import MaterialTables
+from .pattern import Assembler
+
+#: Elements per kernel call. It bounds the kernels' temporaries to about 10 MB each, small
+#: enough for the C library to reuse freed memory rather than map fresh pages per call (which
+#: costs more than the arithmetic), large enough to amortise NumPy's per-call overhead.
+KERNEL_CHUNK = 2048
+
+
+def chunks(rows: np.ndarray) -> list[np.ndarray]:
+    """``rows`` (element indices) in parts of at most :data:`KERNEL_CHUNK`."""
+    return [rows[s : s + KERNEL_CHUNK] for s in range(0, len(rows), KERNEL_CHUNK)]
+
+
+class Context:
+    """The model being assembled and how: coupled or lumped mass, the shells' K6ROT, the
+    threads the kernels may use."""
+
+    def __init__(self, model: Model, coupled: bool, k6rot: float, threads: int = 1):
+        self.model = model
+        self.coupled = coupled
+        self.k6rot = k6rot
+        self.threads = threads
+        self.materials = MaterialTables(model.materials)
+
+    def run_chunks(
+        self,
+        asm: Assembler,
+        parts: Sequence[np.ndarray],
+        compute: Callable[[np.ndarray], tuple[np.ndarray, int, np.ndarray, np.ndarray]],
+    ) -> None:
+        """Element matrices of each part (element indices) by ``compute(part) -> (nodes, dof
+        per node, K, M)``, added to ``asm``.
+
+        The kernels and the assembler's preparation run on ``threads`` worker threads, at most
+        one part ahead of each; the scatter runs here, in part order, so the sums are the same
+        whatever the thread count, and the first failing part (in order) raises.
+        """
+
+        def task(part: np.ndarray) -> list:
+            nodes, d, K, M = compute(part)
+            return asm.prepare(nodes, d, K, M)
+
+        threads = self.threads if len(parts) > 1 else 1
+        with executor("threads", threads, name="femcal-kernel") as pool:
+            for prepared in ordered(pool, task, parts, ahead=threads + 1 if threads > 1 else 1):
+                asm.scatter(prepared)
+
+
+def name_positions(message: str, ids: np.ndarray) -> str:
+    """Replace the element positions ``[i, j]`` of a kernel's message (``element index(es)
+    [i, j]``, ``positions [i, j]`` or a bare list) by the element ids they stand for."""
+    m = re.search(r"(?:element )?(?:index\(es\) |positions )?\[([\d, ]+)\]", message)
+    if not m:
+        return message
+    pos = [int(x) for x in m.group(1).split(",") if x.strip()]
+    named = [int(ids[p]) for p in pos if 0 <= p < len(ids)]
+    return message[: m.start()] + f"element ids {named}" + message[m.end() :]
