@@ -113,7 +113,7 @@ def noise_free(max_cycles: int = 40, near: float | None = None, residual: bool =
     shipped = read_frf(FRAME / "hammer_test.mat")  # its channels and frequencies
     f = shipped.frequency_hz
     if residual:  # the same FRF definition as the calibration's: + residual flexibility
-        from femcal.calibrate.surrogate import build_surrogate
+        from femcal.calibrate.reduction import build_surrogate
 
         p_true = np.array([true_v[q.name] / q.nominal - 1.0 for q in params])
         sur, _ = build_surrogate(model, params, p_true, shipped.outputs, shipped.inputs,

@@ -12,8 +12,6 @@ from femcal.assembly import assemble
 from femcal.assembly.constraints import build_reduction
 from femcal.calibrate.derivatives import (
     DerivativeError,
-    eigenvalue_sensitivities,
-    eigenvector_sensitivity,
     parameter_matrices,
 )
 from femcal.calibrate.parameters import (
@@ -22,6 +20,7 @@ from femcal.calibrate.parameters import (
     with_values,
     write_calibrated_deck,
 )
+from femcal.calibrate.sensitivity import eigenvalue_sensitivities, eigenvector_sensitivity
 from femcal.deck import read_deck
 from femcal.model.build import build_model
 

@@ -8,8 +8,8 @@ import pytest
 
 from femcal.calibrate.gradient import first_order_correction
 from femcal.calibrate.metric import jacobian, log_frequencies, residuals
+from femcal.calibrate.reduction import build_surrogate
 from femcal.calibrate.starts import Problem
-from femcal.calibrate.surrogate import build_surrogate
 from femcal.testdata.data import Channel
 
 from .calib_decks import write_plate

@@ -10,7 +10,7 @@ import scipy.linalg as sla
 from femcal.assembly import assemble
 from femcal.calibrate.metric import jacobian, log_frequencies, residuals
 from femcal.calibrate.parameters import with_values
-from femcal.calibrate.surrogate import build_surrogate
+from femcal.calibrate.reduction import build_surrogate
 from femcal.model import EigenRequest
 from femcal.response.frf import channel_matrix, modal_frf
 from femcal.solve.normal_modes import solve_normal_modes
@@ -145,7 +145,7 @@ def test_derivative_vectors_lumped_mass_shortcut_and_reused_factor_change_nothin
     """With a diagonal (lumped) M the derivative vectors' M-products run over the rows with
     mass only, and the eigen solution's factor of K - sigma M may serve their solves: the
     vectors span the same space as the general path's with their own factorisation."""
-    from femcal.calibrate import surrogate as sur_mod
+    from femcal.calibrate import reduction as sur_mod
     from femcal.calibrate.derivatives import group_polynomials
     from femcal.solve.factor import factorize
 
@@ -172,7 +172,7 @@ def test_derivative_vectors_lumped_mass_shortcut_and_reused_factor_change_nothin
 
 
 def test_gram_and_mass_root():
-    from femcal.calibrate.surrogate import _gram, _mass_root
+    from femcal.calibrate.reduction import _gram, _mass_root
 
     rng = np.random.default_rng(3)
     Y = rng.standard_normal((50, 7))

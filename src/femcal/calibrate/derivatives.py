@@ -20,19 +20,17 @@ the derivative is then the interpolant's, accurate to about that level (the test
 it with finite differences). Beyond the highest degree the parameter is refused with a
 clear error instead of giving a wrong derivative.
 
-Eigen-sensitivities of mass-normalised modes (Fox and Kapoor 1968; Nelson 1976):
-``dlam = phi^T (dK - lam dM) phi``; ``dphi`` by Nelson's method, which needs one sparse
-solve per mode and no other modes.
+Eigen-sensitivities built on these matrices are in :mod:`femcal.calibrate.sensitivity`.
 """
 
 from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
+from math import comb
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from ..assembly import Options, assemble
 from ..errors import FemcalError
@@ -357,33 +355,39 @@ def _constant_misfit(Ks: dict, Ms: dict, coef_w: dict, at_c) -> tuple[float, str
     return _relative_misfit([Ks[g] for g in grid], [Ms[g] for g in grid], w, (at_c.K, at_c.M))
 
 
-def eigenvalue_sensitivities(shapes: np.ndarray, eigenvalues: np.ndarray, dK: sp.spmatrix,
-                             dM: sp.spmatrix) -> np.ndarray:  # fmt: skip
-    """dlam (k,) = phi^T (dK - lam dM) phi for mass-normalised shapes (n, k)."""
-    KP = dK @ shapes
-    MP = dM @ shapes
-    return np.einsum("nk,nk->k", shapes, KP) - eigenvalues * np.einsum("nk,nk->k", shapes, MP)
+def shift_weight(a, b, c) -> float:
+    """Weight of the term ``prod d_i^a_i`` (about p = 0) in the term ``prod (d_i - c_i)^b_i``
+    about c: ``prod_i binom(a_i, b_i) c_i^(a_i - b_i)`` (0 unless a >= b). With b a unit
+    vector it is the monomial's derivative at c."""
+    if any(ai < bi for ai, bi in zip(a, b, strict=True)):
+        return 0.0
+    return float(np.prod([comb(int(ai), int(bi)) * ci ** (ai - bi)
+                          for ai, bi, ci in zip(a, b, c, strict=True)]))  # fmt: skip
 
 
-def eigenvector_sensitivity(K: sp.spmatrix, M: sp.spmatrix, phi: np.ndarray, lam: float,
-                            dK: sp.spmatrix, dM: sp.spmatrix) -> np.ndarray:  # fmt: skip
-    """dphi (n,) of one mass-normalised mode by Nelson's method (distinct eigenvalue).
+def polynomial_derivative(polys: list[GroupPolynomial], center: np.ndarray, j: int,
+                           X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """dK/dp_j X and dM/dp_j X (n_g, m) at ``center`` from the group polynomials about 0.
 
-    ``(K - lam M) v = -(dK - lam dM) phi + dlam M phi`` is solved with the component of
-    largest amplitude fixed at zero (the matrix is singular along phi), then
-    ``dphi = v + c phi`` with ``c = -phi^T M v - phi^T dM phi / 2`` keeps the mass
-    normalisation.
+    The terms' matrices are summed with their weights first (one pass over their entries
+    each), then multiplied once: a group of high degree has many terms, and X many columns.
     """
-    K, M, dK, dM = (sp.csc_matrix(x) for x in (K, M, dK, dM))
-    dlam = float(phi @ (dK @ phi) - lam * (phi @ (dM @ phi)))
-    rhs = -(dK @ phi - lam * (dM @ phi)) + dlam * (M @ phi)
-    A = (K - lam * M).tolil()
-    k = int(np.argmax(np.abs(phi)))
-    A[k, :] = 0.0
-    A[:, k] = 0.0
-    A[k, k] = 1.0
-    rhs = rhs.copy()
-    rhs[k] = 0.0
-    v = spla.splu(sp.csc_matrix(A)).solve(rhs)
-    c = -float(phi @ (M @ v)) - 0.5 * float(phi @ (dM @ phi))
-    return v + c * phi
+    dK, dM = [], []
+    for g in polys:
+        if j not in g.params:
+            continue
+        idx = list(g.params)
+        unit = np.zeros(len(idx), int)
+        unit[idx.index(j)] = 1
+        c = center[idx]
+        for a, Kc, Mc in zip(g.exponents, g.K, g.M, strict=True):
+            w = shift_weight(a, unit, c)
+            if w == 0.0:
+                continue
+            if Kc.nnz:
+                dK.append(w * Kc)
+            if Mc.nnz:
+                dM.append(w * Mc)
+    dKX = sum(dK[1:], dK[0]) @ X if dK else np.zeros(X.shape)
+    dMX = sum(dM[1:], dM[0]) @ X if dM else np.zeros(X.shape)
+    return dKX, dMX

@@ -35,18 +35,12 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from ..response.modal import modal_factors_and_slopes, static_factor
 from ..solve.factor import factorize
-from .derivatives import GroupPolynomial
+from .derivatives import GroupPolynomial, polynomial_derivative
 from .metric import jacobian
-from .surrogate import (
-    STATIC_SHIFT,
-    Surrogate,
-    _polynomial_derivative,
-    eigen_derivatives,
-    inverse_gaps,
-    modal_factors,
-    static_factor,
-)
+from .sensitivity import eigen_derivatives, inverse_gaps
+from .surrogate import STATIC_SHIFT, Surrogate
 
 #: Relative accuracy asked of the series for the out-of-basis part.
 SERIES_TOL = 1e-10
@@ -82,7 +76,7 @@ class CentreDerivatives:
     def frf_and_jacobian(self, freq_hz: np.ndarray, zeta: float, quantity: str
                          ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
         """H (n_out, n_in, n_f) and dH/dp (n_p, n_out, n_in, n_f) of the full model."""
-        q, dq = modal_factors(self.lam, freq_hz, zeta, quantity)
+        q, dq = modal_factors_and_slopes(self.lam, freq_hz, zeta, quantity)
         H = np.einsum("oj,ij,jf->oif", self.S, self.P, q, optimize=True)
         dH = (np.einsum("poj,ij,jf->poif", self.d_S, self.P, q, optimize=True)
               + np.einsum("oj,pij,jf->poif", self.S, self.d_P, q, optimize=True)
@@ -159,7 +153,7 @@ def centre_derivatives(polys: list[GroupPolynomial], center: np.ndarray, M: sp.s
     # its elements touch (kept for the series)
     loads: list[tuple[np.ndarray, np.ndarray]] = []
     for i in range(n_p):
-        dKX, dMX = _polynomial_derivative(polys, center, i, Phi[:, :m])
+        dKX, dMX = polynomial_derivative(polys, center, i, Phi[:, :m])
         rows = np.flatnonzero(np.any(dKX != 0, axis=1) | np.any(dMX != 0, axis=1))
         dKX, dMX, Pr = dKX[rows], dMX[rows], Phi[rows]
         G, N = Pr.T @ dKX, Pr.T @ dMX  # (r, m)
@@ -191,7 +185,7 @@ def centre_derivatives(polys: list[GroupPolynomial], center: np.ndarray, M: sp.s
         R = np.asarray(Cg @ XB) - (S / lm) @ P.T
         dR = np.zeros((n_p, n_out, P.shape[0]))
         for i in range(n_p):
-            dKXB, _ = _polynomial_derivative(polys, center, i, XB)
+            dKXB, _ = polynomial_derivative(polys, center, i, XB)
             rows = np.flatnonzero(np.any(dKXB != 0, axis=1))
             static = -(XC[rows].T @ dKXB[rows]) if rows.size else 0.0
             dR[i] = (static - (dS[i] / lm) @ P.T - (S / lm) @ dP[i].T

@@ -52,7 +52,7 @@ from .lm import latin_hypercube
 from .metric import deviation, log_frequencies, residuals
 from .parameters import Parameter, read_parameters, read_truth, write_calibrated_deck
 from .starts import Problem, run_starts
-from .surrogate import build_surrogate
+from .reduction import build_surrogate
 
 
 @dataclass

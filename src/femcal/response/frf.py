@@ -34,8 +34,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..model.model import Model
-
-QUANTITIES = ("receptance", "mobility", "accelerance")
+from .modal import QUANTITIES, modal_factors
 
 
 @dataclass(frozen=True)
@@ -188,8 +187,7 @@ def modal_frf(
     out_r = np.asarray(C @ shapes)  # (n_out, k)
     in_r = np.asarray(B.T @ shapes)  # (n_in, k)
     w = 2.0 * np.pi * np.asarray(freq_hz, float)
-    # (k, n_freq) modal receptances
-    q = 1.0 / (omega[:, None] ** 2 - w[None, :] ** 2 + 2j * (zeta * omega)[:, None] * w[None, :])
+    q = modal_factors(omega**2, freq_hz, zeta, omega=omega)  # (k, n_freq) modal receptances
     H = np.einsum("ok,ik,kf->oif", out_r, in_r, q)
     if residual is not None:
         H = H + np.asarray(residual)[:, :, None]
