@@ -101,7 +101,9 @@ def noise_free(max_cycles: int = 40, near: float | None = None, residual: bool =
     from femcal.model.build import build_model
     from femcal.response.frf import channel_matrix, modal_frf
     from femcal.solve.normal_modes import solve_normal_modes
-    from femcal.testdata.data import FRFData, read_frf, write_npz
+    from femcal.testdata.data import FRFData
+    from femcal.testdata.formats import read_frf
+    from femcal.testdata.formats.npz import write_npz
 
     WORK.mkdir(parents=True, exist_ok=True)
     deck = read_deck(FRAME / "hammer_frame.bdf")

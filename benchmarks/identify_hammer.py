@@ -136,7 +136,7 @@ def main(argv=None) -> int:
     ap.add_argument("--lscf-order", type=int, default=40)
     args = ap.parse_args(argv)
     from femcal.identify import identify
-    from femcal.testdata.data import read_mat
+    from femcal.testdata.formats.matlab import read_mat
 
     data = read_mat(FRAME / "hammer_test.mat")
     model, modes, true_z = true_modes()

@@ -18,7 +18,8 @@ from femcal.model import EigenRequest
 from femcal.model.build import build_model
 from femcal.response.frf import channel_matrix, modal_frf
 from femcal.solve.normal_modes import solve_normal_modes
-from femcal.testdata.data import Channel, FRFData, write_npz
+from femcal.testdata.data import Channel, FRFData
+from femcal.testdata.formats.npz import write_npz
 
 from .calib_decks import PARAMS_TOML, plate_deck, write_plate
 

@@ -11,19 +11,12 @@ from femcal.model import EigenRequest
 from femcal.model.build import build_model
 from femcal.response.frf import modal_frf, point_matrix
 from femcal.solve.normal_modes import solve_normal_modes
-from femcal.testdata.data import (
-    Channel,
-    FRFData,
-    assemble_runs,
-    read_csv,
-    read_mat,
-    read_npz,
-    read_uff,
-    write_csv,
-    write_mat,
-    write_npz,
-    write_uff,
-)
+from femcal.testdata.data import Channel, FRFData
+from femcal.testdata.formats.matlab import read_mat, write_mat
+from femcal.testdata.formats.npz import read_npz, write_npz
+from femcal.testdata.formats.text import read_csv, write_csv
+from femcal.testdata.formats.uff import read_uff, write_uff
+from femcal.testdata.runs import assemble_runs
 
 from .conftest import REFDECKS
 

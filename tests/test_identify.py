@@ -192,7 +192,7 @@ def test_cli_writes_the_model_summary_and_pictures(tmp_path, capsys):
 
     from femcal.cli import main
     from femcal.io.identified import read_model
-    from femcal.testdata.data import write_uff
+    from femcal.testdata.formats.uff import write_uff
 
     data, _ = modal_set(noise=0.01, seed=8)
     H = data.H.copy()
@@ -232,7 +232,7 @@ def test_cli_reports_bad_input(tmp_path, capsys):
     assert main(["identify", str(tmp_path / "none.npz"), "--band", "1", "2"]) == 2
     assert "No such file or directory" in capsys.readouterr().err
     data, _ = modal_set()
-    from femcal.testdata.data import write_npz
+    from femcal.testdata.formats.npz import write_npz
 
     src = write_npz(tmp_path / "d.npz", data)
     assert main(["identify", str(src), "--band", "15", "500"]) == 2

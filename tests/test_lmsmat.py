@@ -7,8 +7,10 @@ import numpy as np
 import pytest
 import scipy.io
 
-from femcal.testdata.data import convert_units, quantity_of_units, read_frf, read_mat
-from femcal.testdata.lms import channel_label, read_lms_mat, split_function_name
+from femcal.testdata.data import convert_units, quantity_of_units
+from femcal.testdata.formats import read_frf
+from femcal.testdata.formats.lms import channel_label, read_lms_mat, split_function_name
+from femcal.testdata.formats.matlab import read_mat
 
 G = 9.80665
 

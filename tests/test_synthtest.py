@@ -8,7 +8,8 @@ import tomllib
 import numpy as np
 import pytest
 
-from femcal.testdata.data import read_mat, read_uff
+from femcal.testdata.formats.matlab import read_mat
+from femcal.testdata.formats.uff import read_uff
 from femcal.testdata.synth import make_hammer_test
 
 from .conftest import ROOT

@@ -43,7 +43,8 @@ from ..io.atomic import write_atomic
 from ..io.identified import read_model, write_model, write_summary
 from ..model.build import build_model
 from ..response.frf import channel_matrix
-from ..testdata.data import FRFData, convert_units, read_frf
+from ..testdata.data import FRFData, convert_units
+from ..testdata.formats import read_frf
 from .config import Config
 from .derivatives import group_polynomials
 from .fisher import fisher
@@ -51,8 +52,8 @@ from .gradient import first_order_correction
 from .lm import latin_hypercube
 from .metric import deviation, log_frequencies, residuals
 from .parameters import Parameter, read_parameters, read_truth, write_calibrated_deck
-from .starts import Problem, run_starts
 from .reduction import build_surrogate
+from .starts import Problem, run_starts
 
 
 @dataclass

@@ -13,12 +13,11 @@ import numpy as np
 from ..assembly import Options, assemble
 from ..model import EigenRequest
 from ..model.build import load_model
-from ..response.frf import QUANTITIES, modal_frf, point_matrix, residual_flexibility
+from ..response.frf import modal_frf, point_matrix, residual_flexibility
+from ..response.modal import QUANTITIES
 from ..solve.normal_modes import solve_normal_modes
-from ..testdata.data import FRFData, write_csv, write_mat, write_npz, write_uff
-
-_WRITERS = {".npz": write_npz, ".csv": write_csv, ".uff": write_uff, ".unv": write_uff,
-            ".mat": write_mat}  # fmt: skip
+from ..testdata.data import FRFData
+from ..testdata.formats import suffixes, write_frf
 
 
 def _point(text: str) -> tuple[int, int]:
@@ -102,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"[{time.perf_counter() - t0:7.1f} s] {msg}", file=sys.stderr, flush=True)
 
     suffix = args.out.suffix.lower()
-    if suffix not in _WRITERS:
+    if suffix not in suffixes("frf", writable=True):
         print(
             f"femcal frf: --out {args.out}: expected a .npz, .csv, .uff or .mat file",
             file=sys.stderr,
@@ -140,7 +139,7 @@ def run(args: argparse.Namespace) -> int:
         [f"{g}:{c}" for g, c in args.input],
         args.quantity,
     )
-    _WRITERS[suffix](args.out, data)
+    write_frf(args.out, data)
     progress(
         f"wrote {args.out}: {H.shape[0]} outputs x {H.shape[1]} inputs x {H.shape[2]} frequencies"
     )

@@ -12,7 +12,9 @@ import numpy as np
 
 from ..identify import Settings, identify
 from ..io.identified import write_model, write_summary
-from ..testdata.data import convert_units, read_frf, write_npz
+from ..testdata.data import convert_units
+from ..testdata.formats import read_frf
+from ..testdata.formats.npz import write_npz
 
 
 def _order(text: str) -> int | None:

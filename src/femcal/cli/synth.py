@@ -10,7 +10,8 @@ import tomllib
 from pathlib import Path
 
 from ..deck.writer import write_text_atomic
-from ..testdata.data import write_mat, write_uff
+from ..testdata.formats.matlab import write_mat
+from ..testdata.formats.uff import write_uff
 from ..testdata.synth import SynthSettings, make_hammer_test, truth_toml
 
 

@@ -31,7 +31,8 @@ from ..model import EigenRequest
 from ..model.build import build_model
 from ..response.frf import modal_frf, point_matrix
 from ..solve.normal_modes import solve_normal_modes
-from .data import FRFData, assemble_runs
+from .data import FRFData
+from .runs import assemble_runs
 
 #: Parameter tables and the column each field lives in.
 _FIELDS = {("PSHELL", "T"): ("properties", "pid", "t"), ("PBAR", "A"): ("properties", "pid", "a"),

@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .data import FRFData, quantity_of_units
+from ..data import FRFData, quantity_of_units
 
 _POINT = re.compile(r"^(?:.*:)?\s*[A-Za-z_]*\s*(\d+)\s*:\s*([+-]?(?:R?[XYZ]|[1-6]))\s*$", re.I)
 

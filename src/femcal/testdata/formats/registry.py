@@ -1,0 +1,126 @@
+"""The registry of test-data file formats: each format module registers its reader and
+writer under its suffixes (as meshio's formats do), and :func:`read` / :func:`write` pick
+them by a file's suffix.
+
+A format holds one kind of data: ``"frf"`` (:class:`~femcal.testdata.data.FRFData`) for now;
+time histories register under their own kind.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import zipfile
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+
+@dataclass(frozen=True)
+class Format:
+    """One file format.
+
+    Attributes
+    ----------
+    name : short name (``"uff"``).
+    kind : the data it holds (``"frf"``).
+    suffixes : file suffixes, lower case with the dot (``(".uff", ".unv")``).
+    read : path -> data. write : (path, data) -> the path written, or None if the format is
+        read only.
+    description : one line for help texts.
+    """
+
+    name: str
+    kind: str
+    suffixes: tuple[str, ...]
+    read: Callable[[Path], object]
+    write: Callable[[Path, object], Path] | None
+    description: str = ""
+
+
+_FORMATS: dict[str, Format] = {}
+#: How messages name each kind of data.
+_WHAT = {"frf": "FRF"}
+
+
+def register(fmt: Format) -> None:
+    """Add a format; a suffix belongs to one format of a kind.
+
+    Raises
+    ------
+    ValueError
+        If a suffix of ``fmt`` is already registered for the same kind by another format.
+    """
+    for s in fmt.suffixes:
+        other = next((f for f in _FORMATS.values() if f.kind == fmt.kind and s in f.suffixes
+                      and f.name != fmt.name), None)  # fmt: skip
+        if other is not None:
+            raise ValueError(f"suffix {s} is already the {other.name} format's")
+    _FORMATS[fmt.name] = fmt
+
+
+def formats(kind: str) -> list[Format]:
+    """The registered formats of one kind, in registration order."""
+    return [f for f in _FORMATS.values() if f.kind == kind]
+
+
+def suffixes(kind: str, *, writable: bool = False) -> list[str]:
+    """Every suffix of the formats of ``kind`` (only those that can be written, if asked)."""
+    return [s for f in formats(kind) if f.write is not None or not writable for s in f.suffixes]
+
+
+def format_of(path: str | os.PathLike[str], kind: str, *, writing: bool = False) -> Format:
+    """The format of ``kind`` a file's suffix names.
+
+    Raises
+    ------
+    ValueError
+        For a suffix no format of that kind has (or none that writes it), listing those
+        that would do.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    for f in formats(kind):
+        if suffix in f.suffixes and (f.write is not None or not writing):
+            return f
+    known = ", ".join(suffixes(kind, writable=writing))
+    what = _WHAT.get(kind, kind)
+    raise ValueError(f"{path}: unknown {what} file type {path.suffix!r}; expected {known}")
+
+
+def read(path: str | os.PathLike[str], kind: str) -> object:
+    """Read a file of ``kind`` by its suffix.
+
+    Raises
+    ------
+    ValueError
+        For an unknown suffix, or a file that is not what its suffix says (naming the file
+        and what is wrong).
+    FileNotFoundError
+        For a file that does not exist.
+    """
+    from scipy.io.matlab import MatReadError
+
+    path = Path(path)
+    fmt = format_of(path, kind)
+    what = _WHAT.get(kind, kind)
+    if not path.is_file():
+        raise FileNotFoundError(errno.ENOENT, os.strerror(errno.ENOENT), str(path))
+    try:
+        return fmt.read(path)
+    except (KeyError, ValueError) as e:  # the readers' own errors mostly name the file
+        msg = str(e).strip('"')
+        raise ValueError(msg if str(path) in msg else f"{path}: {msg}") from None
+    except (OSError, EOFError, zipfile.BadZipFile, MatReadError) as e:
+        raise ValueError(f"{path}: not a readable {path.suffix} {what} file ({e})") from None
+
+
+def write(path: str | os.PathLike[str], data: object, kind: str) -> Path:
+    """Write ``data`` of ``kind`` in the format its suffix names (atomically).
+
+    Raises
+    ------
+    ValueError
+        For a suffix no format of that kind writes, or data the format cannot hold.
+    """
+    return format_of(path, kind, writing=True).write(Path(path), data)
