@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 
 from ..deck import read_deck
-from ..deck.writer import write_text_atomic
+from ..io.atomic import write_lines
 from ..model.build import build_model
 
 
@@ -60,6 +60,6 @@ def run(args: argparse.Namespace) -> int:
             + ", ".join(f"{k} \u00d7{v}" for k, v in s["unsupported"].items())
         )
     if args.json:
-        write_text_atomic(args.json, [json.dumps(s, indent=1)])
+        write_lines(args.json, [json.dumps(s, indent=1)])
         print(f"wrote     {args.json}")
     return 0

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from ..assembly import Options, assemble
 from ..assembly.weight import weight_summary, weight_table
-from ..deck.writer import write_text_atomic
+from ..io.atomic import write_lines
 from ..io.modes import eigen_table, modes_json, write_json, write_npz, write_vtu
 from ..model.build import load_model
 from ..solve.normal_modes import solve_normal_modes
@@ -70,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
         args.out.mkdir(parents=True, exist_ok=True)
         write_npz(args.out / "modes.npz", modes, model)
         write_vtu(args.out / "modes.vtu", modes, model)
-        write_text_atomic(args.out / "eigenvalues.txt", table)
+        write_lines(args.out / "eigenvalues.txt", table)
         progress(f"wrote {args.out}/modes.npz, modes.vtu, eigenvalues.txt")
     if args.png:
         from ..viz.render import render_modes

@@ -9,7 +9,7 @@ import time
 import tomllib
 from pathlib import Path
 
-from ..deck.writer import write_text_atomic
+from ..io.atomic import write_lines
 from ..testdata.formats.matlab import write_mat
 from ..testdata.formats.uff import write_uff
 from ..testdata.synth import SynthSettings, make_hammer_test, truth_toml
@@ -41,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
     paths = [
         write_uff(stem.with_suffix(".uff"), d, binary=True),
         write_mat(stem.with_suffix(".mat"), d),
-        write_text_atomic(stem.with_suffix(".truth.toml"), truth_toml(test)),
+        write_lines(stem.with_suffix(".truth.toml"), truth_toml(test)),
     ]
     for p in paths:
         print(f"[{time.perf_counter() - t0:7.1f} s] wrote {p}", file=sys.stderr)

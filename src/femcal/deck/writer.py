@@ -10,11 +10,11 @@ so a failed write never leaves half a deck.
 from __future__ import annotations
 
 import os
-import tempfile
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Literal
 
+from ..io.atomic import write_lines
 from .deck import Deck
 from .fields import format_value
 
@@ -107,23 +107,4 @@ def write_deck(
 ) -> Path:
     """Write ``deck`` to ``path`` (atomically: temporary file, then rename). Returns the path."""
     path = Path(path)
-    return write_text_atomic(path, deck_lines(deck, field_format=field_format))
-
-
-def write_text_atomic(path: Path, lines: Iterable[str]) -> Path:
-    """Write lines to ``path`` through a temporary file in the same folder and a rename."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="latin-1", newline="\n") as fh:
-            for line in lines:
-                fh.write(line)
-                fh.write("\n")
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+    return write_lines(path, deck_lines(deck, field_format=field_format), encoding="latin-1")

@@ -678,7 +678,7 @@ def write_frame(variant: str, out_dir) -> list:
     """
     from pathlib import Path
 
-    from ..deck.writer import write_text_atomic
+    from ..io.atomic import write_lines
 
     if variant not in VARIANTS:
         raise ValueError(f"unknown truck-frame variant {variant!r}; expected one of "
@@ -688,9 +688,9 @@ def write_frame(variant: str, out_dir) -> list:
     dims = {"hammer": FrameDimensions(), "rig": RIG, "rig-battery": RIG_BATTERY}[variant]
     f = build_frame(dims)
     X = f.mesh.xyz
-    paths = [write_text_atomic(out_dir / f"{stem}.bdf", deck_lines(f, title))]
+    paths = [write_lines(out_dir / f"{stem}.bdf", deck_lines(f, title))]
     if variant == "hammer":
-        paths.append(write_text_atomic(out_dir / f"{stem}.params.toml", params_toml(parameters())))
+        paths.append(write_lines(out_dir / f"{stem}.params.toml", params_toml(parameters())))
         where, inputs = sensors(f), hammer_inputs(f)
     else:
         where = rig_sensors(f)
@@ -698,11 +698,11 @@ def write_frame(variant: str, out_dir) -> list:
     rows = ["label,grid,x,y,z,directions"]
     rows += [f"{lab},{g},{X[g - 1][0]:g},{X[g - 1][1]:g},{X[g - 1][2]:g},123"
              for lab, g in where]  # fmt: skip
-    paths.append(write_text_atomic(out_dir / f"{stem}.sensors.csv", rows))
+    paths.append(write_lines(out_dir / f"{stem}.sensors.csv", rows))
     rows = ["label,grid,x,y,z,direction"]
     rows += [f"{lab},{g},{X[g - 1][0]:g},{X[g - 1][1]:g},{X[g - 1][2]:g},{c}"
              for lab, g, c in inputs]  # fmt: skip
-    paths.append(write_text_atomic(out_dir / f"{stem}.inputs.csv", rows))
+    paths.append(write_lines(out_dir / f"{stem}.inputs.csv", rows))
     return paths
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 
@@ -26,3 +26,16 @@ def write_atomic(path: str | os.PathLike[str], write: Callable[[str], None]) -> 
         Path(tmp).unlink(missing_ok=True)
         raise
     return path
+
+
+def write_lines(path: str | os.PathLike[str], lines: Iterable[str], *,
+                encoding: str = "utf-8") -> Path:  # fmt: skip
+    """Write text ``lines`` (each ended by a newline) to ``path`` atomically."""
+
+    def dump(tmp: str) -> None:
+        with open(tmp, "w", encoding=encoding, newline="\n") as fh:
+            for line in lines:
+                fh.write(line)
+                fh.write("\n")
+
+    return write_atomic(path, dump)
