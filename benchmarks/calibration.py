@@ -71,14 +71,15 @@ def timing(rep: dict, seconds: float) -> None:
 
 def demo() -> None:
     from femcal.calibrate.config import read_config
-    from femcal.calibrate.workflow import run
+    from femcal.io.calibration import report_dict
+    from femcal.jobs.calibration import run
 
     out = WORK / "calibration_demo"
     t = time.perf_counter()
     o = run(read_config(FRAME / "hammer_calibration.toml"), out, fresh=True,
             progress=lambda m: print(m, file=sys.stderr, flush=True))  # fmt: skip
     seconds = time.perf_counter() - t
-    rep = o.report
+    rep = report_dict(o)
     print("\n## the bundled study\n")
     timing(rep, seconds)
     print("\n| test Hz | FE before | FE after | MAC before | MAC after |\n|---|---|---|---|---|")
@@ -95,10 +96,10 @@ def noise_free(max_cycles: int = 40, near: float | None = None, residual: bool =
                exact_gradient: bool = True, starts: int | None = None) -> None:  # fmt: skip
     from femcal.calibrate.config import read_config
     from femcal.calibrate.parameters import read_parameters, with_values
-    from femcal.calibrate.workflow import run
-    from femcal.deck import read_deck
+    from femcal.io.calibration import report_dict
+    from femcal.jobs.calibration import run
     from femcal.model import EigenRequest
-    from femcal.model.build import build_model
+    from femcal.model.build import load_model
     from femcal.response.frf import channel_matrix, modal_frf
     from femcal.solve.normal_modes import solve_normal_modes
     from femcal.testdata.data import FRFData
@@ -106,8 +107,7 @@ def noise_free(max_cycles: int = 40, near: float | None = None, residual: bool =
     from femcal.testdata.formats.npz import write_npz
 
     WORK.mkdir(parents=True, exist_ok=True)
-    deck = read_deck(FRAME / "hammer_frame.bdf")
-    model = build_model(deck)
+    model = load_model(FRAME / "hammer_frame.bdf")
     params = read_parameters(FRAME / "hammer_frame.params.toml", model)
     true_v = truth()
     m = with_values(model, params, [true_v[q.name] for q in params])
@@ -168,7 +168,7 @@ def noise_free(max_cycles: int = 40, near: float | None = None, residual: bool =
     o = run(read_config(WORK / f"{name}.toml"), WORK / f"calibration_{name}", fresh=True,
             progress=lambda msg: print(msg, file=sys.stderr, flush=True))  # fmt: skip
     seconds = time.perf_counter() - t
-    rep = o.report
+    rep = report_dict(o)
     print("\n## noise-free test from the hidden parameters, no model-form difference"
           + ("" if near is None else f", calibrated from within {100 * near:g} % of them")
           + "\n")  # fmt: skip
@@ -185,7 +185,7 @@ def noise_free(max_cycles: int = 40, near: float | None = None, residual: bool =
 def _near_truth_start(params, true_v: dict[str, float], near: float) -> tuple[Path, Path, str]:
     """A deck and parameter file whose nominal values are the truth moved by up to ``near``
     (relative, seeded, within the bounds); the bounds stay the study's."""
-    from femcal.calibrate.parameters import write_calibrated_deck
+    from femcal.io.calibration import write_calibrated_deck
 
     rng = np.random.default_rng(7)
     start = [float(np.clip(true_v[q.name] * (1 + rng.uniform(-near, near)), q.lower, q.upper))

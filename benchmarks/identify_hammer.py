@@ -4,7 +4,7 @@ modes, and side by side with sdypy-ema's LSCF on the same data (issue 7).
     make bench-identify      # installs sdypy-ema into .venv-ema for the LSCF side
 
 The true modes are recomputed from the deck with the hidden parameter values and the cross
-support (:func:`femcal.testdata.synth.hidden_frame`, same seed as the shipped set). Each
+support (:func:`femcal.jobs.synthetic_test.hidden_frame`, same seed as the shipped set). Each
 identified mode is paired with the true mode of the nearest frequency; MAC is against the
 true shape at the 72 sensor channels. Prints one table per method and a summary.
 """
@@ -27,7 +27,7 @@ EMA_PY = ROOT / ".venv-ema" / "bin" / "python"
 
 
 def true_modes():
-    from femcal.testdata.synth import SynthSettings, hidden_frame
+    from femcal.jobs.synthetic_test import SynthSettings, hidden_frame
 
     s = SynthSettings()
     model, modes, _ = hidden_frame(FRAME / "hammer_frame.bdf", FRAME / "hammer_frame.params.toml",

@@ -18,10 +18,10 @@ from femcal.calibrate.parameters import (
     current_value,
     read_parameters,
     with_values,
-    write_calibrated_deck,
 )
 from femcal.calibrate.sensitivity import eigenvalue_sensitivities, eigenvector_sensitivity
 from femcal.deck import read_deck
+from femcal.io.calibration import write_calibrated_deck
 from femcal.model.build import build_model
 
 from .calib_decks import PARAMS_TOML, plate_deck, write_plate

@@ -11,9 +11,9 @@ import pytest
 
 from femcal.calibrate.config import read_config
 from femcal.calibrate.parameters import current_value, with_values
-from femcal.calibrate.workflow import run
 from femcal.cli import main
 from femcal.deck import read_deck
+from femcal.jobs.calibration import run
 from femcal.model import EigenRequest
 from femcal.model.build import build_model
 from femcal.response.frf import channel_matrix, modal_frf
@@ -68,24 +68,22 @@ def study(tmp_path_factory):
 
 def test_noise_free_test_is_calibrated_back_to_its_parameters(study):
     _, params, outcome, _ = study
-    rep = outcome.report
-    for par, row, true in zip(params, rep["parameters"], TRUE_P, strict=True):
-        assert row["identifiable"], par.name  # every parameter is informed here
-        assert abs(row["calibrated"] / par.value(true) - 1) < 1e-3, par.name
-    assert rep["deviation"]["after"] < 1e-6 * rep["deviation"]["before"]
-    assert rep["settled"]
+    for par, row, true in zip(params, outcome.parameters, TRUE_P, strict=True):
+        assert row.identifiable, par.name  # every parameter is informed here
+        assert abs(row.calibrated / par.value(true) - 1) < 1e-3, par.name
+    assert outcome.deviation_after < 1e-6 * outcome.deviation_before
+    assert outcome.settled
 
 
 def test_settled_cycles_search_again_and_stop_when_nothing_lower_is_found(study):
     # once settled at the (here global) minimum, the multi-start search runs again on the
     # last surrogate; it finds that minimum again, so the run stops there
     _, _, outcome, lines = study
-    rep = outcome.report
-    assert rep["restarts"] == 1
-    last = rep["cycles"][-1]
-    assert last["searched"] and last["search_best_deviation"] <= 1e-6 * rep["deviation"]["before"]
+    assert outcome.restarts == 1
+    last = outcome.cycles[-1]
+    assert last.searched and last.search_best_deviation <= 1e-6 * outcome.deviation_before
     assert any("the search found no lower minimum elsewhere" in line for line in lines)
-    assert not any(c.get("from_search") for c in rep["cycles"])
+    assert not any(c.from_search for c in outcome.cycles)
 
 
 def test_report_holds_what_the_issue_asks(study):
@@ -112,7 +110,7 @@ def test_a_second_run_resumes_from_the_finished_starts(study):
     lines: list[str] = []
     again = run(read_config(d / "cal.toml"), d / "out", progress=lines.append)
     # the ten starts of cycle 1 and of each search again, and the later cycles' single starts
-    searches = outcome.report["restarts"]
+    searches = outcome.restarts
     assert sum("start" in line and "finished earlier" in line and "/10:" in line
                for line in lines) == 10 * (1 + searches)  # fmt: skip
     assert not any("iteration" in line for line in lines)  # nothing was run again
@@ -120,7 +118,7 @@ def test_a_second_run_resumes_from_the_finished_starts(study):
 
 
 def test_report_pictures_and_page(study):
-    from femcal.viz.calibration import write_report
+    from femcal.io.calibration import write_report
 
     d, _, outcome, _ = study
     page = write_report(outcome, d / "out")
@@ -167,20 +165,19 @@ def test_identified_test_modes_are_paired_before_and_after(study):
                                            "\n[calibration]")
                                   )  # fmt: skip
     out = run(read_config(d / "ident.toml"), d / "out_ident")
-    rep = out.report
     assert (d / "out_ident" / "identify" / "model.npz").is_file()
-    assert rep["zeta0"] == pytest.approx(0.02, rel=0.01)  # the identified damping
-    assert len(rep["modes"]) >= 4
+    assert out.zeta0 == pytest.approx(0.02, rel=0.01)  # the identified damping
+    assert len(out.modes) >= 4
     # the identified model misses the data by up to 0.2 in log10 near some channels'
     # antiresonances (LS fits weigh the peaks), and the log metric weighs those misses as
     # much as the peaks: the parameters come back within a few per cent, not exactly. A mode
     # that starts within that bias (mode 2: -0.30 %) may end on the other side of it.
-    for m in rep["modes"]:
-        assert abs(m["frequency_error_after_pct"]) < 0.5  # measured up to 0.33 %
-        if abs(m["frequency_error_before_pct"]) > 0.5:
-            assert abs(m["frequency_error_after_pct"]) < abs(m["frequency_error_before_pct"])
-        assert m["mac_after"] > 0.995
-    assert rep["deviation"]["after"] < 0.5 * rep["deviation"]["before"]
+    for m in out.modes:
+        assert abs(m.frequency_error_after_pct) < 0.5  # measured up to 0.33 %
+        if abs(m.frequency_error_before_pct) > 0.5:
+            assert abs(m.frequency_error_after_pct) < abs(m.frequency_error_before_pct)
+        assert m.mac_after > 0.995
+    assert out.deviation_after < 0.5 * out.deviation_before
     # the parameters move towards the truth as a whole, except the spring and bush, which act
     # at a single point and are the least reliable (measured: k_spring ends 0.31 and k_bush
     # 0.13 from the truth); this is bias from the identification, not noise, so the CRLB (a
@@ -216,7 +213,7 @@ def test_a_synthetic_tests_truth_sets_each_error_against_its_crlb(study, tmp_pat
     its error and |error| / CRLB to the report; it does not change the run (the finished
     starts are resumed)."""
     from femcal.calibrate.parameters import read_truth
-    from femcal.viz.calibration import write_report
+    from femcal.io.calibration import write_report
 
     d, params, outcome, _ = study
     lines = ["# the plate's hidden values"]
@@ -228,14 +225,16 @@ def test_a_synthetic_tests_truth_sets_each_error_against_its_crlb(study, tmp_pat
                                                      'frf = "test.npz"\ntruth = "truth.toml"'))
     again = run(read_config(d / "truth_cal.toml"), d / "out")
     np.testing.assert_allclose(again.p_final, outcome.p_final, rtol=0, atol=1e-12)
-    rep = again.report
+    rep = json.loads((d / "out" / "report.json").read_text())
     assert rep["truth"] == str(d / "truth.toml")
-    for par, row, x in zip(params, rep["parameters"], TRUE_P, strict=True):
-        assert row["true"] == pytest.approx(par.value(x), rel=1e-14)
-        assert row["true_p"] == pytest.approx(x, abs=1e-12)
-        assert row["error_pct"] == pytest.approx(100 * (row["calibrated"] / row["true"] - 1))
-        assert abs(row["error_pct"]) < 0.1
-        assert row["error_over_crlb"] == pytest.approx(abs(row["p"] - x) / row["crlb_p"])
+    for par, row, x in zip(params, again.parameters, TRUE_P, strict=True):
+        assert row.true == pytest.approx(par.value(x), rel=1e-14)
+        assert row.true_p == pytest.approx(x, abs=1e-12)
+        assert row.error_pct == pytest.approx(100 * (row.calibrated / row.true - 1))
+        assert abs(row.error_pct) < 0.1
+        assert row.error_over_crlb == pytest.approx(abs(row.p - x) / row.crlb_p)
+    for row, typed in zip(rep["parameters"], again.parameters, strict=True):  # the JSON too
+        assert (row["true"], row["error_pct"]) == (typed.true, typed.error_pct)
     assert "|error| / CRLB" in write_report(again, d / "out").read_text()
     # a truth file that does not cover the parameters, or names another field
     bad = tmp_path / "t.toml"

@@ -8,9 +8,9 @@ import tomllib
 import numpy as np
 import pytest
 
+from femcal.jobs.synthetic_test import make_hammer_test
 from femcal.testdata.formats.matlab import read_mat
 from femcal.testdata.formats.uff import read_uff
-from femcal.testdata.synth import make_hammer_test
 
 from .conftest import ROOT
 
@@ -77,7 +77,7 @@ def test_the_shipped_set_regenerates():
 
 
 def test_bad_sensor_and_parameter_files_are_named(tmp_path):
-    from femcal.testdata.synth import read_points
+    from femcal.jobs.synthetic_test import read_points
 
     bad = tmp_path / "s.csv"
     bad.write_text("label,grid,directions\nA,1,123\nB,x1,123\n")

@@ -362,27 +362,3 @@ def subset(model: Model, rows: dict[str, np.ndarray]) -> Model:
             {k: v[r] for k, v in b.data.items()}, b.file[r], b.line[r],
         )  # fmt: skip
     return replace(model, elements=blocks)
-
-
-def write_calibrated_deck(deck_path: str | os.PathLike[str], params: list[Parameter],
-                          values: np.ndarray, out: str | os.PathLike[str]) -> Path:  # fmt: skip
-    """Read the deck again, set the parameters' card fields to ``values`` and write it
-    (large field, atomically) to ``out``."""
-    from ..deck import read_deck, write_deck
-
-    deck = read_deck(deck_path)
-    for par, v in zip(params, np.asarray(values, float), strict=True):
-        spec = par.spec
-        if spec.kind == "record":
-            recs = deck.records[spec.card]
-            for i, r in enumerate(recs.items):
-                if r.pid == par.id:
-                    vals = list(getattr(r, spec.column))
-                    vals[spec.index] = float(v)
-                    recs.items[i] = replace(r, **{spec.column: tuple(vals)})
-            continue
-        table = deck.tables[spec.card]
-        key = {"property": "pid", "material": "mid", "element": "eid"}[spec.kind]
-        rows = np.flatnonzero(table.columns[key] == par.id)
-        table.columns[spec.column][rows] = float(v)
-    return write_deck(deck, out)

@@ -4,19 +4,21 @@ kept on disk so that a stopped run resumes from the starts it finished."""
 from __future__ import annotations
 
 import json
-import os
 import queue as queue_mod
 import time
 from collections.abc import Callable
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, wait
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from ..io.atomic import write_atomic
+from ..parallel import executor, message_queue
 from .lm import levenberg_marquardt
 from .metric import jacobian, residuals
+from .result import StartResult
 from .surrogate import Surrogate
 
 
@@ -78,20 +80,17 @@ class Problem:
 
 
 def run_one(problem: Problem, start: int, p0: np.ndarray,
-            report: Callable[[int, int, float], None] | None = None) -> dict:  # fmt: skip
-    """One LM run; returns a JSON-ready dict (start, p0, p, cost, deviation, iterations,
-    evaluations, history, converged, message, seconds)."""
+            report: Callable[[int, int, float], None] | None = None) -> StartResult:  # fmt: skip
+    """One LM run from ``p0``; ``report(start, iteration, cost)`` after each accepted step."""
     t = time.perf_counter()
     res = levenberg_marquardt(
         problem.fun, p0, problem.lower, problem.upper, max_iter=problem.max_iter,
         callback=(lambda it, p, cost: report(start, it, cost)) if report else None,
     )  # fmt: skip
-    return {"start": start, "p0": list(map(float, p0)), "p": list(map(float, res.p)),
-            "cost": res.cost, "deviation": problem.deviation(res.p),
-            "iterations": res.iterations,
-            "evaluations": res.evaluations, "history": [2 * h for h in res.history],
-            "converged": res.converged, "message": res.message,
-            "seconds": time.perf_counter() - t}  # fmt: skip
+    return StartResult(start, np.asarray(p0, float).copy(), np.asarray(res.p, float),
+                       float(res.cost), problem.deviation(res.p), res.iterations,
+                       res.evaluations, tuple(2 * h for h in res.history), res.converged,
+                       res.message, time.perf_counter() - t)  # fmt: skip
 
 
 _QUEUE = None
@@ -100,15 +99,10 @@ _QUEUE = None
 def _init_worker(q) -> None:
     global _QUEUE
     _QUEUE = q
-    try:  # one BLAS thread per worker: the workers are the parallelism
-        from threadpoolctl import threadpool_limits
-
-        threadpool_limits(1)
-    except ImportError:  # pragma: no cover
-        pass
+    threadpool_limits(1)  # one BLAS thread per worker: the workers are the parallelism
 
 
-def _worker(problem: Problem, start: int, p0: np.ndarray) -> dict:
+def _worker(problem: Problem, start: int, p0: np.ndarray) -> StartResult:
     def report(s: int, it: int, cost: float) -> None:
         if _QUEUE is not None:
             _QUEUE.put((s, it, 2 * cost))
@@ -116,41 +110,51 @@ def _worker(problem: Problem, start: int, p0: np.ndarray) -> dict:
     return run_one(problem, start, p0, report)
 
 
+def _finished(folder: Path, k: int, p0: np.ndarray, fingerprint: str) -> StartResult | None:
+    """Start k's result written by an earlier run with the same fingerprint and start point,
+    or None (none, another run's, or a file that does not read)."""
+    f = folder / f"start_{k + 1:03d}.json"
+    if not f.is_file():
+        return None
+    try:
+        saved = json.loads(f.read_text())
+        if saved.get("fingerprint") != fingerprint or not np.allclose(
+                saved.get("p0", []), p0, rtol=0, atol=1e-12):  # fmt: skip
+            return None
+        return StartResult.from_dict(saved)
+    except (json.JSONDecodeError, KeyError, TypeError, ValueError):
+        return None
+
+
 def run_starts(problem: Problem, starts: list[np.ndarray], *, workers: int = 1,
                folder: Path | None = None, fingerprint: str = "",
-               progress: Callable[[str], None] | None = None) -> list[dict]:  # fmt: skip
+               progress: Callable[[str], None] | None = None) -> list[StartResult]:  # fmt: skip
     """Run LM from every start point; results in start order.
 
     With ``folder``, each finished start is written there (``start_NNN.json``, atomically,
     with ``fingerprint``) and starts already there with the same fingerprint are read
-    instead of run again.
+    instead of run again. With ``workers`` > 1 the starts run in that many processes
+    (:func:`femcal.parallel.executor`), their progress coming back through a queue.
     """
     say = progress or (lambda _m: None)
-    results: dict[int, dict] = {}
+    results: dict[int, StartResult] = {}
     if folder is not None:
         folder.mkdir(parents=True, exist_ok=True)
         for k in range(len(starts)):
-            f = folder / f"start_{k + 1:03d}.json"
-            if f.is_file():
-                try:
-                    saved = json.loads(f.read_text())
-                except json.JSONDecodeError:
-                    continue
-                if saved.get("fingerprint") == fingerprint and np.allclose(
-                        saved.get("p0", []), starts[k], rtol=0, atol=1e-12):
-                    results[k] = saved
-                    say(f"start {k + 1}/{len(starts)}: finished earlier, deviation "
-                        f"{saved['deviation']:.5g}")  # fmt: skip
+            saved = _finished(folder, k, starts[k], fingerprint)
+            if saved is not None:
+                results[k] = saved
+                say(f"start {k + 1}/{len(starts)}: finished earlier, deviation "
+                    f"{saved.deviation:.5g}")  # fmt: skip
 
-    def keep(res: dict) -> None:
-        k = res["start"]
-        res["fingerprint"] = fingerprint
+    def keep(res: StartResult) -> None:
+        k = res.start
         results[k] = res
-        say(f"start {k + 1}/{len(starts)} done: deviation {res['history'][0]:.5g} -> "
-            f"{res['deviation']:.5g} in {res['iterations']} iterations, "
-            f"{res['seconds']:.1f} s ({res['message']})")  # fmt: skip
+        say(f"start {k + 1}/{len(starts)} done: deviation {res.history[0]:.5g} -> "
+            f"{res.deviation:.5g} in {res.iterations} iterations, "
+            f"{res.seconds:.1f} s ({res.message})")  # fmt: skip
         if folder is not None:
-            text = json.dumps(res, indent=1)
+            text = json.dumps({**res.to_dict(), "fingerprint": fingerprint}, indent=1)
             write_atomic(folder / f"start_{k + 1:03d}.json",
                          lambda tmp: Path(tmp).write_text(text))  # fmt: skip
 
@@ -162,12 +166,9 @@ def run_starts(problem: Problem, starts: list[np.ndarray], *, workers: int = 1,
 
             keep(run_one(problem, k, starts[k], report))
     elif todo:
-        import multiprocessing as mp
-
-        ctx = mp.get_context("fork" if os.name == "posix" else "spawn")
-        q = ctx.Manager().Queue()
-        with ProcessPoolExecutor(min(workers, len(todo)), mp_context=ctx, initializer=_init_worker,
-                                 initargs=(q,)) as pool:  # fmt: skip
+        q = message_queue("processes")
+        with executor("processes", min(workers, len(todo)), initializer=_init_worker,
+                      initargs=(q,)) as pool:  # fmt: skip
             pending = {pool.submit(_worker, problem, k, starts[k]) for k in todo}
             while pending:
                 done, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)

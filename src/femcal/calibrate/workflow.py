@@ -1,7 +1,8 @@
 """The reference study's calibration, end to end (FEMCali's method, Abrahamsson and Kammer):
 
-1. the test FRFs are identified (:func:`femcal.identify.identify`), or an identified model
-   is read; channels the identification calls suspect are left out;
+1. the test side is the measured FRFs, an identified model of them
+   (:func:`femcal.identify.identify`), or both; channels the identification calls suspect
+   are left out;
 2. damping equalisation: every test pole gets the damping zeta0 (the median identified
    damping by default) with its damped frequency kept, and every FE mode gets modal damping
    zeta0, so mass and stiffness parameters are calibrated without pairing modes;
@@ -22,7 +23,12 @@
    its best start is the next candidate (the full model decides again): a local minimum the
    cycles have reached is left when a search on the newer surrogate finds a lower one;
 7. the calibrated model is solved in full; frequencies, MAC and the deviation before and
-   after, the Cramér-Rao bounds at the solution, and the calibrated deck are written.
+   after and the Cramér-Rao bounds at the solution make the typed
+   :class:`~femcal.calibrate.result.CalibrationResult`.
+
+The starts and cycles are kept in a state folder as they finish, so a stopped run resumes
+(:mod:`femcal.calibrate.starts`); files of the edge (report, calibrated deck, pictures) are
+written by :mod:`femcal.jobs.calibration`.
 """
 
 from __future__ import annotations
@@ -30,107 +36,44 @@ from __future__ import annotations
 import hashlib
 import json
 import time
-from collections.abc import Callable
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Sequence
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from ..correlate.shapes import mac, pair_modes, pseudo_orthogonality, serep_mass
-from ..deck import read_deck
-from ..identify import Settings, equalize_damping, identify
+from ..correlate import mac, pair_modes, pseudo_orthogonality, serep_mass
+from ..identify import IdentifiedModel, equalize_damping
 from ..io.atomic import write_atomic
-from ..io.identified import read_model, write_model, write_summary
-from ..model.build import build_model
+from ..model.model import Model
 from ..response.frf import channel_matrix
-from ..testdata.data import FRFData, convert_units
-from ..testdata.formats import read_frf
+from ..testdata.data import FRFData
 from .config import Config
 from .derivatives import group_polynomials
 from .fisher import fisher
 from .gradient import first_order_correction
 from .lm import latin_hypercube
 from .metric import deviation, log_frequencies, residuals
-from .parameters import Parameter, read_parameters, read_truth, write_calibrated_deck
+from .parameters import Parameter
 from .reduction import build_surrogate
+from .result import (
+    BandBounds,
+    CalibrationResult,
+    Cycle,
+    ModePairing,
+    ParameterResult,
+    StartResult,
+)
 from .starts import Problem, run_starts
 
-
-@dataclass
-class Outcome:
-    """Everything the report needs (arrays kept for the pictures)."""
-
-    report: dict
-    params: list[Parameter]
-    p_final: np.ndarray
-    freq: np.ndarray
-    H_test: np.ndarray
-    H_before: np.ndarray
-    H_after: np.ndarray
-    outputs: tuple
-    inputs: tuple
-    data: FRFData
-    identified: object
-    modes_before: object
-    modes_after: object
-    model: object
-    fisher: object
-    mac_before: np.ndarray
-    mac_after: np.ndarray
-    test_hz: np.ndarray
-    test_shapes: np.ndarray
+#: The surrogate's construction version: part of the resume fingerprint, so that starts
+#: finished by a version that built the surrogate (or its elements) differently are run
+#: again rather than mixed with new ones. Raise it with every such change.
+SURROGATE_VERSION = 7
 
 
-#: Changes whenever the surrogate's construction does, so that finished starts of an older
-#: version are not resumed.
-SURROGATE_VERSION = 7  # 5: CQUAD4 residual bending flexibility, raised-degree fits; 6: CQUAD4 /
-# CTRIA3 membranes and CTRIA3 residual bending flexibility, CQUAD8 / CTRIA6 transition shear,
-# tapered-beam lumped mass; 7: the TETRA10 5-point stiffness rule, the tapered CBEAM's 3-point
-# flexibility rule (a resumed run must not mix element formulations)
-
-
-def _fingerprint(cfg: Config, extra: str) -> str:
-    raw = {k: v for k, v in cfg.raw.items() if k != "test"}
-    raw["test"] = {k: v for k, v in cfg.raw.get("test", {}).items() if k != "truth"}
-    text = json.dumps(raw, sort_keys=True, default=str) + extra  # (the truth is report only)
-    for f in (cfg.deck, cfg.parameters, cfg.test_frf, cfg.test_model):
-        if f is not None:
-            text += hashlib.sha256(Path(f).read_bytes()).hexdigest()
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
-
-
-def _test_side(cfg: Config, out: Path, say: Callable[[str], None]):
-    """(data, identified model or None, kept output indices)."""
-    data = read_frf(cfg.test_frf) if cfg.test_frf is not None else None
-    if data is not None and cfg.model_units and data.units and data.units != cfg.model_units:
-        data = convert_units(data, cfg.model_units)
-        say(f"test FRFs converted to {cfg.model_units}")
-    ident = None
-    if cfg.identify is not None:
-        s = cfg.identify
-        say(f"identifying the test FRFs over {s.band[0]:g}-{s.band[1]:g} Hz")
-        ident = identify(data, s.band, splits=s.splits, orders=s.orders,
-                         settings=Settings(gamma=s.gamma, beta=s.beta, max_order=s.max_order),
-                         progress=say)  # fmt: skip
-        write_model(out / "identify" / "model.npz", ident)
-        write_summary(out / "identify" / "identify.json", ident)
-    elif cfg.test_model is not None:
-        ident = read_model(cfg.test_model)
-        say(f"identified test model read from {cfg.test_model}")
-        if cfg.model_units and ident.units and ident.units != cfg.model_units:
-            raise ValueError(f"{cfg.test_model}: the identified model is in {ident.units}, the "
-                             f"FE model in {cfg.model_units}")  # fmt: skip
-    n_out = len(ident.outputs) if ident is not None else len(data.outputs)
-    keep = np.ones(n_out, bool)
-    if ident is not None and cfg.exclude_suspect_channels and ident.suspect.any():
-        keep = ~ident.suspect
-        say("suspect channels left out: "
-            + ", ".join(ident.outputs[i].label for i in np.flatnonzero(ident.suspect)))
-    return data, ident, keep
-
-
-def _test_frfs(data: FRFData | None, ident, keep: np.ndarray, zeta0: float,
-               freq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+def _test_frfs(data: FRFData | None, ident: IdentifiedModel | None, keep: np.ndarray,
+               zeta0: float, freq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """(frequencies, H_X (n_out, n_in, n_f)): the damping-equalised identified model at
     ``freq``, or, without an identified model, the measured FRFs at the measured frequencies
     nearest to ``freq`` (no interpolation: it would bend the resonance peaks)."""
@@ -145,32 +88,50 @@ def _test_frfs(data: FRFData | None, ident, keep: np.ndarray, zeta0: float,
     return f[idx], data.H[keep][:, :, idx]
 
 
-def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | None = None,
-        starts: int | None = None,
-        progress: Callable[[str], None] | None = None) -> Outcome:  # fmt: skip
-    """Run the calibration of ``cfg`` into the folder ``out`` (see the module docstring).
+def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
+              data: FRFData | None = None, identified: IdentifiedModel | None = None,
+              truth: np.ndarray | None = None, state: str | Path | None = None,
+              fingerprint: str = "", fresh: bool = False, workers: int | None = None,
+              starts: int | None = None,
+              progress: Callable[[str], None] | None = None) -> CalibrationResult:  # fmt: skip
+    """Calibrate ``params`` of ``model`` against the test (see the module docstring).
 
-    ``fresh`` ignores finished starts of an earlier run; ``workers`` and ``starts``
-    override the configuration's.
+    Parameters
+    ----------
+    cfg : the calibration's settings (its ``[calibration]`` section; the file names are not
+        read here).
+    data, identified : the measured FRFs and/or an identified model of them (at least one;
+        with an identified model its poles, shapes and suspect channels are used).
+    truth : (n_p,) a synthetic test's known values P, for the report's errors only.
+    state : folder for the finished starts and cycles (``starts/`` in a job's output); a run
+        with the same inputs resumes from what is there. None: nothing kept.
+    fingerprint : identifies the inputs (model, parameters, test files) in the state.
+    fresh : ignore finished starts in ``state``. workers, starts : override the
+        configuration's.
+
+    Raises
+    ------
+    ValueError
+        For a band without test modes or data, test FRFs that are zero in the band.
     """
     say = progress or (lambda _m: None)
     t0 = time.perf_counter()
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    params = list(params)
+    if data is None and identified is None:
+        raise ValueError("calibrate needs the test FRFs or an identified test model")
     n_workers = workers or cfg.workers
     n_starts = starts or cfg.starts
-    deck = read_deck(cfg.deck)
-    model = build_model(deck)
-    params = read_parameters(cfg.parameters, model)
-    # a synthetic test's known values, for the report only (read now: a bad file fails fast)
-    truth = read_truth(cfg.test_truth, params) if cfg.test_truth is not None else None
     lo = np.array([p.p_lower for p in params])
     hi = np.array([p.p_upper for p in params])
-    say(f"{cfg.deck.name}: {model.n_dof} DOF; {len(params)} parameters from "
-        f"{cfg.parameters.name}")
-    data, ident, keep = _test_side(cfg, out, say)
+    ident = identified
     source = ident if ident is not None else data
+    keep = np.ones(len(source.outputs), bool)
+    if ident is not None and cfg.exclude_suspect_channels and ident.suspect.any():
+        keep = ~ident.suspect
+        say("suspect channels left out: "
+            + ", ".join(ident.outputs[i].label for i in np.flatnonzero(ident.suspect)))
     outputs = tuple(c for c, k in zip(source.outputs, keep, strict=True) if k)
+    excluded = tuple(c for c, k in zip(source.outputs, keep, strict=True) if not k)
     inputs = tuple(source.inputs)
     quantity = source.quantity
     band = cfg.band
@@ -193,10 +154,10 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
         f"({cfg.samples_per_bandwidth:g} per half-power bandwidth at zeta0 = {zeta0:.4f}), "
         f"{len(outputs)} outputs x {len(inputs)} inputs")  # fmt: skip
     data_hash = hashlib.sha256(freq.tobytes() + H_test.tobytes()).hexdigest()
-    fp = _fingerprint(cfg, f"{n_starts}-{SURROGATE_VERSION}-{cfg.enrich_hz}-"
-                      f"{cfg.enrich_vectors}-{cfg.residual}-{cfg.modal_hz}-"
-                      f"{cfg.exact_gradient}" + data_hash)  # fmt: skip
-    state_path = out / "starts" / "cycles.json"
+    key = (f"{fingerprint}-{n_starts}-{SURROGATE_VERSION}-{cfg.enrich_hz}-{cfg.enrich_vectors}-"
+           f"{cfg.residual}-{cfg.modal_hz}-{cfg.exact_gradient}-{data_hash}")
+    fp = hashlib.sha256(key.encode()).hexdigest()[:16]
+    state_dir = Path(state) if state is not None else None
     rng = np.random.default_rng(cfg.seed)
     starts0 = [np.zeros(len(params))]
     if n_starts > 1:
@@ -236,18 +197,23 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
         return Problem(sur, freq, H_test, cfg.metric, lower, upper, cfg.max_iterations,
                        weights, corr)  # fmt: skip
 
-    def starts_in(name: str, problem: Problem, pts: list[np.ndarray], center: np.ndarray):
-        folder = out / "starts" / name
-        if fresh and folder.is_dir():
+    def starts_in(name: str, problem: Problem, pts: list[np.ndarray],
+                  center: np.ndarray) -> list[StartResult]:  # fmt: skip
+        folder = state_dir / name if state_dir is not None else None
+        if fresh and folder is not None and folder.is_dir():
             for f in folder.glob("start_*.json"):
                 f.unlink()
         return run_starts(problem, pts, workers=n_workers, folder=folder,
                           fingerprint=fp + f"-{name}-" + ",".join(f"{x:.12g}" for x in center),
                           progress=say)  # fmt: skip
 
+    cycles: list[Cycle] = []
+
     def save_cycles() -> None:
-        text = json.dumps(cycles, indent=1)
-        write_atomic(state_path, lambda tmp: Path(tmp).write_text(text))
+        if state_dir is None:
+            return
+        text = json.dumps([_cycle_state(c) for c in cycles], indent=1)
+        write_atomic(state_dir / "cycles.json", lambda tmp: Path(tmp).write_text(text))
 
     # cycle 1: the multi-start search over the whole box on the nominal surrogate
     say("cycle 1: Levenberg-Marquardt from every start on the nominal model's surrogate")
@@ -257,15 +223,13 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
     problem = problem_on(sur, lo, hi)
     cost_c = problem.cost(center)
     results = starts_in("cycle1", problem, starts0, center)
-    best = min(results, key=lambda r: r["cost"])
-    cand, pred = np.array(best["p"]), best["cost"]
-    cycles: list[dict] = [{"cycle": 1, "center": list(map(float, center)),
-                           "best_start": best["start"] + 1, "p": list(map(float, cand)),
-                           "deviation": best["deviation"], "exact_deviation_at_center":
-                           problem.deviation(center), "moved": float(np.abs(cand).max()),
-                           "accepted": True, "radius": None, "starts": results}]  # fmt: skip
+    best = min(results, key=lambda r: r.cost)
+    cand, pred = best.p, best.cost
+    cycles.append(Cycle(1, center, cand, best.deviation, best.start + 1, tuple(results),
+                        exact_deviation_at_center=problem.deviation(center),
+                        moved=float(np.abs(cand).max())))  # fmt: skip
     save_cycles()
-    say(f"cycle 1: best start {best['start'] + 1}, deviation {best['deviation']:.5g} (surrogate)")
+    say(f"cycle 1: best start {best.start + 1}, deviation {best.deviation:.5g} (surrogate)")
     # cycles 2...: trust region; the surrogate rebuilt at the candidate is the full model
     # there, which decides whether the step is kept
     radius = max(float(np.abs(cand - center).max()), cfg.settle)
@@ -280,9 +244,9 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
         rho = (cost_c - cost_new) / predicted if predicted > 0 else 0.0
         accepted = cost_new < cost_c
         step = np.abs(cand - center)
-        entry = {"cycle": c, "candidate": list(map(float, cand)), "rho": rho,
-                 "accepted": accepted, "radius": radius, "from_search": searched,
-                 "exact_deviation_at_candidate": prob_new.deviation(cand)}  # fmt: skip
+        step_radius, from_search = radius, searched
+        exact_at_candidate = prob_new.deviation(cand)
+        candidate = cand
         stalled, fall = False, 0.0
         if accepted:
             fi_c = fisher(*prob_new.data_jacobian(cand), sigma=cfg.noise_sigma)
@@ -304,10 +268,10 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
                 f"(full-model cost {cost_new:.5g} against {cost_c:.5g}); trust radius "
                 f"{radius:.3g}")  # fmt: skip
             settled = radius < cfg.settle
-        entry["moved_informed"] = moved
-        entry["center"] = list(map(float, center))
         last = c == cfg.max_cycles
-        local, found = None, []
+        local: StartResult | None = None
+        found: list[StartResult] = []
+        search_best: float | None = None
         if not settled and not last:  # the trust-region step from the centre
             box = replace(problem, lower=np.maximum(lo, center - radius),
                           upper=np.minimum(hi, center + radius))  # fmt: skip
@@ -320,40 +284,38 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
                 f"starts on this surrogate ({restarts_left} more allowed)")  # fmt: skip
             found = starts_in(f"cycle{c}_search", problem,
                               list(latin_hypercube(n_starts, lo, hi, rng)), center)  # fmt: skip
-            best = min(found, key=lambda r: r["cost"])
-            ref = ((local["cost"], local["deviation"], np.array(local["p"])) if local
+            best = min(found, key=lambda r: r.cost)
+            ref = ((local.cost, local.deviation, local.p) if local
                    else (cost_c, problem.deviation(center), center))  # fmt: skip
-            entry["search_best_deviation"] = best["deviation"]
+            search_best = best.deviation
             # another minimum: lower by restart_fall and elsewhere (not the same one again)
-            if (best["cost"] < (1 - cfg.restart_fall) * ref[0]
-                    and np.abs(np.array(best["p"]) - ref[2]).max() > cfg.settle):
+            if (best.cost < (1 - cfg.restart_fall) * ref[0]
+                    and np.abs(best.p - ref[2]).max() > cfg.settle):
                 res, searched, settled = best, True, False
-                say(f"cycle {c}: search start {best['start'] + 1} reaches a lower minimum "
-                    f"(deviation {best['deviation']:.5g} on the surrogate against "
+                say(f"cycle {c}: search start {best.start + 1} reaches a lower minimum "
+                    f"(deviation {best.deviation:.5g} on the surrogate against "
                     f"{ref[1]:.5g}): it is the next candidate")  # fmt: skip
             else:
                 say(f"cycle {c}: the search found no lower minimum elsewhere (its best: "
-                    f"deviation {best['deviation']:.5g} on the surrogate, at most "
-                    f"{np.abs(np.array(best['p']) - ref[2]).max():.2g} from here in p; "
+                    f"deviation {best.deviation:.5g} on the surrogate, at most "
+                    f"{np.abs(best.p - ref[2]).max():.2g} from here in p; "
                     f"here {ref[1]:.5g})")  # fmt: skip
-        entry["searched"] = bool(found)
+        common = dict(candidate=candidate, exact_deviation_at_candidate=exact_at_candidate,
+                      rho=rho, accepted=accepted, radius=step_radius, from_search=from_search,
+                      moved_informed=moved, searched=bool(found),
+                      search_best_deviation=search_best)  # fmt: skip
         if res is None:  # settled, or the last cycle
-            entry.update(p=list(map(float, center)), deviation=problem.deviation(center),
-                         best_start=1)  # fmt: skip
-            cycles.append(entry)
+            cycles.append(Cycle(c, center, center, problem.deviation(center), 1, **common))
             save_cycles()
             break
-        cand, pred = np.array(res["p"]), res["cost"]
-        entry.update(p=list(map(float, cand)), deviation=res["deviation"],
-                     best_start=res["start"] + 1,
-                     starts=([local] if local else []) + found)  # fmt: skip
-        cycles.append(entry)
+        cand, pred = res.p, res.cost
+        cycles.append(Cycle(c, center, cand, res.deviation, res.start + 1,
+                            tuple(([local] if local else []) + found), **common))  # fmt: skip
         save_cycles()
     p_final = center
     values = np.array([par.value(p) for par, p in zip(params, p_final, strict=True)])
     # the full model at the solution is the last surrogate's centre
     modes_after = modes_c
-    write_calibrated_deck(cfg.deck, params, values, out / f"{cfg.deck.stem}_calibrated.bdf")
     Cg = channel_matrix(model, outputs)
     # the full model's FRFs: each surrogate at its centre (the modal sum over the reduction
     # modes, with the residual flexibility if asked)
@@ -363,96 +325,73 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
     dev_after = deviation(residuals(H_after, H_test, cfg.metric))
     J, r = problem.data_jacobian(p_final)
     fi = fisher(J, r, sigma=cfg.noise_sigma)
-    per_band = []
+    band_bounds = []
     n_pairs = len(outputs) * len(inputs)
     for b in cfg.crlb_bands:
         rows_f = (freq >= b[0]) & (freq <= b[1])
         rows = np.tile(rows_f, n_pairs * (2 if cfg.metric == "complex-log" else 1))
-        fb = fisher(J, r, sigma=fi.sigma, rows=rows)
-        per_band.append({"band_hz": list(b), "crlb": list(map(float, fb.crlb))})
+        band_bounds.append(BandBounds(tuple(b), fisher(J, r, sigma=fi.sigma, rows=rows).crlb))
     fe_before = np.asarray(Cg @ modes0.shapes)
     fe_after = np.asarray(Cg @ modes_after.shapes)
     mac_b = mac(test_shapes, fe_before)
     mac_a = mac(test_shapes, fe_after)
+    pairings = _pairings(test_hz, test_shapes, fe_before, fe_after, modes0, modes_after, band,
+                         len(outputs))  # fmt: skip
+    parameters = []
+    for i, par in enumerate(params):
+        crlb_p = float(fi.crlb[i])
+        finite = bool(np.isfinite(crlb_p))
+        extra = {}
+        if truth is not None:  # a synthetic test: the error against the known value
+            p_true = truth[i] / par.nominal - 1.0
+            extra = dict(true=float(truth[i]), true_p=float(p_true),
+                         error_pct=float(100 * (values[i] / truth[i] - 1.0)),
+                         error_over_crlb=float(abs(p_final[i] - p_true) / crlb_p)
+                         if finite and crlb_p > 0 else None)  # fmt: skip
+        parameters.append(ParameterResult(
+            par, float(values[i]), float(p_final[i]), crlb_p, crlb_p * abs(par.nominal),
+            identifiable=finite and crlb_p <= cfg.identifiable_crlb,
+            at_bound=bool(np.isclose(p_final[i], lo[i], atol=1e-9)
+                          or np.isclose(p_final[i], hi[i], atol=1e-9)), **extra))  # fmt: skip
+    result = CalibrationResult(
+        cfg, model, data, ident, tuple(parameters), p_final, zeta0, freq, outputs, inputs,
+        excluded, H_test, H_before, H_after, dev_before, dev_after, tuple(cycles), settled,
+        sum(c.searched for c in cycles), frf_modes[0], fi, cfg.noise_sigma is not None,
+        tuple(band_bounds), test_hz, test_shapes, modes0, modes_after, mac_b, mac_a,
+        pairings, time.perf_counter() - t0)  # fmt: skip
+    say(f"deviation {dev_before:.5g} -> {dev_after:.5g}")
+    return result
+
+
+def _pairings(test_hz: np.ndarray, test_shapes: np.ndarray, fe_before: np.ndarray,
+              fe_after: np.ndarray, modes0, modes_after, band: tuple[float, float],
+              n_outputs: int) -> tuple[ModePairing, ...]:  # fmt: skip
+    """Each test mode with the FE modes paired with it before and after calibration, and the
+    pseudo-orthogonality after it: mass reduced to the sensors by SEREP on the FE modes up to
+    1.5 times the band's top (at most one less than the sensors)."""
     pairs_b = {pp.test: pp for pp in pair_modes(test_shapes, test_hz, fe_before,
                                                 modes0.frequencies_hz)}  # fmt: skip
     pairs_a = {pp.test: pp for pp in pair_modes(test_shapes, test_hz, fe_after,
                                                 modes_after.frequencies_hz)}  # fmt: skip
-    # pseudo-orthogonality after calibration: mass reduced to the sensors by SEREP on the FE
-    # modes up to 1.5 times the band's top (at most one less than the sensors)
     f_after = modes_after.frequencies_hz
-    serep = np.flatnonzero(f_after <= 1.5 * band[1])[: max(len(outputs) - 1, 1)]
+    serep = list(np.flatnonzero(f_after <= 1.5 * band[1])[: max(n_outputs - 1, 1)])
     poc = (pseudo_orthogonality(test_shapes, fe_after[:, serep], serep_mass(fe_after[:, serep]))
            if len(test_hz) else np.zeros((0, len(serep))))  # fmt: skip
-    mode_rows = []
+    out = []
     for k, f in enumerate(test_hz):
         b, a = pairs_b.get(k), pairs_a.get(k)
-        mode_rows.append({
-            "test_mode": k + 1, "test_hz": float(f),
-            "fe_before_mode": b.fe + 1 if b else None,
-            "fe_before_hz": float(modes0.frequencies_hz[b.fe]) if b else None,
-            "mac_before": b.mac if b else None,
-            "fe_after_mode": a.fe + 1 if a else None,
-            "fe_after_hz": float(modes_after.frequencies_hz[a.fe]) if a else None,
-            "mac_after": a.mac if a else None,
-            "frequency_error_before_pct": b.frequency_difference if b else None,
-            "frequency_error_after_pct": a.frequency_difference if a else None,
-            "pseudo_orthogonality_after": float(abs(poc[k, list(serep).index(a.fe)]))
-            if a and a.fe in serep else None,
-        })  # fmt: skip
-    param_rows = []
-    for i, par in enumerate(params):
-        crlb_p = float(fi.crlb[i])
-        param_rows.append({
-            "name": par.name, "description": par.description, "card": par.card,
-            "id": par.id, "field": par.field, "nominal": par.nominal,
-            "calibrated": float(values[i]), "lower": par.lower, "upper": par.upper,
-            "p": float(p_final[i]), "crlb": crlb_p * abs(par.nominal) if np.isfinite(crlb_p)
-            else None, "crlb_p": crlb_p if np.isfinite(crlb_p) else None,
-            "identifiable": bool(np.isfinite(crlb_p) and crlb_p <= cfg.identifiable_crlb),
-            "at_bound": bool(np.isclose(p_final[i], lo[i], atol=1e-9)
-                             or np.isclose(p_final[i], hi[i], atol=1e-9)),
-        })  # fmt: skip
-        if truth is not None:  # a synthetic test: the error against the known value
-            p_true = truth[i] / par.nominal - 1.0
-            param_rows[-1].update({
-                "true": float(truth[i]), "true_p": float(p_true),
-                "error_pct": float(100 * (values[i] / truth[i] - 1.0)),
-                "error_over_crlb": float(abs(p_final[i] - p_true) / crlb_p)
-                if np.isfinite(crlb_p) and crlb_p > 0 else None,
-            })  # fmt: skip
-    report = {
-        "deck": str(cfg.deck), "parameters_file": str(cfg.parameters),
-        "test": str(cfg.test_frf or cfg.test_model),
-        "truth": str(cfg.test_truth) if cfg.test_truth is not None else None,
-        "band_hz": list(band), "zeta0": zeta0, "metric": cfg.metric,
-        "n_frequencies": len(freq), "outputs": [c.label for c in outputs],
-        "inputs": [c.label for c in inputs],
-        "excluded_channels": [c.label for c, k in zip(source.outputs, keep, strict=True) if not k],
-        "parameters": param_rows, "modes": mode_rows,
-        "deviation": {"before": dev_before, "after": dev_after,
-                      "surrogate_history": [cyc["deviation"] for cyc in cycles]},
-        "crlb": {"sigma": fi.sigma, "sigma_given": cfg.noise_sigma is not None,
-                 "identifiable_below": cfg.identifiable_crlb, "per_band": per_band,
-                 "correlation": [[None if not np.isfinite(v) else float(v) for v in row]
-                                 for row in fi.correlation]},
-        "cycles": [{k: v for k, v in cyc.items() if k != "starts"} for cyc in cycles],
-        "regularization": cfg.regularization,
-        "starts": [{k: v for k, v in s.items() if k != "fingerprint"}
-                   for s in cycles[0]["starts"]],
-        "settled": settled, "restarts": sum(bool(cyc.get("searched")) for cyc in cycles),
-        "restart_fall": cfg.restart_fall,
-        "reduction_modes": cfg.reduction_modes,
-        "surrogate": cfg.surrogate, "enrich_hz": cfg.enrich_hz,
-        "enrich_vectors": cfg.enrich_vectors, "residual": cfg.residual,
-        "modal_hz": cfg.modal_hz, "frf_modes": frf_modes[0],
-        "exact_gradient": cfg.exact_gradient,
-        "model_dof": model.n_dof, "seconds": time.perf_counter() - t0,
-        "calibrated_deck": f"{cfg.deck.stem}_calibrated.bdf",
-    }  # fmt: skip
-    text = json.dumps(report, indent=1)
-    write_atomic(out / "report.json", lambda tmp: Path(tmp).write_text(text + "\n"))
-    say(f"deviation {dev_before:.5g} -> {dev_after:.5g}; wrote {out / 'report.json'}")
-    return Outcome(report, params, p_final, freq, H_test, H_before, H_after, outputs, inputs,
-                   data, ident, modes0, modes_after, model, fi, mac_b, mac_a, test_hz,
-                   test_shapes)  # fmt: skip
+        out.append(ModePairing(
+            k + 1, float(f),
+            b.fe + 1 if b else None, float(modes0.frequencies_hz[b.fe]) if b else None,
+            b.mac if b else None, b.frequency_difference if b else None,
+            a.fe + 1 if a else None, float(f_after[a.fe]) if a else None,
+            a.mac if a else None, a.frequency_difference if a else None,
+            float(abs(poc[k, serep.index(a.fe)])) if a and a.fe in serep else None))  # fmt: skip
+    return tuple(out)
+
+
+def _cycle_state(c: Cycle) -> dict:
+    """A cycle as the state folder keeps it (its starts in full)."""
+    out = {k: v for k, v in vars(c).items() if k != "starts"}
+    out = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in out.items()}
+    return {**out, "starts": [s.to_dict() for s in c.starts]}

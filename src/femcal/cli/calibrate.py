@@ -8,6 +8,8 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("calibrate", help="calibrate a deck's parameters against test FRFs",
@@ -26,7 +28,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..calibrate.config import read_config
-    from ..calibrate.workflow import run as calibrate
+    from ..jobs.calibration import run as calibrate
 
     t0 = time.perf_counter()
 
@@ -39,31 +41,29 @@ def run(args: argparse.Namespace) -> int:
             return 2
     try:
         cfg = read_config(args.config)
-        outcome = calibrate(cfg, args.out, fresh=args.fresh, workers=args.workers,
-                            starts=args.starts, progress=progress)  # fmt: skip
+        result = calibrate(cfg, args.out, fresh=args.fresh, workers=args.workers,
+                           starts=args.starts, progress=progress)  # fmt: skip
     except (KeyError, ValueError) as e:
         print(f"femcal calibrate: {str(e).strip(chr(34))}", file=sys.stderr)
         return 2
-    rep = outcome.report
     if cfg.pictures and not args.no_pictures:
-        from ..viz.calibration import write_report
+        from ..io.calibration import write_report
 
-        write_report(outcome, args.out, progress=progress)
+        write_report(result, args.out, progress=progress)
     print(f"{'parameter':<10} {'nominal':>12} {'calibrated':>12} {'change %':>9} "
           f"{'CRLB %':>8} identifiable")
-    for p in rep["parameters"]:
-        crlb = "inf" if p["crlb_p"] is None else f"{100 * p['crlb_p']:.2f}"
-        print(f"{p['name']:<10} {p['nominal']:12.6g} {p['calibrated']:12.6g} "
-              f"{100 * p['p']:+9.2f} {crlb:>8} {'yes' if p['identifiable'] else 'no'}"
-              f"{' (at bound)' if p['at_bound'] else ''}")
+    for r in result.parameters:
+        crlb = f"{100 * r.crlb_p:.2f}" if np.isfinite(r.crlb_p) else "inf"
+        print(f"{r.parameter.name:<10} {r.parameter.nominal:12.6g} {r.calibrated:12.6g} "
+              f"{100 * r.p:+9.2f} {crlb:>8} {'yes' if r.identifiable else 'no'}"
+              f"{' (at bound)' if r.at_bound else ''}")
     print(f"{'test Hz':>9} {'FE before':>10} {'FE after':>10} {'MAC before':>11} {'MAC after':>10}")
-    for m in rep["modes"]:
+    for m in result.modes:
         def fmt(v, spec):
             return format(v, spec) if v is not None else "-"
 
-        print(f"{m['test_hz']:9.3f} {fmt(m['fe_before_hz'], '10.3f')} "
-              f"{fmt(m['fe_after_hz'], '10.3f')} {fmt(m['mac_before'], '11.4f')} "
-              f"{fmt(m['mac_after'], '10.4f')}")
-    d = rep["deviation"]
-    print(f"deviation: {d['before']:.6g} before, {d['after']:.6g} after")
+        print(f"{m.test_hz:9.3f} {fmt(m.fe_before_hz, '10.3f')} "
+              f"{fmt(m.fe_after_hz, '10.3f')} {fmt(m.mac_before, '11.4f')} "
+              f"{fmt(m.mac_after, '10.4f')}")
+    print(f"deviation: {result.deviation_before:.6g} before, {result.deviation_after:.6g} after")
     return 0

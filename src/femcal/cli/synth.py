@@ -1,5 +1,5 @@
 """``femcal synth-test DECK --params TOML --sensors CSV --inputs CSV --out DIR [--seed N]``:
-lab-like hammer-test FRFs from a deck with hidden parameters (see femcal.testdata.synth)."""
+lab-like hammer-test FRFs from a deck with hidden parameters (see femcal.jobs.synthetic_test)."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ import tomllib
 from pathlib import Path
 
 from ..io.atomic import write_lines
+from ..jobs.synthetic_test import SynthSettings, make_hammer_test, truth_toml
 from ..testdata.formats.matlab import write_mat
 from ..testdata.formats.uff import write_uff
-from ..testdata.synth import SynthSettings, make_hammer_test, truth_toml
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

@@ -6,8 +6,8 @@ import os
 
 import numpy as np
 
-from ..io.atomic import write_atomic
 from ..testdata.data import FRFData
+from .figures import pyplot, save_figure
 
 
 def frf_overlay(
@@ -36,11 +36,7 @@ def frf_overlay(
     ValueError
         If the model lacks one of the drawn channels.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     if pairs is None:
         pairs = [(o, i) for o in range(len(test.outputs)) for i in range(len(test.inputs))]
         pairs = pairs[:max_panels]
@@ -92,12 +88,9 @@ def stabilization_diagram(path: str | os.PathLike[str], diagram, data: FRFData |
 
     ``diagram`` is a :class:`femcal.identify.Stabilization`. Returns the Figure.
     """
-    import matplotlib
     import matplotlib.ticker
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(9, 5.5))
     lo, hi = diagram.band
     if data is not None:
@@ -124,15 +117,3 @@ def stabilization_diagram(path: str | os.PathLike[str], diagram, data: FRFData |
     ax.set_zorder(3)
     ax.patch.set_visible(False)
     return save_figure(fig, path)
-
-
-def save_figure(fig, path: str | os.PathLike[str], dpi: int = 110):
-    """Lay out, write atomically as PNG and close a matplotlib figure; returns it."""
-    import matplotlib.pyplot as plt
-
-    fig.tight_layout()
-    try:
-        write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=dpi))
-    finally:
-        plt.close(fig)
-    return fig

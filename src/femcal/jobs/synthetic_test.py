@@ -12,7 +12,7 @@ The "real" frame differs from the FE model in three ways, as a test article does
 It is then "measured" as the study did: the sensor positions are visited a few triaxial
 sensors at a time, once per hammer input; every run gets its own noise (a fraction of each
 FRF's magnitude, plus a floor), and the runs are assembled into one MIMO set
-(:func:`femcal.testdata.data.assemble_runs`). Accelerance (mm/s^2/N) from 0.05 Hz to 150 Hz in
+(:func:`femcal.testdata.runs.assemble_runs`). Accelerance (mm/s^2/N) from 0.05 Hz to 150 Hz in
 0.05 Hz steps by default.
 """
 
@@ -26,13 +26,12 @@ from pathlib import Path
 import numpy as np
 
 from ..assembly import Options, assemble
-from ..deck import read_deck
 from ..model import EigenRequest
-from ..model.build import build_model
+from ..model.build import load_model
 from ..response.frf import modal_frf, point_matrix
 from ..solve.normal_modes import solve_normal_modes
-from .data import FRFData
-from .runs import assemble_runs
+from ..testdata.data import FRFData
+from ..testdata.runs import assemble_runs
 
 #: Parameter tables and the column each field lives in.
 _FIELDS = {("PSHELL", "T"): ("properties", "pid", "t"), ("PBAR", "A"): ("properties", "pid", "a"),
@@ -120,8 +119,7 @@ def hidden_frame(deck_path: str | Path, params_path: str | Path, settings: Synth
     :func:`make_hammer_test`'s data (it draws the parameters first).
     """
     s = settings
-    deck = read_deck(deck_path)
-    model = build_model(deck)
+    model = load_model(deck_path)
     params = tomllib.loads(Path(params_path).read_text()).get("parameter", [])
     truth = []
     for n, p in enumerate(params, start=1):

@@ -1,0 +1,250 @@
+"""What a calibration returns: typed results for its starts, cycles, parameters and modes.
+
+Scaled parameters p are as in :mod:`femcal.calibrate.parameters` (P = P0 (1 + p)); bounds and
+errors of p are fractions of the nominal value. Deviations are the metric's squared
+residuals summed (:func:`femcal.calibrate.metric.deviation`). The JSON report and the
+pictures are made from these at the edge (:mod:`femcal.io.calibration`,
+:mod:`femcal.viz.calibration`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..identify.workflow import IdentifiedModel
+from ..model.model import Model
+from ..solve.normal_modes import Modes
+from ..testdata.data import Channel, FRFData
+from .config import Config
+from .fisher import Fisher
+from .parameters import Parameter
+
+
+@dataclass(frozen=True)
+class StartResult:
+    """One Levenberg-Marquardt run from a start point.
+
+    Attributes
+    ----------
+    start : 0-based index of the start. p0, p : (n_p,) start and end point.
+    cost : |r|^2 / 2 at p, regularisation included; deviation : the data part (eps^T eps).
+    iterations, evaluations : accepted steps and residual evaluations.
+    history : (iterations + 1,) deviation (regularisation included) after each accepted
+        step, the first at the start.
+    converged, message : why it stopped. seconds : its run time.
+    """
+
+    start: int
+    p0: np.ndarray
+    p: np.ndarray
+    cost: float
+    deviation: float
+    iterations: int
+    evaluations: int
+    history: tuple[float, ...]
+    converged: bool
+    message: str
+    seconds: float
+
+    def to_dict(self) -> dict:
+        """JSON-ready: arrays as lists."""
+        return {"start": self.start, "p0": [float(x) for x in self.p0],
+                "p": [float(x) for x in self.p], "cost": self.cost, "deviation": self.deviation,
+                "iterations": self.iterations, "evaluations": self.evaluations,
+                "history": list(self.history), "converged": self.converged,
+                "message": self.message, "seconds": self.seconds}  # fmt: skip
+
+    @classmethod
+    def from_dict(cls, d: dict) -> StartResult:
+        """What :meth:`to_dict` wrote.
+
+        Raises
+        ------
+        KeyError, TypeError, ValueError
+            For a dict that is not one.
+        """
+        return cls(int(d["start"]), np.asarray(d["p0"], float), np.asarray(d["p"], float),
+                   float(d["cost"]), float(d["deviation"]), int(d["iterations"]),
+                   int(d["evaluations"]), tuple(float(h) for h in d["history"]),
+                   bool(d["converged"]), str(d["message"]), float(d["seconds"]))  # fmt: skip
+
+
+@dataclass(frozen=True)
+class Cycle:
+    """One cycle of the search: the multi-start search on the nominal surrogate (cycle 1),
+    or a trust-region step on the surrogate rebuilt at the candidate (cycles 2...).
+
+    Attributes
+    ----------
+    cycle : 1, 2, ...
+    center : (n_p,) the centre after the cycle (the candidate where it was kept).
+    p, deviation : the point the cycle proposes next and its deviation on the surrogate (the
+        centre and its full-model deviation where the cycles stopped).
+    best_start : 1-based start that found ``p``.
+    starts : the starts run in the cycle.
+    exact_deviation_at_center, moved : cycle 1: the full model's deviation at the nominal
+        point, the largest |p| of the best start.
+    candidate : cycles 2...: the point tried, its full-model deviation
+        ``exact_deviation_at_candidate``, ``rho`` the actual over the predicted fall of the
+        cost, whether it was ``accepted``, the trust ``radius`` of the step, whether it came
+        ``from_search`` (a multi-start search) and how far the informed parameters
+        ``moved_informed``.
+    searched : the multi-start search ran again in this cycle; its best deviation on the
+        surrogate ``search_best_deviation``.
+    """
+
+    cycle: int
+    center: np.ndarray
+    p: np.ndarray
+    deviation: float
+    best_start: int
+    starts: tuple[StartResult, ...] = ()
+    exact_deviation_at_center: float | None = None
+    moved: float | None = None
+    candidate: np.ndarray | None = None
+    exact_deviation_at_candidate: float | None = None
+    rho: float | None = None
+    accepted: bool = True
+    radius: float | None = None
+    from_search: bool = False
+    moved_informed: float | None = None
+    searched: bool = False
+    search_best_deviation: float | None = None
+
+
+@dataclass(frozen=True)
+class ParameterResult:
+    """One parameter after calibration.
+
+    Attributes
+    ----------
+    parameter : its definition (card, id, field, nominal, bounds).
+    calibrated : the calibrated value P; p : its scaled change.
+    crlb_p : Cramér-Rao lower bound of p at the solution (inf: not informed); crlb : the
+        same in the field's units (|P0| crlb_p).
+    identifiable : crlb_p below the configuration's ``identifiable_crlb``.
+    at_bound : p ended on a bound.
+    true, true_p, error_pct, error_over_crlb : with a synthetic test's known values: the
+        true value and scaled change, the error of the calibrated value (% of the true one),
+        and |p - true_p| / crlb_p (None where the bound is infinite or zero).
+    """
+
+    parameter: Parameter
+    calibrated: float
+    p: float
+    crlb_p: float
+    crlb: float
+    identifiable: bool
+    at_bound: bool
+    true: float | None = None
+    true_p: float | None = None
+    error_pct: float | None = None
+    error_over_crlb: float | None = None
+
+
+@dataclass(frozen=True)
+class ModePairing:
+    """A test mode and the FE modes paired with it (by MAC and frequency) before and after.
+
+    Attributes
+    ----------
+    test_mode : 1-based; test_hz : its frequency.
+    fe_before, fe_after : 1-based FE modes paired with it (None: none paired); their
+        frequencies ``fe_before_hz``, ``fe_after_hz``, MAC values ``mac_before``,
+        ``mac_after`` and frequency errors (f_test - f_FE) / f_FE in %.
+    pseudo_orthogonality_after : |test^T M_SEREP FE| of the pair after calibration, where the
+        FE mode is one of the SEREP basis's.
+    """
+
+    test_mode: int
+    test_hz: float
+    fe_before: int | None
+    fe_before_hz: float | None
+    mac_before: float | None
+    frequency_error_before_pct: float | None
+    fe_after: int | None
+    fe_after_hz: float | None
+    mac_after: float | None
+    frequency_error_after_pct: float | None
+    pseudo_orthogonality_after: float | None
+
+
+@dataclass(frozen=True)
+class BandBounds:
+    """The Cramér-Rao bounds (n_p,) of the scaled parameters from one frequency band's
+    residuals alone."""
+
+    band_hz: tuple[float, float]
+    crlb: np.ndarray
+
+
+@dataclass(frozen=True)
+class CalibrationResult:
+    """A calibration run and its outcome.
+
+    Attributes
+    ----------
+    config : the run's settings. model : the nominal model. data : the measured FRFs (None
+        where only an identified model was given). identified : the identified test model,
+        if any.
+    parameters : per parameter, the outcome. p_final : (n_p,) scaled solution.
+    zeta0 : the equalised damping ratio. freq : (n_f,) Hz, the metric's frequencies.
+    outputs, inputs : the channels compared; excluded : outputs left out as suspect.
+    H_test, H_before, H_after : (n_out, n_in, n_f) the damping-equalised test FRFs and the FE
+        model's before and after calibration, in the test's quantity.
+    deviation_before, deviation_after : the full model's deviation.
+    cycles : every cycle of the search. settled : the informed parameters stopped moving
+        before the cycles ran out. restarts : how often the search ran again.
+    frf_modes : the FE FRFs' number of modes.
+    fisher : Fisher information and CRLB at the solution; sigma_given : its sigma was the
+        configuration's (else estimated from the residual). band_bounds : the CRLB per band.
+    test_hz, test_shapes : (k,), (n_out, k) the identified test modes in the band.
+    modes_before, modes_after : the full model's modes at the nominal and calibrated point.
+    mac_before, mac_after : (k, n_modes) MAC of the test modes against the FE modes.
+    modes : the test modes with their pairings.
+    seconds : the run's wall time.
+    """
+
+    config: Config
+    model: Model
+    data: FRFData | None
+    identified: IdentifiedModel | None
+    parameters: tuple[ParameterResult, ...]
+    p_final: np.ndarray
+    zeta0: float
+    freq: np.ndarray
+    outputs: tuple[Channel, ...]
+    inputs: tuple[Channel, ...]
+    excluded: tuple[Channel, ...]
+    H_test: np.ndarray
+    H_before: np.ndarray
+    H_after: np.ndarray
+    deviation_before: float
+    deviation_after: float
+    cycles: tuple[Cycle, ...]
+    settled: bool
+    restarts: int
+    frf_modes: int
+    fisher: Fisher
+    sigma_given: bool
+    band_bounds: tuple[BandBounds, ...]
+    test_hz: np.ndarray
+    test_shapes: np.ndarray
+    modes_before: Modes
+    modes_after: Modes
+    mac_before: np.ndarray
+    mac_after: np.ndarray
+    modes: tuple[ModePairing, ...]
+    seconds: float
+
+    @property
+    def params(self) -> list[Parameter]:
+        """The parameter definitions, in order."""
+        return [r.parameter for r in self.parameters]
+
+    @property
+    def values(self) -> np.ndarray:
+        """(n_p,) the calibrated values P."""
+        return np.array([r.calibrated for r in self.parameters])
