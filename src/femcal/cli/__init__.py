@@ -6,6 +6,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 
+from .. import __version__
 from ..errors import FemcalError
 from . import calibrate, frf, identify, info, model, solve, synth
 
@@ -25,6 +26,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="femcal",
         description="Finite-element normal modes and FRF-based calibration from NASTRAN decks.",
     )
+    parser.add_argument("--version", action="version", version=f"femcal {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for _name, module in _COMMANDS.items():
         module.add_parser(sub)
