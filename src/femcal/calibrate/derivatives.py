@@ -1,14 +1,14 @@
-"""Exact parameter derivatives of K and M, and eigen-sensitivities.
+"""Exact parameter derivatives of K and M, and their polynomial dependence on the parameters.
 
 dK/dP and dM/dP come from the element kernels themselves. Every parameter field states the
-polynomial degree d of the element matrices in its value (:data:`FIELDS`: thickness enters
-membrane and mass linearly and bending cubically; K is linear in E, A, I, J, spring rates;
-M linear in RHO, A, T, concentrated masses). The elements that depend on the parameter are
-assembled alone at d + 1 values around P; the matrices are then exactly the polynomial
-through them, whose derivative at P is a fixed combination of the d + 1 matrices (Lagrange
-weights). No step size is involved: the result is exact up to rounding. The degree is
-checked every time at one more point (the interpolating polynomial must reproduce the
-matrices at P itself).
+polynomial degree d of the element matrices in its value
+(:data:`femcal.calibrate.parameters.FIELDS`: thickness enters membrane and mass linearly and
+bending cubically; K is linear in E, A, I, J, spring rates; M linear in RHO, A, T,
+concentrated masses). The elements that depend on the parameter are assembled alone at d + 1
+values around P; the matrices are then exactly the polynomial through them, whose derivative
+at P is a fixed combination of the d + 1 matrices (Lagrange weights). No step size is
+involved: the result is exact up to rounding. The degree is checked every time at one more
+point (the interpolating polynomial must reproduce the matrices at P itself).
 
 Some dependences are smooth but not polynomial: the CQUAD4's and CTRIA3's transverse shear
 with residual bending flexibility, ``(1/(k G t) + var/D(t))^-1``, is rational in the thickness,
@@ -20,7 +20,10 @@ the derivative is then the interpolant's, accurate to about that level (the test
 it with finite differences). Beyond the highest degree the parameter is refused with a
 clear error instead of giving a wrong derivative.
 
-Eigen-sensitivities built on these matrices are in :mod:`femcal.calibrate.sensitivity`.
+The same fits, on a tensor grid of offsets per group of elements that shares its parameters,
+give K and M as polynomials in several parameters at once (:func:`group_polynomials`), which
+the surrogate reduces (:mod:`femcal.calibrate.reduction`). Eigen-sensitivities built on these
+matrices are in :mod:`femcal.calibrate.sensitivity`.
 """
 
 from __future__ import annotations

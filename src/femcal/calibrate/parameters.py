@@ -1,5 +1,6 @@
-"""Calibration parameters: which card field each one is, its nominal value (read from the
-deck), its bounds, and models and decks with new values.
+"""Calibration parameters: which card field each one is, its nominal value (the model's), its
+bounds, and the model with new values (the calibrated deck is written by
+:func:`femcal.io.calibration.write_calibrated_deck`).
 
 A parameter P is scaled as in the reference study: ``P = P0 (1 + p)``, so p = 0 is the
 nominal model and the bounds become ``p_lo = lower / P0 - 1``, ``p_hi = upper / P0 - 1``.
@@ -12,7 +13,7 @@ The parameter file is TOML with one ``[[parameter]]`` table per parameter::
     card = "PSHELL"             # see FIELDS
     id = 1                      # the card's id (PID, MID, or element id for CONM2)
     field = "T"
-    nominal = 8.0               # optional; if given it must equal the deck's value
+    nominal = 8.0               # optional; if given it must equal the model's value
     lower = 6.4                 # absolute bounds ...
     upper = 9.6
     # ... or relative ones: lower_rel = -0.2, upper_rel = 0.2  (fractions of P0)
@@ -184,7 +185,7 @@ def read_parameters(path: str | os.PathLike[str], model: Model) -> list[Paramete
     ------
     ValueError
         Naming the file and the parameter: a missing key, an unknown card/field, a card not
-        in the deck, a nominal that differs from the deck's, bounds that do not hold the
+        in the model, a nominal that differs from the model's, bounds that do not hold the
         nominal, a repeated name or field.
     """
     path = Path(path)
@@ -278,7 +279,7 @@ def read_truth(path: str | os.PathLike[str], params: list[Parameter]) -> np.ndar
 
 def with_values(model: Model, params: list[Parameter], values: np.ndarray) -> Model:
     """A copy of the model with the parameters set to ``values`` (P, not p); the original
-    model and the deck behind it are not changed (the tables that change are copied)."""
+    model is not changed (the tables that change are copied)."""
     props = dict(model.properties)
     mats = dict(model.materials)
     elements = dict(model.elements)

@@ -1,33 +1,41 @@
-"""The reduced surrogate of the FE model and its FRFs with analytic parameter derivatives.
+"""The reduced surrogate of the FE model, evaluated: its matrices, modes and FRFs, and the
+FRFs' Jacobian with respect to the parameters.
 
-Around a centre point p_c the FE model is reduced on its own mass-normalised modes Phi
-(n_g, r) there (the study used the first 100 flexible modes). FEMCali's surrogate is first
-order::
+A :class:`Surrogate` is the FE model reduced on a basis Phi (n_g, r) about a centre p_c: the
+reduced stiffness and mass there, ``K0 = Phi^T K Phi`` and ``M0 = Phi^T M Phi``, and the
+reduced coefficient matrices ``Kt``, ``Mt`` of polynomial terms in the offsets
+``d = p - p_c``::
 
-    K~(p) = Lambda + sum_i (p_i - p_c,i) Phi^T dK/dp_i Phi
-    M~(p) = I      + sum_i (p_i - p_c,i) Phi^T dM/dp_i Phi
+    K~(p) = K0 + sum_t (prod_i d_i^e_ti) Kt_t
+    M~(p) = M0 + sum_t (prod_i d_i^e_ti) Mt_t
 
-with dK/dp_i, dM/dp_i exact (:mod:`femcal.calibrate.derivatives`): the reduced model exactly
-for one parameter that K and M depend on linearly (moduli, areas, masses), first order for
+With every term of the exact polynomial dependence of K and M on the parameters
+(``order="exact"``) this is the full model's Rayleigh-Ritz reduction on the basis at any p,
+and only the basis is approximate. With the first-order terms alone (``"first-order"``) it is
+FEMCali's surrogate, ``K~(p) = K0 + sum_i d_i Phi^T dK/dp_i Phi`` and M~ alike: exact for one
+parameter that K and M depend on linearly (moduli, areas, masses), first order for
 thicknesses (bending goes with T^3) and for products (a shell's stiffness goes with E T).
-femcal's default (``order="exact"``) keeps every term instead: each group of elements that
-shares its parameters contributes the exact polynomial in them
-(:func:`femcal.calibrate.derivatives.group_polynomials`; where the dependence is rational,
-as the CQUAD4's and CTRIA3's transverse shear in T, an interpolant of raised degree that
-reproduces it to 1e-9), so the surrogate is the full model's Rayleigh-Ritz reduction on the
-basis at any p, and only the basis is approximate.
-The surrogate's modes come from the small dense problem
-``K~ psi = lam M~ psi``, every mode gets the same modal damping zeta0, and the FRFs at the
-sensor channels C (n_out, r) = C_g Phi and inputs B (n_in, r) are::
+How the basis and the terms are made (the full model's modes at the centre, 100 by default
+as the reference study used its first 100 flexible modes, the enrichment and static vectors,
+each element group's exact polynomial re-expanded about the centre) is
+:mod:`femcal.calibrate.reduction` (:func:`~femcal.calibrate.reduction.build_surrogate`).
 
-    H(w) = sum_j (C psi_j)(B psi_j)^T q_j(w)
+The surrogate's modes come from the small dense problem ``K~ psi = lam M~ psi`` (solved
+inverted, :meth:`Surrogate.modes`), every mode gets the same modal damping zeta0, and the
+FRFs at the sensor channels C (n_out, r) = C_g Phi and inputs B (n_in, r) sum the m =
+``n_frf`` lowest modes::
+
+    H(w) = sum_{j<m} (C psi_j)(B psi_j)^T q_j(w)
     q_j(w) = (i w)^a / (lam_j - w^2 + 2 i zeta0 sqrt(lam_j) w)
 
-(a = 0, 1, 2 for receptance, mobility, accelerance). Their derivatives follow from the
-exact eigen-derivatives of the small problem (all r modes are at hand):
+(a = 0, 1, 2 for receptance, mobility, accelerance), with the residual flexibility of the
+other Ritz modes added if asked (``residual``). Their derivatives follow from the exact
+eigen-derivatives of the small problem (all r modes are at hand):
 ``dlam_j = psi_j^T (dK~ - lam_j dM~) psi_j`` and
 ``dpsi_j = sum_k c_kj psi_k`` with ``c_kj = psi_k^T (dK~ - lam_j dM~) psi_j / (lam_j - lam_k)``
-(k != j) and ``c_jj = -psi_j^T dM~ psi_j / 2``.
+(k != j) and ``c_jj = -psi_j^T dM~ psi_j / 2``. The full model's exact FRF derivatives at the
+centre, when computed, travel with the surrogate (``Surrogate.exact``) for the first-order
+correction of :mod:`femcal.calibrate.gradient`.
 """
 
 from __future__ import annotations
@@ -132,8 +140,8 @@ class Surrogate:
         Solved inverted, ``M~ psi = mu (K~ - s M~) psi`` with ``lam = s + 1 / mu`` (s =
         STATIC_SHIFT): the dense solver's error is eps times the largest |eigenvalue|, which
         is the stiffest direction's for ``K~ psi = lam M~ psi`` (an enriched basis holds
-        directions 1e4 times stiffer than its modes: measured noise 5e-6 in a deviation of
-        0.6, enough to stall LM) but the softest mode's here (noise 5e-10)."""
+        directions 1e4 times stiffer than its modes, and that rounding in the deviation is
+        enough to stall LM) but the softest mode's here."""
         K, M = self.matrices(p)
         try:
             mu, psi = sla.eigh(M, K - STATIC_SHIFT * M)

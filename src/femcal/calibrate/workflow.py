@@ -10,8 +10,10 @@
 4. the FE model is reduced on its modes at the current point (with static
    eigenvector-derivative vectors of the modes up to ``enrich_hz``, and with ``residual``
    the static responses to the inputs for the residual flexibility), with the exact
-   polynomial dependence of K and M on the parameters (or FEMCali's first-order form)
-   (:mod:`femcal.calibrate.surrogate`);
+   polynomial dependence of K and M on the parameters (or FEMCali's first-order form): built
+   by :mod:`femcal.calibrate.reduction`, evaluated by :mod:`femcal.calibrate.surrogate`; with
+   ``exact_gradient`` its residuals get the first-order correction that gives them the full
+   model's Jacobian at the centre (:mod:`femcal.calibrate.gradient`);
 5. Levenberg-Marquardt within the bounds on the log-FRF deviation, from Latin hypercube
    starts (the nominal among them) in parallel processes; the best minimum wins;
 6. trust-region cycles: the surrogate is rebuilt at the candidate, where it is the full

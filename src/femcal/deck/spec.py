@@ -137,7 +137,7 @@ class Layout:
         """Straight-line code for this layout that reads a valid card fast.
 
         It raises on anything unusual (bad text, a blank required field, extra fields); the
-        caller then re-reads the card with :meth:`_parse_checked`, which names the problem.
+        caller then re-reads the card with :meth:`parse_checked`, which names the problem.
         """
         n = len(self.slots)
         env: dict[str, object] = {"INT_BLANK": INT_BLANK, "_Slow": _Slow, "_alt": _alternative}

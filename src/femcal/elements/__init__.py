@@ -12,7 +12,8 @@ Conventions shared by every kernel
   DOF ordered node by node: ``[T1 T2 T3 R1 R2 R3]`` per node for elements with rotations
   (bars, beams, shells, bushes), ``[T1 T2 T3]`` per node for solids. The assembly rotates them
   to each node's displacement (CD) frame and scatters them into the g-set.
-* Units are the deck's (femcal's models: mm, tonne, s, N, MPa); kernels never convert.
+* Units are the model's, whatever its deck or builder used (femcal's models: mm, tonne, s, N,
+  MPa); kernels never convert.
 * Constitutive matrices use NASTRAN's Voigt order: ``xx, yy, zz, xy, yz, zx`` for solids
   (engineering shear strains), ``xx, yy, xy`` for membranes and bending, ``xz, yz`` for
   transverse shear.

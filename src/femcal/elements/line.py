@@ -9,8 +9,7 @@ Timoshenko (or, with no shear flexibility, Euler-Bernoulli) stiffness. For a tap
 (PBEAM stations, PBEAML dimensions, properties interpolated linearly between the stations) the
 flexibility is integrated with the 3-point Gauss rule, as NASTRAN's CBEAM does: with it femcal
 reproduces all 18 modes of refdecks/pyn_fmondsp (tapered tubes, section ratios up to 20) to
-3e-7, where the exact integral (8 points) leaves them up to 0.107 % low, 2 points 0.146 % high
-and 4 points 0.062 % low.
+3e-7: the rule is part of NASTRAN's element, not an approximation of the exact integral.
 
 Element frame (NASTRAN CBAR/CBEAM): x from end A to end B (after offsets), y in the plane of
 x and the orientation vector v, z = x cross y. Plane 1 is x-y (bending about z, moment of
@@ -261,8 +260,8 @@ def beam_mass_local(
     each for a uniform member. (A linear taper from m_A to m_B gives L (2 m_A + m_B) / 6 at
     end A. NASTRAN lumps so: with these shares femcal's rigid-body mass matrix of
     refdecks/pyn_fmondsp, whose tubes taper, is NASTRAN's grid point weight generator output to
-    7e-7; with half each 1.4e-3 off and its modes up to 0.29 % low.) The torsion inertia is
-    shared the same way, lumped or coupled.
+    7e-7; tests/test_conformance.py.) The torsion inertia is shared the same way, lumped or
+    coupled.
     Coupled: along the axis the mean of the lumped and the linear consistent matrices, across
     it the cubic Hermite consistent mass, both integrated with the varying mass per length.
     (These masses match NASTRAN on refdecks/cofe_svanberg_bar and _beam, ekm_swept_plane and

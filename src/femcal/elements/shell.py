@@ -46,10 +46,9 @@ CQUAD4 formulation
   stiffness along ``t_k`` of the laminate about its neutral surface (``D - B^T A^-1 B``).
   A strip of elements under a tip shear load then gives the beam's tip deflection exactly,
   even one element long. It matters on coarse meshes of thin walls (element size several
-  times the thickness): on the reference deck pyn_nx_sine_solid (thin skins on solid faces)
-  it takes NASTRAN's modes 4 and 7 from +18 % and +122 % to within 0.01 %, and on the
-  bundled truck frame it lowers the flexible modes by 0.5-3.2 %. Not applied with MID3 blank
-  (the shear-rigid penalty below stands). The CTRIA3 gets the same (below).
+  times the thickness): NASTRAN's modes of the reference deck pyn_nx_sine_solid (thin skins
+  on solid faces) need it. Not applied with MID3 blank (the shear-rigid penalty below
+  stands). The CTRIA3 gets the same (below).
 * Membrane, CQUAD4 (``drilling=False``, the default): bilinear displacements with Taylor's
   incompatible modes ``(1 - xi^2)``, ``(1 - eta^2)`` on ``u`` and ``v`` (QM6: their gradients
   taken with the centre Jacobian and ``det J0 / det J``, so that their strains integrate to
@@ -66,10 +65,8 @@ CQUAD4 formulation
   locking (a 10x1 in-plane cantilever of square elements is within 0.5 % of beam theory), but
   elongated or distorted elements remain stiff in in-plane bending (MacNeal-Harder straight
   beam, aspect ratio 5: 0.90 rectangular, 0.78 trapezoidal / parallelogram).
-  Wilson's incompatible modes (QM6) were tried on top and rejected: their ``1 - xi^2``,
-  ``1 - eta^2`` fields can cancel the strain of the Allman alternating-rotation mode, which
-  left a near-spurious membrane mode (eigenvalue down to 1e-13 of the largest on random
-  distorted shapes, 1e-6 typical).
+  No incompatible modes are added: their ``1 - xi^2``, ``1 - eta^2`` fields can cancel the
+  strain of the Allman alternating-rotation mode and leave a near-spurious membrane mode.
 * Warped quadrilaterals: the element is flat, lying in the mean plane of the frame above. The
   nodes' distances ``+-h`` from that plane are bridged by rigid links along the element normal
   (the same device as ZOFFS below), which keeps the six rigid-body modes exact for a warped
@@ -90,14 +87,12 @@ CTRIA3 formulation
   3-point rule (exact here).
 * Residual bending flexibility, as the CQUAD4's above, with the triangle's area covariance
   ``sum_i (p_i - c)(p_i - c)^T / 12``: constant curvature misses the same energy under a
-  transverse shear force. This is also what keeps MITC3 from locking (it has the form of the
-  stabilisation of Lyly, Stenberg & Vihinen, Comput. Mech. 13, 1993, ``S t^2 / (t^2 +
-  c h^2)``): a simply supported plate of 6 x 4 x 2 CTRIA3, elements 100 long, was +72 % and
-  +1421 % at 4.0 and 0.25 thick, and is +2.0 and +2.1 % with it (+0.3 / +0.4 % on 12 x 8 x 2).
-  Unlike the CQUAD4's, it is applied to the shear-rigid penalty too (MID3 blank, below),
-  which locks MITC3 as well (the same plate: +408 %, and +2.07 % with it). With NASTRAN's own
-  eigenvectors (see "Drilling rotation") the CTRIA3 energies are 2.2-3.2 times NASTRAN's
-  without it and 1.0-1.3 times with it.
+  transverse shear force. This is also what keeps MITC3 from locking on coarse meshes of thin
+  plates (it has the form of the stabilisation of Lyly, Stenberg & Vihinen, Comput. Mech. 13,
+  1993, ``S t^2 / (t^2 + c h^2)``). Unlike the CQUAD4's, it is applied to the shear-rigid
+  penalty too (MID3 blank, below), which locks MITC3 as well (both checked by
+  ``tests/test_sol103_analytic.py``: ``test_thin_plates_do_not_lock``,
+  ``test_shear_rigid_triangles_do_not_lock``).
 
 Drilling rotation (K6ROT)
 -------------------------
@@ -114,38 +109,23 @@ six zero-energy modes.
 * CQUAD4 / CTRIA3: ``alpha = (PENALTY_GAMMA + k6rot * 1e-6) * A[2, 2]``,
   ``PENALTY_GAMMA = 0.1``, plus NASTRAN's K6ROT term (``1e-6 K6ROT G t``).
 
-Why the CQUAD4 / CTRIA3 membranes do not use ``Rz``: NASTRAN's do not. With NASTRAN's own
-mode shapes of an MSC 2005 run of an earlier pyn_mode_solid_shell_bar (beams standing on the
-corners of a CQUAD4 / CTRIA3 box), femcal's element strain energies match NASTRAN's printed
-ones to 1e-4 for the CBAR, CBEAM and CROD and to 1.3e-3 for the CTETRA, but in modes 1 and 3
-were 1.3-6.6 times NASTRAN's for the Allman shells (mode 2: 0.96-4.9; their ``Rz`` values,
-free in NASTRAN, strain the Allman membrane), 0.98-1.5 times with these membranes (all three
-modes), and 1.0-1.2 times with these and the K6ROT penalty alone (below).
-On the reference decks, pyn_goland's mode goes from 0.33 % to 0.01 %,
-pyn_mode_solid_shell_bar from 1.45 % to 0.78 % (within its 1 %), pyn_nx_sine_solid from
-0.23 % to 0.13 %, and the tier C pyn_bwb from 136 % to 71 %.
+Why the CQUAD4 / CTRIA3 membranes do not use ``Rz``: NASTRAN's do not, so ``Rz`` is free in
+NASTRAN's mode shapes, and those values would strain an Allman membrane. With NASTRAN's own
+mode shapes of pyn_mode_solid_shell_bar (beams standing on the corners of a CQUAD4 / CTRIA3
+box), femcal's shell strain energies are close to NASTRAN's printed ones with these membranes
+and several times them with Allman membranes; with these membranes the reference decks
+(pyn_goland, pyn_mode_solid_shell_bar, pyn_nx_sine_solid) match NASTRAN's modes
+(tests/test_conformance.py).
 
 Why ``PENALTY_GAMMA = 0.1`` and not NASTRAN's K6ROT penalty alone (``1e-4 G``): a weak
 ``Rz``-``omega`` coupling lets the rotation about the normal at a node act as a partial hinge
 between non-coplanar flat neighbours (their out-of-plane rotations are different projections
-of the same nodal rotation; NASTRAN's QUAD4 is not flat). ``omega`` includes the incompatible
-modes' rotation (without it the penalty locks the membrane in in-plane bending: MacNeal-Harder
-rectangular 0.80 instead of 0.99 at ``gamma`` = 0.1 G). MacNeal-Harder twisted beam, CQUAD4,
-tip displacement against the reference for (2x12 in-plane, out-of-plane; 4x24 in-plane,
-out-of-plane), and the worst reference-deck errors, measured against ``gamma`` (units of G):
-
-=========  =============================  =========  ===========================  ============
-gamma      twisted beam                   pyn_goland pyn_mode_solid_shell_bar     pyn_bwb (C)
-=========  =============================  =========  ===========================  ============
-1e-4       2.52, 2.32, 2.53, 2.30 times   0.000 %    0.52 %                       22.5 %
-0.01       +3.0, +3.1, +3.1, +2.6 %       0.001 %    0.55 %                       22.2 %
-0.03       +0.95, +1.39, +0.94, +0.88 %   0.004 %    0.61 %                       21.9 %
-0.1        +0.21, +0.78, +0.18, +0.27 %   0.012 %    0.78 %                       70.9 %
-0.3        0.00, +0.60, -0.03, +0.08 %    0.035 %    1.18 %                       134.8 %
-1          -0.07, +0.53, -0.11, +0.03 %   0.101 %    2.00 %                       136.0 %
-=========  =============================  =========  ===========================  ============
-
-0.1 is the smallest of these that keeps the twisted beam within 1 %.
+of the same nodal rotation; NASTRAN's QUAD4 is not flat), which makes a warped strip such as
+the MacNeal-Harder twisted beam far too flexible. 0.1 G is the weakest coupling that keeps the
+twisted beam (CQUAD4, 2x12 and 4x24 meshes, in-plane and out-of-plane loads) within 1 % of
+the reference; the reference decks' differences from NASTRAN grow with the coupling, so it is
+not taken stronger. ``omega`` includes the incompatible modes' rotation: without it the
+penalty locks the membrane in in-plane bending.
 
 Shear-rigid plates (``S=None``)
 -------------------------------

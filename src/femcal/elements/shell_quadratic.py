@@ -49,8 +49,7 @@ Shear locking is removed by interpolating the covariant transverse shear strains
   strains of that state vanish and the constant-curvature patch test is passed. (Plain 2x2
   reduced shear integration fails the distorted patch test for the same reason, and with
   the bubble it has a spurious ``(xi^2 - 1/3)(eta^2 - 1/3)`` mode; tying on the edges only,
-  without the interior line, is free of both problems but much too flexible in plates:
-  -12 % on the 4x4 simply supported plate frequency.)
+  without the interior line, is free of both problems but much too flexible in plates.)
 * CTRIA6 (MITC6-type): Nedelec first-kind degree-2 covariant field
   ``(e_r, e_s) = P1^2 + (s, -r)(d r + e s)`` (8 parameters), tied by the tangential strains
   at the two Gauss points of each edge and the element means of ``e_r`` and ``e_s``
@@ -65,9 +64,8 @@ rows and columns are zero), and the assumed shear field follows the linear edge:
 field is linear along a line, the tangential shear there is tied once (the mean of the two
 Gauss values) rather than twice. Tying it twice imposes the Kirchhoff condition on the
 linear part of the rotation along a straight edge, which the linear ``w`` cannot follow:
-the element locks (a simply supported 6 x 4 plate, 400 thicknesses per element, with a
-random half or all of the midside nodes omitted was 430-9000 % too stiff; now within 4 %,
-8.4 % for CTRIA6 with all omitted, and the same as at 25 thicknesses; see
+the element locks on thin plates (a simply supported plate 400 thicknesses per element,
+with a random half or all of the midside nodes omitted, is checked by
 ``tests/test_sol103_analytic.py::test_thin_plates_do_not_lock``). The fields, each with
 exactly six zero modes:
 
@@ -82,7 +80,7 @@ exactly six zero modes:
   field plus the gradients of the given edges' bubbles ``L_i L_j``, tied on the edges only
   (the interior means would see the gradient of the missing edge bubble and lock). All
   three omitted gives MITC3 with the CTRIA3's residual bending flexibility, as CTRIA3
-  (without it MITC3 locks on coarse thin meshes: +1537 % on that plate).
+  (without it MITC3 locks on coarse thin meshes).
 
 A free element has exactly six zero-energy modes (verified by the tests for distorted,
 curved and warped elements); both elements pass the membrane and constant-curvature patch
@@ -90,12 +88,13 @@ tests on distorted meshes and are nodally exact for a straight cantilever under 
 
 Drilling rotation
 -----------------
-Unlike the CQUAD4 / CTRIA3 Allman membranes, the quadratic membrane does not use ``Rz``.
-It enters only through the Hughes-Brezzi penalty
+Like the CQUAD4 / CTRIA3 membranes (and unlike the CQUADR / CTRIAR Allman membranes), the
+quadratic membrane does not use ``Rz``. It enters only through the Hughes-Brezzi penalty
 ``1/2 alpha integral((Rz - (v,x - u,y) / 2)^2 dA)`` with
-``alpha = (DRILL_GAMMA + k6rot * 1e-6) * A[2, 2]`` (the same modulus as shell.py), with the
-full integration rule, which has more points than nodes, so a free element has exactly the
-six rigid-body zero modes.
+``alpha = (DRILL_GAMMA + k6rot * 1e-6) * A[2, 2]`` (shell.py's ``DRILL_GAMMA`` = 1, the
+modulus of its Allman membranes, not the CQUAD4 / CTRIA3 ``PENALTY_GAMMA``), with the full
+integration rule, which has more points than nodes, so a free element has exactly the six
+rigid-body zero modes.
 
 Mass
 ----
@@ -253,9 +252,9 @@ def _quad8_tying(present: tuple[bool, bool, bool, bool] = (True,) * 4) -> Tying:
 
     Why: tying the linear part where the fields along the line are linear imposes the
     Kirchhoff condition on the rotation's linear part, which a linear ``w`` cannot follow:
-    it locks (a simply supported plate of such elements was 50-5000 % too stiff). With G5
-    omitted and G7 given, the curvature of ``w`` along xi grows linearly from the edge
-    eta = -1 to eta = 1, so the interior line would lock too: only the given edge is tied.
+    it locks on thin plates. With G5 omitted and G7 given, the curvature of ``w`` along xi
+    grows linearly from the edge eta = -1 to eta = 1, so the interior line would lock too:
+    only the given edge is tied.
     """
     g5, g6, g7, g8 = present
     ties: list[Tie] = []
@@ -325,8 +324,8 @@ def _tria6_tying(present: tuple[bool, bool, bool] = (True,) * 3) -> Tying:
     ``L_i L_j``; tied by the tangential strains at the two Gauss points of the given edges
     and by the mean tangential strain of the omitted ones, without interior ties. (The
     interior means would see the gradient of the missing edge bubble, which a curvature
-    along the straight edge needs, and lock: with them a simply supported plate of such
-    elements was 100-4000 % too stiff.) All three omitted gives MITC3, as CTRIA3.
+    along the straight edge needs, and lock on thin plates.) All three omitted gives MITC3,
+    as CTRIA3.
     """
     ties: list[Tie] = []
     for edge, (i, j) in enumerate(_TRI_EDGES):

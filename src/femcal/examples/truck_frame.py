@@ -630,8 +630,8 @@ def sensors(f: _Frame) -> list[tuple[str, int]]:
 def hammer_inputs(f: _Frame) -> list[tuple[str, int, int]]:
     """The two hammer impacts (label, GRID, direction 2 = Y or 3 = Z)."""
     d = f.dims
-    # left rail web: 1500 mm is clear of the nodes of the lateral bending modes (at 2990 mm the
-    # first one hardly showed)
+    # left rail web: 1500 mm is clear of the nodes of the lateral bending modes, so the lateral
+    # impact excites each of them
     g_y = _nearest_node(f, 1500.0, d.half_width, 0.0)
     g_z = _nearest_node(f, 700.0, -(d.half_width - 45.0), d.web / 2)  # right rail top flange
     return [("hammer_Y", g_y, 2), ("hammer_Z", g_z, 3)]

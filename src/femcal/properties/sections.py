@@ -84,7 +84,7 @@ def section_properties(kind: str, dims: np.ndarray) -> np.ndarray:
     kind : section type: ``ROD``, ``TUBE``, ``TUBE2``, ``BAR``, ``BOX`` or one of
         ``_SHAPES`` (``I``, ``I1``, ``CHAN``, ``CHAN1``, ``CHAN2``, ``T``, ``T1``, ``T2``,
         ``L``, ``H``, ``Z``, ``CROSS``, ``HAT``, ``BOX1``).
-    dims : (n, n_dims) dimensions (DIM1, DIM2, ...), deck units.
+    dims : (n, n_dims) dimensions (DIM1, DIM2, ...), the model's length unit.
 
     Returns
     -------

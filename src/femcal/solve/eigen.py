@@ -128,7 +128,7 @@ def _arpack(K, M, sigma, solve, k):
     """k roots nearest above sigma by ARPACK's one-vector shift-invert Lanczos."""
     n = K.shape[0]
     op = spla.LinearOperator((n, n), matvec=solve, dtype=float)
-    # a fixed start vector: the same deck gives the same modes, to the last digit, every run
+    # a fixed start vector: the same matrices give the same modes, to the last digit, every run
     v0 = np.random.default_rng(20191).standard_normal(n)
     try:
         return spla.eigsh(K, k=k, M=M, sigma=sigma, OPinv=op, which="LM", mode="normal",
@@ -203,8 +203,7 @@ def _lanczos(K, M, sigma, request, lam_lo, lam_hi, backend, progress, on_factor=
         if progress:
             progress(f"Lanczos: {k} roots of {n} DOF ({name}, {method})")
         # One BLAS thread per pool during the iteration: the Lanczos' and CHOLMOD's OpenBLAS
-        # pools otherwise compete for the cores (measured: 0.16 s per solve instead of
-        # 0.08 s on a 241k-DOF plate with 2 cores).
+        # pools otherwise compete for the cores and slow every solve down.
         finished = False
         with threadpool_limits(limits=1, user_api="blas"):
             if method == "block":
