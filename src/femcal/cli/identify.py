@@ -106,7 +106,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _write_out(out: Path, data, model, progress) -> None:
-    from ..viz.frf import frf_overlay, stabilization_diagram
+    from ..viz.frf import frf_overlay
+    from ..viz.identification import stabilization_diagram
 
     out.mkdir(parents=True, exist_ok=True)
     write_model(out / "model.npz", model)
