@@ -86,28 +86,6 @@ def _offsets(ctx: Context, block: ElementBlock, offt: np.ndarray, v: np.ndarray)
     return wa, wb
 
 
-def _offsets(ctx: Context, block: ElementBlock, offt: np.ndarray, v: np.ndarray):
-    m = ctx.model
-    d = block.data
-    wa = np.column_stack([d["w1a"], d["w2a"], d["w3a"]])
-    wb = np.column_stack([d["w1b"], d["w2b"], d["w3b"]])
-    if not (wa.any() or wb.any()):
-        return wa, wb
-    R = None
-    for end, w, col in ((0, wa, 1), (1, wb, 2)):
-        codes = np.array([o[col] for o in offt])
-        g = codes == "G"
-        if g.any():
-            w[g] = np.einsum("nij,nj->ni", m.cd_frames[block.nodes[g, end]], w[g])
-        o = codes == "O"
-        if o.any():
-            if R is None:
-                xyz = m.xyz[block.nodes]
-                R, _ = line_frame(xyz[:, 0], xyz[:, 1], v)
-            w[o] = np.einsum("nji,nj->ni", R[o], w[o])
-    return wa, wb
-
-
 def bars(ctx: Context, block: ElementBlock, asm: Assembler) -> float:
     m = ctx.model
     xyz = m.xyz[block.nodes]
