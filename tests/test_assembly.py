@@ -235,3 +235,13 @@ def test_node_diagonal_blocks_are_summed_apart_and_equal_the_full_scatter():
     mixed = [*only_lumped, (elems, 6, coupled)]
     for parts in (only_lumped, mixed):
         assert np.allclose(assemble(parts), dense(parts), atol=1e-12)
+
+
+def test_a_model_without_nodes_is_an_error_not_a_crash(write):
+    from femcal.assembly import assemble
+    from femcal.errors import ModelError
+    from femcal.model.build import load_model
+
+    model = load_model(write("BEGIN BULK\nMAT1,1,2.1e5,,0.3,7.85e-9\nENDDATA\n"))
+    with pytest.raises(ModelError, match="the model has no grids or scalar points"):
+        assemble(model)

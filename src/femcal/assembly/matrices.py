@@ -59,9 +59,11 @@ def assemble(model: Model, options: Options | None = None) -> Matrices:
     Raises
     ------
     ModelError
-        For element or property data the kernels cannot use (zero length, a missing section
-        type, ...), naming the element ids.
+        For a model without nodes, or element or property data the kernels cannot use (zero
+        length, a missing section type, ...), naming the element ids.
     """
+    if model.n_nodes == 0:
+        raise ModelError("the model has no grids or scalar points: nothing to assemble")
     opt = options or Options()
     par = model.params
     coupled = opt.coupled_mass if opt.coupled_mass is not None else par.coupled_mass

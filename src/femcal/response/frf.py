@@ -63,8 +63,8 @@ def point_matrix(model: Model, points: Sequence[tuple[int, int]]) -> sp.csr_matr
     """
     rows = []
     for gid, comp in points:
-        idx = int(np.searchsorted(model.node_ids, gid))
-        if idx >= len(model.node_ids) or model.node_ids[idx] != gid:
+        idx = int(model.node_index(gid)[0])
+        if idx < 0:
             raise ValueError(f"point {gid}:{comp}: no GRID or SPOINT {gid} in the model")
         if model.is_grid[idx]:
             if not 1 <= comp <= 6:
