@@ -1,7 +1,7 @@
 """The package's shape, read from the source (ast, imports inside functions included): no
-import cycles; nothing that solves imports the deck layer, even through another module or a
-package's ``__init__``; the calibrator draws no pictures; a small root; a public API that
-imports nothing heavy."""
+import cycles; imports that point one way along the pipeline; nothing that solves imports the
+deck layer, even through another module or a package's ``__init__``; the calibrator draws no
+pictures; a small root; a public API that imports nothing heavy."""
 
 from __future__ import annotations
 
@@ -131,6 +131,43 @@ PICTURES = ("matplotlib", "pyvista", "vtk", "femcal.viz")
 def test_the_calibrator_draws_no_pictures(name):
     drawn = {m for m in reaches(name) if any(m == p or m.startswith(p + ".") for p in PICTURES)}
     assert not drawn, f"{name} reaches {sorted(drawn)}"
+
+
+#: The layers in pipeline order. A module may import its own layer and those before it, never
+#: one after it; the first group is the utilities every layer may use.
+LAYERS = (
+    ("femcal.errors", "femcal.markers", "femcal.atomic", "femcal.parallel"),
+    ("femcal.deck",),
+    ("femcal.model",),
+    ("femcal.properties", "femcal.elements"),
+    ("femcal.assembly",),
+    ("femcal.solve",),
+    ("femcal.response",),
+    ("femcal.testdata",),
+    ("femcal.correlate",),
+    ("femcal.identify",),
+    ("femcal.calibrate",),
+    ("femcal.io", "femcal.viz"),
+    ("femcal.jobs", "femcal.examples", "femcal.cli", "femcal.__main__"),
+)
+
+
+def _layer(name: str) -> int | None:
+    for rank, group in enumerate(LAYERS):
+        if any(name == g or name.startswith(g + ".") for g in group):
+            return rank
+    return None
+
+
+def test_every_module_has_a_layer():
+    assert [m for m in MODULES if m != "femcal" and _layer(m) is None] == []
+
+
+@pytest.mark.parametrize("name", sorted(m for m in MODULES if m != "femcal"))
+def test_imports_point_one_way(name):
+    later = sorted(d for d in imports_of(name) if d.startswith("femcal") and _is_module(d)
+                   and (_layer(d) or 0) > _layer(name))  # fmt: skip
+    assert not later, f"{name} (layer {_layer(name)}) imports later layers: {later}"
 
 
 def test_at_most_six_modules_at_the_root():

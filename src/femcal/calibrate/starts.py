@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from ..io.atomic import write_atomic
+from ..atomic import write_atomic
 from ..parallel import executor, message_queue
 from .lm import levenberg_marquardt
 from .metric import jacobian, residuals

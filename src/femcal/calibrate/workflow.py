@@ -46,7 +46,7 @@ import numpy as np
 
 from ..correlate import mac, pair_modes, pseudo_orthogonality, serep_mass
 from ..identify import IdentifiedModel, equalize_damping
-from ..io.atomic import write_atomic
+from ..atomic import write_atomic
 from ..model.model import Model
 from ..response.frf import channel_matrix
 from ..testdata.data import FRFData

@@ -6,8 +6,8 @@ import argparse
 import json
 from pathlib import Path
 
+from ..atomic import write_lines
 from ..deck import read_deck
-from ..io.atomic import write_lines
 from ..model.build import build_model
 
 

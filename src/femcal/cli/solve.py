@@ -10,7 +10,7 @@ from pathlib import Path
 
 from ..assembly import Options, assemble
 from ..assembly.weight import weight_summary, weight_table
-from ..io.atomic import write_lines
+from ..atomic import write_lines
 from ..io.modes import eigen_table, modes_json, write_json, write_npz, write_vtu
 from ..model.build import load_model
 from ..solve.normal_modes import solve_normal_modes

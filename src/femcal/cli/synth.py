@@ -9,7 +9,7 @@ import time
 import tomllib
 from pathlib import Path
 
-from ..io.atomic import write_lines
+from ..atomic import write_lines
 from ..jobs.synthetic_test import SynthSettings, make_hammer_test, truth_toml
 from ..testdata.formats.matlab import write_mat
 from ..testdata.formats.uff import write_uff

@@ -14,7 +14,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Literal
 
-from ..io.atomic import write_lines
+from ..atomic import write_lines
 from .deck import Deck
 from .fields import format_value
 

@@ -678,7 +678,7 @@ def write_frame(variant: str, out_dir) -> list:
     """
     from pathlib import Path
 
-    from ..io.atomic import write_lines
+    from ..atomic import write_lines
 
     if variant not in VARIANTS:
         raise ValueError(f"unknown truck-frame variant {variant!r}; expected one of "

@@ -16,7 +16,7 @@ import numpy as np
 from ..calibrate.config import Config
 from ..calibrate.parameters import Parameter
 from ..calibrate.result import CalibrationResult, Cycle, StartResult
-from .atomic import write_atomic, write_lines
+from ..atomic import write_atomic, write_lines
 
 
 def calibrated_deck_name(cfg: Config) -> str:

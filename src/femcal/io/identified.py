@@ -9,10 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..atomic import write_atomic
 from ..identify.workflow import IdentifiedModel
 from ..response.statespace import StateSpace
 from ..testdata.data import Channel
-from .atomic import write_atomic
 
 #: Keys of the model NPZ (all arrays).
 NPZ_KEYS = ("A", "B", "C", "D", "residual_states", "poles", "frequency_hz", "damping_ratio",

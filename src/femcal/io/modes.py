@@ -12,9 +12,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..atomic import write_atomic
 from ..model.model import Model
 from ..solve.normal_modes import Modes
-from .atomic import write_atomic
 
 #: NASTRAN element -> (meshio cell type, node order from NASTRAN's to VTK's).
 _CELLS = {

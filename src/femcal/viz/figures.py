@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 from types import ModuleType
 
-from ..io.atomic import write_atomic
+from ..atomic import write_atomic
 
 
 def pyplot() -> ModuleType:

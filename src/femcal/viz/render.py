@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io.atomic import write_atomic
+from ..atomic import write_atomic
 from ..io.modes import basic_translations, mesh_cells
 from ..model.model import Model
 from ..solve.normal_modes import Modes

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...io.atomic import write_atomic
+from ...atomic import write_atomic
 from ..data import FRFData
 from .lms import read_lms_mat
 from .registry import Format, register

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...io.atomic import write_atomic
+from ...atomic import write_atomic
 from ..data import FRFData
 from .registry import Format, register
 
