@@ -55,7 +55,7 @@ class Context:
 
         threads = self.threads if len(parts) > 1 else 1
         with executor("threads", threads, name="femcal-kernel") as pool:
-            for prepared in ordered(pool, task, parts, ahead=threads + 1 if threads > 1 else 1):
+            for prepared in ordered(pool, task, parts, ahead=threads + 1):
                 asm.scatter(prepared)
 
 

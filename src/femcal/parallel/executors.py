@@ -59,8 +59,9 @@ def executor(kind: Kind, workers: int = 1, *, name: str = "femcal",
              initializer: Callable[..., object] | None = None,
              initargs: tuple = ()) -> Executor:  # fmt: skip
     """An executor of ``kind`` with ``workers`` workers; one worker, or ``"serial"``, gives a
-    :class:`SerialExecutor` (``initializer`` then runs here, once). ``name`` prefixes the
-    threads' names. Use it as a context manager, or call ``shutdown``.
+    :class:`SerialExecutor`. ``initializer(*initargs)`` prepares each worker thread or
+    process; a serial executor has none, so it is not run. ``name`` prefixes the threads'
+    names. Use it as a context manager, or call ``shutdown``.
 
     Raises
     ------
@@ -72,8 +73,6 @@ def executor(kind: Kind, workers: int = 1, *, name: str = "femcal",
     if workers < 1:
         raise ValueError(f"workers = {workers}: expected at least 1")
     if kind == "serial" or workers == 1:
-        if initializer is not None:
-            initializer(*initargs)
         return SerialExecutor()
     if kind == "threads":
         return ThreadPoolExecutor(workers, thread_name_prefix=name, initializer=initializer,
@@ -95,7 +94,12 @@ def ordered(pool: Executor, fn: Callable[[T], R], items: Iterable[T], *,
     """``fn(item)`` for every item, computed on ``pool`` and yielded in the items' order, with
     at most ``ahead`` tasks submitted and not yet yielded (bounding the memory of results
     waiting their turn). The first failing task, in order, raises; tasks not started when the
-    caller stops are cancelled."""
+    caller stops are cancelled. On a :class:`SerialExecutor` each item is computed when the
+    caller asks for it, so no result waits its turn."""
+    if isinstance(pool, SerialExecutor):
+        for item in items:
+            yield fn(item)
+        return
     todo = iter(items)
     pending: deque[Future[R]] = deque()
     try:
