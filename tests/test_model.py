@@ -119,3 +119,24 @@ def test_scalar_components_checked(write):
     m = model(write, "GRID,1\nSPOINT,5\nCELAS2,1,10.,1,3,5\n")
     b = m.elements["CELAS2"]
     assert b.components.tolist() == [[3, 0]] and b.nodes.tolist() == [[0, 1]]
+
+
+def test_case_control_selections_that_name_no_set_stop_the_solution_not_the_reading(write):
+    """A model whose case control SPC, MPC or METHOD is not a set id can be read and
+    summarised (femcal info); solving it says what is wrong."""
+    from femcal.cli import main
+    from femcal.solve.normal_modes import solve_normal_modes
+
+    path = write("SOL 103\nCEND\nMETHOD = 1\nSPC = ONE\nBEGIN BULK\nEIGRL,1,,,3\n"
+                 "GRID,1,,0.,0.,0.\nGRID,2,,1.,0.,0.\nCROD,1,1,1,2\nPROD,1,1,1.\n"
+                 "MAT1,1,2.1e5,,0.3,7.85e-9\nENDDATA\n")  # fmt: skip
+    m = build_model(read_deck(path))
+    assert m.constraints.problems == ("case control SPC = ONE: expected a set id",)
+    assert main(["info", str(path)]) == 0
+    with pytest.raises(ModelError, match="case control SPC = ONE: expected a set id"):
+        solve_normal_modes(m)
+    bad_method = path.read_text().replace("SPC = ONE", "SPC = 1").replace("METHOD = 1",
+                                                                        "METHOD = FIRST")
+    m = build_model(read_deck(write(bad_method)))
+    with pytest.raises(ModelError, match="case control METHOD = FIRST: expected a set id"):
+        solve_normal_modes(m)

@@ -10,6 +10,7 @@ K_gg and M_gg.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -89,7 +90,8 @@ def select_symmetric(A: sp.spmatrix, keep: np.ndarray) -> sp.csr_matrix:
 class _Equations:
     """Dependent-DOF equations u_d = sum c_j u_j, with who made each DOF dependent."""
 
-    def __init__(self) -> None:
+    def __init__(self, label: Callable[[int], str]) -> None:
+        self.label = label  # names a g-set DOF in errors
         self.rows: list[np.ndarray] = []
         self.cols: list[np.ndarray] = []
         self.vals: list[np.ndarray] = []
@@ -99,7 +101,7 @@ class _Equations:
     def add(self, dep: int, cols: np.ndarray, vals: np.ndarray, who: str) -> None:
         if dep in self.owner:
             self.errors.append(
-                f"DOF {dep} is made dependent twice, by {self.owner[dep]} and by {who}"
+                f"{self.label(dep)} is made dependent twice, by {self.owner[dep]} and by {who}"
             )
             return
         self.owner[dep] = who
@@ -223,7 +225,7 @@ def _mpc_equations(model: Model, eq: _Equations) -> None:
             eq.errors.append(f"MPC set {e.set_id}: GRID {model.node_ids[e.nodes[bad]].tolist()} "
                              "need a component 1-6 (SPOINTs take 0 or blank)")  # fmt: skip
             continue
-        dofs = model.dof_start[e.nodes] + np.where(grid, comps - 1, 0)
+        dofs = model.dofs(e.nodes, comps)
         a = e.coefficients
         if a[0] == 0.0:
             eq.errors.append(f"MPC set {e.set_id}: the first coefficient (dependent DOF) is zero")
@@ -240,7 +242,9 @@ def build_reduction(model: Model) -> Reduction:
         A DOF made dependent twice or both dependent and constrained (naming both sources),
         a cycle of rigid elements, or an ill-posed rigid element.
     """
-    eq = _Equations()
+    if model.constraints.problems:
+        raise ModelError("; ".join(model.constraints.problems))
+    eq = _Equations(model.dof_label)
     _rigid_equations(model, eq)
     _mpc_equations(model, eq)
     n = model.n_dof

@@ -1,7 +1,9 @@
-"""What a model asks of its analysis: the PARAMs femcal honours and the eigenvalue request.
+"""What a model asks of its analysis: the PARAMs femcal honours and the eigenvalue requests.
 
-Both are resolved when the model is built (from PARAM cards, case control METHOD and AUTOSPC,
-EIGRL and EIGR), so the solution reads plain values and never a card.
+Both are read when the model is built (from PARAM cards, case control METHOD and AUTOSPC,
+EIGRL and EIGR), so the solution reads plain values and never a card. METHOD's set is looked
+up when a solution asks for it (:meth:`EigenSetup.request`), so that a model whose METHOD
+names no set can still be read and summarised.
 """
 
 from __future__ import annotations
@@ -47,7 +49,9 @@ class EigenSetup:
             Without METHOD, with a METHOD that is not a set id, or one no EIGRL/EIGR has.
         """
         if self.method is None:
-            raise ModelError("case control has no METHOD: SOL 103 needs an EIGRL (or EIGR) set")
+            raise ModelError("no eigenvalue request: case control has no METHOD (SOL 103 needs an "
+                             "EIGRL or EIGR set; a model built in code takes "
+                             "ModelBuilder.eigen)")  # fmt: skip
         try:
             sid = int(self.method.split()[0])
         except (ValueError, IndexError):

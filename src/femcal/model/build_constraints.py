@@ -53,7 +53,17 @@ def selected_sets(deck: Deck, key: str, add_card: str) -> set[int]:
 
 
 def constraints_of(deck: Deck, model: Model) -> Constraints:
-    """The constraints of ``deck`` on ``model`` (its nodes and DOF map)."""
+    """The constraints of ``deck`` on ``model`` (its nodes and DOF map). A case control SPC
+    or MPC that is not a set id selects nothing and is kept as a problem of the constraints
+    (``Constraints.problems``), raised when they are used."""
+    problems: list[str] = []
+
+    def sets_of(key: str, add_card: str) -> set[int]:
+        try:
+            return selected_sets(deck, key, add_card)
+        except ModelError as e:
+            problems.append(str(e))
+            return set()
 
     def node(gid: int) -> int:
         return int(model.node_index(gid)[0])
@@ -80,21 +90,21 @@ def constraints_of(deck: Deck, model: Model) -> Constraints:
                             for g in r.groups),
                       tuple((node(g), components(cm)) for g, cm in r.um))
         for r in deck.records_of("RBE3"))  # fmt: skip
-    sets = selected_sets(deck, "MPC", "MPCADD")
+    sets = sets_of("MPC", "MPCADD")
     equations = tuple(
         LinearEquation(r.sid, model.node_index([term[0] for term in r.terms]),
                        np.array([term[1] for term in r.terms], np.int64),
                        np.array([term[2] for term in r.terms], float))
         for r in deck.records_of("MPC") if r.sid in sets)  # fmt: skip
-    return Constraints(_fixed_dofs(deck, model), links, tuple(bars), interpolations, equations)
+    fixed = _fixed_dofs(deck, model, sets_of("SPC", "SPCADD"))
+    return Constraints(fixed, links, tuple(bars), interpolations, equations, tuple(problems))
 
 
-def _fixed_dofs(deck: Deck, model: Model) -> np.ndarray:
-    """g-set DOF fixed by GRID/GRDSET PS and the SPC set selected in case control."""
+def _fixed_dofs(deck: Deck, model: Model, sets: set[int]) -> np.ndarray:
+    """g-set DOF fixed by GRID/GRDSET PS and the SPC ``sets`` selected in case control."""
     fixed: set[int] = set()
     for i in np.flatnonzero(model.ps):
         fixed.update(int(model.dof_start[i]) + c for c in components(int(model.ps[i])))
-    sets = selected_sets(deck, "SPC", "SPCADD")
 
     def fix(g: int, code: int) -> None:
         i = int(model.node_index(g)[0])

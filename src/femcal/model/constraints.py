@@ -111,6 +111,9 @@ class Constraints:
     rigid_links, rigid_bars, interpolations : RBE2, RBAR and RBE3 elements, in the order of
         the deck.
     equations : the selected MPC equations.
+    problems : what makes the constraints unusable, found when they were read (a case control
+        SPC or MPC that is not a set id): building the transform raises them, so that a model
+        with them can still be read and summarised.
     """
 
     fixed: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
@@ -118,3 +121,4 @@ class Constraints:
     rigid_bars: tuple[RigidBar, ...] = ()
     interpolations: tuple[Interpolation, ...] = ()
     equations: tuple[LinearEquation, ...] = ()
+    problems: tuple[str, ...] = ()

@@ -61,7 +61,8 @@ class Model:
     is_grid : (n_nodes,) True for GRID, False for SPOINT.
     xyz : (n_nodes, 3) positions in the basic frame (mm or the deck's units); 0 for SPOINTs.
     cp, cd : (n_nodes,) input and displacement coordinate system ids (0 for SPOINTs).
-    ps : (n_nodes,) permanent single-point constraint codes (0 for none).
+    ps : (n_nodes,) permanent single-point constraint codes (0 for none), as read; the DOF
+        they fix are among ``constraints.fixed``, which is what the solution uses.
     cd_frames : (n_nodes, 3, 3) columns = directions of components 1-3 (and 4-6) in basic.
     dof_start : (n_nodes,) index of each node's first DOF in the g-set.
     n_dof : g-set size (6 per GRID + 1 per SPOINT).
@@ -117,10 +118,14 @@ class Model:
         self, ids: np.ndarray | list[int], components: np.ndarray | list[int]
     ) -> np.ndarray:
         """g-set DOF indices of (node id, component) pairs (1-6 at a GRID, 0 at a SPOINT)."""
-        idx = self.node_index(ids)
+        return self.dofs(self.node_index(ids), components)
+
+    def dofs(self, nodes: np.ndarray, components: np.ndarray | list[int]) -> np.ndarray:
+        """g-set DOF indices of (node index, component) pairs (1-6 at a GRID, 0 at a
+        SPOINT)."""
+        nodes = np.asarray(nodes, dtype=np.int64)
         comp = np.asarray(components, dtype=np.int64)
-        off = np.where(self.is_grid[idx], comp - 1, 0)
-        return self.dof_start[idx] + off
+        return self.dof_start[nodes] + np.where(self.is_grid[nodes], comp - 1, 0)
 
     def dof_owner(self, dofs: np.ndarray | list[int] | int) -> tuple[np.ndarray, np.ndarray]:
         """(node indices, components) of g-set DOF: components 1-6 at a GRID, 0 at a scalar
