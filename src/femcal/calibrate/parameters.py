@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..model.element_types import ELEMENT_PROPERTIES
 from ..model.model import ElementBlock, Model
 
 
@@ -84,11 +85,8 @@ FIELDS: dict[tuple[str, str], FieldSpec] = {
 
 #: Element types that reference each property card.
 PROPERTY_ELEMENTS = {
-    "PSHELL": ("CQUAD4", "CTRIA3", "CQUAD8", "CTRIA6", "CQUADR", "CTRIAR"),
-    "PBAR": ("CBAR",),
-    "PROD": ("CROD",),
-    "PELAS": ("CELAS1", "CELAS3"),
-    "PBUSH": ("CBUSH",),
+    card: tuple(e for e, props in ELEMENT_PROPERTIES.items() if props and card in props)
+    for card in {c for props in ELEMENT_PROPERTIES.values() if props for c in props}
 }
 
 #: Material fields of property tables (column names) and of property records (attributes).

@@ -20,6 +20,7 @@ from ..markers import INT_BLANK
 from .build_analysis import eigen_of, params_of, unsupported_of
 from .build_constraints import constraints_of
 from .coords import BASIC, CoordSystem, axes_from_points, displacement_frames, to_basic
+from .element_types import ELEMENT_PROPERTIES
 from .ids import IdIndex
 from .model import ElementBlock, Model
 
@@ -64,23 +65,6 @@ _SCALAR_COMPONENTS = {
 }  # fmt: skip
 _SCALAR_POINTS_ONLY = ("CELAS3", "CELAS4", "CMASS3", "CMASS4")
 
-_SHELL_PROPS = ("PSHELL", "PCOMP", "PCOMPG")
-#: Property cards each element may reference (None: the element has no PID).
-ELEMENT_PROPERTIES: dict[str, tuple[str, ...] | None] = {
-    **{e: _SHELL_PROPS for e in ("CQUAD4", "CTRIA3", "CQUAD8", "CTRIA6", "CQUADR", "CTRIAR")},
-    "CSHEAR": ("PSHEAR",),
-    **{e: ("PSOLID",) for e in ("CHEXA", "CPENTA", "CTETRA", "CPYRAM")},
-    "CBAR": ("PBAR", "PBARL"),
-    "CBEAM": ("PBEAM", "PBEAML"),
-    "CROD": ("PROD",),
-    "CTUBE": ("PTUBE",),
-    "CBUSH": ("PBUSH",),
-    "CELAS1": ("PELAS",),
-    "CELAS3": ("PELAS",),
-    "CMASS1": ("PMASS",),
-    "CMASS3": ("PMASS",),
-    **{e: None for e in ("CONROD", "CELAS2", "CELAS4", "CMASS2", "CMASS4", "CONM1", "CONM2")},
-}
 PROPERTY_CARDS = (
     "PSHELL", "PCOMP", "PCOMPG", "PSHEAR", "PSOLID", "PBAR", "PBARL", "PBEAM", "PBEAML",
     "PROD", "PTUBE", "PBUSH", "PELAS", "PMASS",

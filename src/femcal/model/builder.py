@@ -19,6 +19,7 @@ every node is placed and displaced in the basic frame.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 
 import numpy as np
@@ -28,6 +29,7 @@ from ..markers import INT_BLANK
 from .analysis import EigenRequest, EigenSetup, Params
 from .constraints import Constraints, RigidLink
 from .coords import BASIC
+from .element_types import ELEMENT_PROPERTIES
 from .model import ElementBlock, Model
 
 #: Components given as text or an iterable of 1-6: ``"123456"``, ``"123"``, ``(1, 2, 3)``.
@@ -47,6 +49,25 @@ def _ids(ids, where: str) -> np.ndarray:
     if out.ndim != 1 or (out <= 0).any():
         raise ModelError(f"{where}: ids {out.tolist()[:10]}: expected positive integers")
     return out
+
+
+def _unique(ids: np.ndarray, what: str) -> None:
+    """ModelError naming the first id given twice."""
+    s = np.sort(np.asarray(ids))
+    twice = np.flatnonzero(s[1:] == s[:-1])
+    if len(twice):
+        raise ModelError(f"{what} {int(s[twice[0]])} is defined twice", [int(s[twice[0]])])
+
+
+def _shaped(values, shape: tuple[int, ...], where: str, what: str,
+            dtype: type = float) -> np.ndarray:  # fmt: skip
+    """``values`` as an array of ``shape`` (a single row or value broadcast to it)."""
+    try:
+        a = np.asarray(values, dtype=dtype)
+        return np.broadcast_to(a.reshape(shape) if a.size == np.prod(shape) else a, shape).copy()
+    except ValueError:
+        raise ModelError(f"{where}: {what} of shape {np.shape(values)}; expected "
+                         f"{shape} (or one row for all)") from None
 
 
 def _column(values, n: int, where: str, default: float = 0.0) -> np.ndarray:
@@ -81,10 +102,7 @@ class ModelBuilder:
     def grids(self, ids, xyz) -> None:
         """Nodes ``ids`` (n,) at ``xyz`` (n, 3) in the basic frame."""
         ids = _ids(ids, "grids")
-        xyz = np.asarray(xyz, dtype=float).reshape(-1, 3)
-        if len(xyz) != len(ids):
-            raise ModelError(f"grids: {len(xyz)} positions for {len(ids)} ids")
-        self._grids.append((ids, xyz))
+        self._grids.append((ids, _shaped(xyz, (len(ids), 3), "grids", "positions")))
 
     def material(self, mid: int, *, E: float, nu: float, rho: float,
                  G: float | None = None) -> None:  # fmt: skip
@@ -126,13 +144,9 @@ class ModelBuilder:
 
     def _add(self, etype: str, ids, pids, nodes, nodes_per: int, **data) -> np.ndarray:
         ids = _ids(ids, etype)
-        nodes = np.asarray(nodes, dtype=np.int64).reshape(-1, nodes_per)
-        if len(nodes) != len(ids):
-            raise ModelError(f"{etype}: {len(nodes)} node lists of {nodes_per} for {len(ids)} "
-                             "ids")  # fmt: skip
         n = len(ids)
-        cols = {"ids": ids, "nodes": nodes,
-                "pids": np.broadcast_to(np.asarray(pids, np.int64), (n,)).copy()}  # fmt: skip
+        cols = {"ids": ids, "nodes": _shaped(nodes, (n, nodes_per), etype, "nodes", np.int64),
+                "pids": _shaped(pids, (n,), etype, "section ids", np.int64)}  # fmt: skip
         cols.update({key: np.asarray(v) for key, v in data.items()})
         self._elements.setdefault(etype, []).append(cols)
         return ids
@@ -141,7 +155,7 @@ class ModelBuilder:
         """Bars (CBAR) between node pairs ``nodes`` (n, 2); ``orientation`` (3,) or (n, 3) is
         the vector in the basic frame that fixes the element y axis (NASTRAN's v)."""
         n = len(np.atleast_1d(ids))
-        v = np.broadcast_to(np.asarray(orientation, float), (n, 3))
+        v = _shaped(orientation, (n, 3), "CBAR", "orientation")
         zero = np.zeros(n)
         self._add("CBAR", ids, pid, nodes, 2, x1=v[:, 0], x2=v[:, 1], x3=v[:, 2],
                   g0=np.full(n, INT_BLANK), offt=np.full(n, "", object),
@@ -180,8 +194,8 @@ class ModelBuilder:
         """Concentrated masses (CONM2) at ``nodes`` (n,): mass (n,), the centre's offset
         from the node (3,) and the inertia I11 I21 I22 I31 I32 I33 about it (6,), basic."""
         n = len(np.atleast_1d(ids))
-        off = np.broadcast_to(np.asarray(offset, float), (n, 3))
-        inn = np.broadcast_to(np.asarray(inertia, float), (n, 6))
+        off = _shaped(offset, (n, 3), "CONM2", "offset")
+        inn = _shaped(inertia, (n, 6), "CONM2", "inertia")
         names = ("i11", "i21", "i22", "i31", "i32", "i33")
         self._add("CONM2", ids, -1, nodes, 1, m=_column(mass, n, "CONM2 mass"),
                   cid=np.zeros(n, np.int64), x1=off[:, 0], x2=off[:, 1], x3=off[:, 2],
@@ -240,11 +254,9 @@ class ModelBuilder:
             raise ModelError("the model has no nodes (grids)")
         ids = np.concatenate([g[0] for g in self._grids])
         xyz = np.concatenate([g[1] for g in self._grids])
+        _unique(ids, "node")
         order = np.argsort(ids, kind="stable")
         ids, xyz = ids[order], xyz[order]
-        if (np.diff(ids) == 0).any():
-            raise ModelError(f"node {int(ids[np.flatnonzero(np.diff(ids) == 0)[0]])} is "
-                             "defined twice")  # fmt: skip
         n = len(ids)
         zeros = np.zeros(n, np.int64)
         model = Model(ids, np.ones(n, bool), xyz, zeros, zeros.copy(), zeros.copy(),
@@ -255,19 +267,15 @@ class ModelBuilder:
         properties = self._property_tables(materials)
         elements = {t: self._block(model, t, parts, properties)
                     for t, parts in self._elements.items()}  # fmt: skip
-        eids = np.sort(np.concatenate([b.ids for b in elements.values()] or [np.zeros(0)]))
-        if (np.diff(eids) == 0).any():
-            raise ModelError(f"element {int(eids[np.flatnonzero(np.diff(eids) == 0)[0]])} is "
-                             "defined twice")  # fmt: skip
+        _unique(np.concatenate([b.ids for b in elements.values()] or [np.zeros(0)]), "element")
         constraints = Constraints(self._fixed_dofs(model), tuple(
             RigidLink(eid, self._node(model, ind, f"rigid {eid}"),
                       tuple(self._node(model, d, f"rigid {eid}") for d in dep), comps)
             for eid, ind, dep, comps in self._rigid))  # fmt: skip
         eigen = EigenSetup({1: self._eigen}, "1") if self._eigen else EigenSetup()
-        return Model(model.node_ids, model.is_grid, xyz, model.cp, model.cd, model.ps,
-                     model.cd_frames, model.dof_start, model.n_dof, model.coords, elements,
-                     properties, materials, self._params, model.files, constraints,
-                     eigen)  # fmt: skip
+        return dataclasses.replace(model, elements=elements, properties=properties,
+                                   materials=materials, params=self._params,
+                                   constraints=constraints, eigen=eigen)  # fmt: skip
 
     @staticmethod
     def _node(model: Model, node_id: int, where: str) -> int:
@@ -281,8 +289,7 @@ class ModelBuilder:
             return {}
         m = np.array(self._materials)
         mids = m[:, 0].astype(np.int64)
-        if len(np.unique(mids)) != len(mids):
-            raise ModelError(f"materials {mids.tolist()}: a material id is given twice")
+        _unique(mids, "material")
         return {"MAT1": {"mid": mids, "e": m[:, 1], "g": m[:, 2], "nu": m[:, 3],
                          "rho": m[:, 4]}}  # fmt: skip
 
@@ -302,8 +309,7 @@ class ModelBuilder:
                                          [r["pid"], r[k]])  # fmt: skip
             pids += table["pid"].tolist()
             out[card] = table
-        if len(set(pids)) != len(pids):
-            raise ModelError(f"sections {pids}: a section (property) id is given twice")
+        _unique(np.array(pids, np.int64), "section (property)")
         return out
 
     def _block(self, model: Model, etype: str, parts: list[dict],
@@ -317,14 +323,14 @@ class ModelBuilder:
         if missing.any():
             bad = sorted(set(raw[missing].tolist()))
             raise ModelError(f"{etype}: nodes {bad[:20]} do not exist", bad[:20])
-        card = {"CBAR": "PBAR", "CROD": "PROD", "CQUAD4": "PSHELL", "CTRIA3": "PSHELL",
-                "CHEXA": "PSOLID", "CTETRA": "PSOLID"}.get(etype)  # fmt: skip
-        if card is not None:
-            have = properties.get(card, {}).get("pid", np.zeros(0, np.int64))
+        cards = ELEMENT_PROPERTIES[etype]
+        if cards is not None:
+            have = np.concatenate([properties[c]["pid"] for c in cards if c in properties]
+                                  or [np.zeros(0, np.int64)])  # fmt: skip
             bad = sorted(set(pids[~np.isin(pids, have)].tolist()))
             if bad:
-                raise ModelError(f"{etype}: sections {bad} are not defined (expected {card})",
-                                 bad)  # fmt: skip
+                raise ModelError(f"{etype}: sections {bad} are not defined (expected "
+                                 f"{' or '.join(cards)})", bad)  # fmt: skip
         n = len(ids)
         return ElementBlock(etype, ids, pids, nodes, comps, cols, np.zeros(n, np.int64),
                             np.zeros(n, np.int64))  # fmt: skip
