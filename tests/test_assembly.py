@@ -245,3 +245,16 @@ def test_a_model_without_nodes_is_an_error_not_a_crash(write):
     model = load_model(write("BEGIN BULK\nMAT1,1,2.1e5,,0.3,7.85e-9\nENDDATA\n"))
     with pytest.raises(ModelError, match="the model has no grids or scalar points"):
         assemble(model)
+
+
+def test_a_bar_along_its_orientation_vector_is_named_not_a_traceback(write):
+    from femcal.assembly import assemble
+    from femcal.errors import ModelError
+    from femcal.model.build import load_model
+
+    model = load_model(write(
+        "BEGIN BULK\nMAT1,1,2.1e5,,0.3,7.85e-9\nPBAR,1,1,1.,1.,1.,1.\nGRID,1,,0.,0.,0.\n"
+        "GRID,2,,1.,0.,0.\nGRID,3,,1.,1.,0.\nCBAR,7,1,1,2,0.,1.,0.\nCBAR,8,1,2,3,0.,1.,0.\n"
+        "ENDDATA\n"))  # fmt: skip
+    with pytest.raises(ModelError, match=r"CBAR: .*parallel.*element ids \[8\]"):
+        assemble(model)

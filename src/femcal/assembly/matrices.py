@@ -22,7 +22,7 @@ from ..errors import ModelError
 from ..model.model import ElementBlock, Model
 from ..parallel import usable_cores
 from . import lines, points, solids, surfaces
-from .context import Context
+from .context import Context, name_positions
 from .pattern import Assembler, Pattern
 
 
@@ -81,7 +81,11 @@ def assemble(model: Model, options: Options | None = None) -> Matrices:
         handler = _HANDLERS.get(etype)
         if handler is None:
             raise ModelError(f"{etype} stiffness and mass are not implemented yet", block.ids[:20])
-        masses[etype] = handler(ctx, block, asm)
+        try:
+            masses[etype] = handler(ctx, block, asm)
+        except ValueError as e:  # a kernel's complaint about elements at positions in the block
+            raise ModelError(f"{etype}: {name_positions(str(e), block.ids)}",
+                             block.ids[:20]) from None  # fmt: skip
     M = _compact(asm.matrix(1))  # a lumped mass is (block) diagonal: keep only what it holds
     if wtmass != 1.0:
         M = M * wtmass
