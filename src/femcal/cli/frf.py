@@ -17,7 +17,7 @@ from ..response.frf import modal_frf, point_matrix, residual_flexibility
 from ..response.modal import QUANTITIES
 from ..solve.normal_modes import solve_normal_modes
 from ..testdata.data import FRFData
-from ..testdata.formats import suffixes, write_frf
+from ..testdata.formats import format_of, write_frf
 
 
 def _point(text: str) -> tuple[int, int]:
@@ -100,12 +100,10 @@ def run(args: argparse.Namespace) -> int:
     def progress(msg: str) -> None:
         print(f"[{time.perf_counter() - t0:7.1f} s] {msg}", file=sys.stderr, flush=True)
 
-    suffix = args.out.suffix.lower()
-    if suffix not in suffixes("frf", writable=True):
-        print(
-            f"femcal frf: --out {args.out}: expected a .npz, .csv, .uff or .mat file",
-            file=sys.stderr,
-        )
+    try:
+        format_of(args.out, "frf", writing=True)
+    except ValueError as e:
+        print(f"femcal frf: --out {e}", file=sys.stderr)
         return 2
     progress(f"reading {args.deck}")
     model = load_model(args.deck)

@@ -34,7 +34,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..model.model import Model
-from .modal import QUANTITIES, modal_factors
+from .modal import QUANTITIES, modal_factors, static_factor
 
 
 @dataclass(frozen=True)
@@ -186,12 +186,11 @@ def modal_frf(
     zeta = modal_damping(omega, damping)
     out_r = np.asarray(C @ shapes)  # (n_out, k)
     in_r = np.asarray(B.T @ shapes)  # (n_in, k)
-    w = 2.0 * np.pi * np.asarray(freq_hz, float)
     q = modal_factors(omega**2, freq_hz, zeta, omega=omega)  # (k, n_freq) modal receptances
     H = np.einsum("ok,ik,kf->oif", out_r, in_r, q)
     if residual is not None:
         H = H + np.asarray(residual)[:, :, None]
-    return _as_quantity(H, w, quantity)
+    return H * static_factor(freq_hz, quantity)
 
 
 def residual_flexibility(
@@ -254,12 +253,4 @@ def direct_frf(
     for f, wf in enumerate(w):
         A = (K * (1.0 + 1j * wf * damping.beta) + M * (1j * wf * damping.alpha - wf * wf)).tocsc()
         H[:, :, f] = Ca @ spla.splu(A).solve(Ba.astype(complex))
-    return _as_quantity(H, w, quantity)
-
-
-def _as_quantity(H: np.ndarray, w: np.ndarray, quantity: str) -> np.ndarray:
-    if quantity == "mobility":
-        return H * (1j * w)
-    if quantity == "accelerance":
-        return H * (-(w**2))
-    return H
+    return H * static_factor(freq_hz, quantity)
