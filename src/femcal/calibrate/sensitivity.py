@@ -62,7 +62,7 @@ def eigenvector_sensitivity(K: sp.spmatrix, M: sp.spmatrix, phi: np.ndarray, lam
     normalisation.
     """
     K, M, dK, dM = (sp.csc_matrix(x) for x in (K, M, dK, dM))
-    dlam = float(phi @ (dK @ phi) - lam * (phi @ (dM @ phi)))
+    dlam = float(_eigenvalue_derivatives(phi @ (dK @ phi), phi @ (dM @ phi), lam))
     rhs = -(dK @ phi - lam * (dM @ phi)) + dlam * (M @ phi)
     A = (K - lam * M).tolil()
     k = int(np.argmax(np.abs(phi)))

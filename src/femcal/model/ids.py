@@ -29,8 +29,3 @@ class IdIndex:
         found = self.sorted[pos] == q
         rows = pos if self.order is None else self.order[pos]
         return np.where(found, rows, -1)
-
-
-def rows_of(ids: np.ndarray, query: np.ndarray | list[int] | int) -> np.ndarray:
-    """Rows of ``query`` in the id column ``ids`` (any order), -1 where absent."""
-    return IdIndex(ids).rows(query)

@@ -75,9 +75,6 @@ class MaterialTables:
                 return card, row
         return "", 0
 
-    def kinds(self, mids: np.ndarray) -> list[str]:
-        return [self.where(int(m))[0] for m in mids]
-
     def mat1(self, mids: np.ndarray, who: str, eids: np.ndarray) -> IsotropicMaterial:
         """Moduli and density of MAT1 materials ``mids`` (n,), with NASTRAN's rules for a
         blank E, G or NU; ``who`` and ``eids`` name the elements in errors.
