@@ -314,3 +314,26 @@ def test_a_misspelt_key_is_an_error(study, tmp_path):
     cfg.write_text(CONFIG + "\n[outputs]\npictures = false\n")
     with pytest.raises(ValueError, match=r"the top level: unknown key 'outputs'"):
         read_config(cfg)
+
+
+def test_finished_starts_are_kept_under_what_decides_them(study, tmp_path):
+    """A start is resumed only by a run whose model, parameters, settings and test are the
+    same: the fingerprint changes with any of them, not with file names or worker counts."""
+    from dataclasses import replace
+
+    from femcal.calibrate.workflow import fingerprint
+
+    d, params, outcome, _ = study
+    cfg = read_config(d / "cal.toml")
+    model = outcome.model
+    f, H = outcome.freq, outcome.H_test
+    key = fingerprint(model, params, cfg, 10, f, H)
+    moved = replace(model, files=["/elsewhere/plate.bdf"])
+    assert fingerprint(moved, params, replace(cfg, workers=1, deck=tmp_path / "x.bdf"), 10, f,
+                       H) == key  # fmt: skip
+    changed = with_values(model, params[:1], [params[0].nominal * 1.01])
+    assert fingerprint(changed, params, cfg, 10, f, H) != key
+    assert fingerprint(model, params[1:], cfg, 10, f, H) != key
+    assert fingerprint(model, params, replace(cfg, metric="complex-log"), 10, f, H) != key
+    assert fingerprint(model, params, cfg, 9, f, H) != key
+    assert fingerprint(model, params, cfg, 10, f, H * 1.001) != key

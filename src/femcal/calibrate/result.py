@@ -196,10 +196,9 @@ class CalibrationResult:
         model's before and after calibration, in the test's quantity.
     deviation_before, deviation_after : the full model's deviation.
     cycles : every cycle of the search. settled : the informed parameters stopped moving
-        before the cycles ran out. restarts : how often the search ran again.
+        before the cycles ran out.
     frf_modes : the FE FRFs' number of modes.
-    fisher : Fisher information and CRLB at the solution; sigma_given : its sigma was the
-        configuration's (else estimated from the residual). band_bounds : the CRLB per band.
+    fisher : Fisher information and CRLB at the solution. band_bounds : the CRLB per band.
     test_hz, test_shapes : (k,), (n_out, k) the identified test modes in the band.
     modes_before, modes_after : the full model's modes at the nominal and calibrated point.
     mac_before, mac_after : (k, n_modes) MAC of the test modes against the FE modes.
@@ -225,10 +224,8 @@ class CalibrationResult:
     deviation_after: float
     cycles: tuple[Cycle, ...]
     settled: bool
-    restarts: int
     frf_modes: int
     fisher: Fisher
-    sigma_given: bool
     band_bounds: tuple[BandBounds, ...]
     test_hz: np.ndarray
     test_shapes: np.ndarray
@@ -238,6 +235,17 @@ class CalibrationResult:
     mac_after: np.ndarray
     modes: tuple[ModePairing, ...]
     seconds: float
+
+    @property
+    def restarts(self) -> int:
+        """How often the multi-start search ran again after the first cycle."""
+        return sum(c.searched for c in self.cycles)
+
+    @property
+    def sigma_given(self) -> bool:
+        """The CRLB's sigma was the configuration's ``noise_sigma`` (else estimated from the
+        residual at the solution)."""
+        return self.config.noise_sigma is not None
 
     @property
     def params(self) -> list[Parameter]:

@@ -35,6 +35,7 @@ written by :mod:`femcal.jobs.calibration`.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import time
@@ -44,9 +45,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..atomic import write_atomic
 from ..correlate import mac, pair_modes, pseudo_orthogonality, serep_mass
 from ..identify import IdentifiedModel, equalize_damping
-from ..atomic import write_atomic
 from ..model.model import Model
 from ..response.frf import channel_matrix
 from ..testdata.data import FRFData
@@ -74,6 +75,53 @@ from .starts import Problem, run_starts
 SURROGATE_VERSION = 7
 
 
+#: Config fields that do not change a start's result (file names, the report-only truth, the
+#: number of worker processes, pictures, the raw text).
+_NOT_IN_FINGERPRINT = ("path", "deck", "parameters", "test_frf", "test_model", "test_truth",
+                       "workers", "pictures", "raw")  # fmt: skip
+
+
+def _digest(value: object) -> str:
+    """A short hash of arrays, dataclasses, mappings, sequences and plain values, by content."""
+    h = hashlib.sha256()
+
+    def feed(v: object) -> None:
+        if isinstance(v, np.ndarray):
+            h.update(f"a{v.dtype.str}{v.shape}".encode())
+            h.update(repr(v.tolist()).encode() if v.dtype == object
+                     else np.ascontiguousarray(v).tobytes())
+        elif dataclasses.is_dataclass(v) and not isinstance(v, type):
+            h.update(type(v).__name__.encode())
+            for f in dataclasses.fields(v):
+                feed(f.name)
+                feed(getattr(v, f.name))
+        elif isinstance(v, dict):
+            h.update(b"d")
+            for k in sorted(v, key=repr):
+                feed(k)
+                feed(v[k])
+        elif isinstance(v, list | tuple):
+            h.update(f"l{len(v)}".encode())
+            for x in v:
+                feed(x)
+        else:
+            h.update(repr(v).encode())
+
+    feed(value)
+    return h.hexdigest()[:16]
+
+
+def fingerprint(model: Model, params: Sequence[Parameter], cfg: Config, n_starts: int,
+                freq: np.ndarray, H_test: np.ndarray) -> str:  # fmt: skip
+    """What decides a calibration's starts, hashed: the surrogate's version, the number of
+    starts, the settings (not file names or worker counts), the parameters, the model's
+    arrays and tables (not where they were read from) and the test FRFs compared."""
+    settings = {k: v for k, v in vars(cfg).items() if k not in _NOT_IN_FINGERPRINT}
+    physics = replace(model, files=[], elements={t: replace(b, file=b.file[:0], line=b.line[:0])
+                                                 for t, b in model.elements.items()})  # fmt: skip
+    return _digest((SURROGATE_VERSION, n_starts, settings, list(params), physics, freq, H_test))
+
+
 def _test_frfs(data: FRFData | None, ident: IdentifiedModel | None, keep: np.ndarray,
                zeta0: float, freq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """(frequencies, H_X (n_out, n_in, n_f)): the damping-equalised identified model at
@@ -93,7 +141,7 @@ def _test_frfs(data: FRFData | None, ident: IdentifiedModel | None, keep: np.nda
 def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
               data: FRFData | None = None, identified: IdentifiedModel | None = None,
               truth: np.ndarray | None = None, state: str | Path | None = None,
-              fingerprint: str = "", fresh: bool = False, workers: int | None = None,
+              fresh: bool = False, workers: int | None = None,
               starts: int | None = None,
               progress: Callable[[str], None] | None = None) -> CalibrationResult:  # fmt: skip
     """Calibrate ``params`` of ``model`` against the test (see the module docstring).
@@ -105,22 +153,29 @@ def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
     data, identified : the measured FRFs and/or an identified model of them (at least one;
         with an identified model its poles, shapes and suspect channels are used).
     truth : (n_p,) a synthetic test's known values P, for the report's errors only.
-    state : folder for the finished starts and cycles (``starts/`` in a job's output); a run
-        with the same inputs resumes from what is there. None: nothing kept.
-    fingerprint : identifies the inputs (model, parameters, test files) in the state.
+    state : folder for the finished starts and cycles (``starts/`` in a job's output). Each
+        start is kept with a fingerprint of everything that decides it (the model's arrays and
+        tables, the parameters, the settings, the test FRFs compared, the surrogate's version),
+        and a run resumes from the starts whose fingerprint is its own. None: nothing kept.
     fresh : ignore finished starts in ``state``. workers, starts : override the
         configuration's.
 
     Raises
     ------
     ValueError
-        For a band without test modes or data, test FRFs that are zero in the band.
+        For test data in other units than ``cfg.model_units``, a band without test modes or
+        data, test FRFs that are zero in the band.
     """
     say = progress or (lambda _m: None)
     t0 = time.perf_counter()
     params = list(params)
     if data is None and identified is None:
         raise ValueError("calibrate needs the test FRFs or an identified test model")
+    for what, test in (("test FRFs", data), ("identified test model", identified)):
+        if test is not None and cfg.model_units and test.units and test.units != cfg.model_units:
+            raise ValueError(f"the {what} are in {test.units}, the FE model in "
+                             f"{cfg.model_units}: convert them first "
+                             "(femcal.testdata.convert_units)")  # fmt: skip
     n_workers = workers or cfg.workers
     n_starts = starts or cfg.starts
     lo = np.array([p.p_lower for p in params])
@@ -155,10 +210,7 @@ def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
     say(f"metric: {cfg.metric} over {band[0]:g}-{band[1]:g} Hz, {len(freq)} frequencies "
         f"({cfg.samples_per_bandwidth:g} per half-power bandwidth at zeta0 = {zeta0:.4f}), "
         f"{len(outputs)} outputs x {len(inputs)} inputs")  # fmt: skip
-    data_hash = hashlib.sha256(freq.tobytes() + H_test.tobytes()).hexdigest()
-    key = (f"{fingerprint}-{n_starts}-{SURROGATE_VERSION}-{cfg.enrich_hz}-{cfg.enrich_vectors}-"
-           f"{cfg.residual}-{cfg.modal_hz}-{cfg.exact_gradient}-{data_hash}")
-    fp = hashlib.sha256(key.encode()).hexdigest()[:16]
+    fp = fingerprint(model, params, cfg, n_starts, freq, H_test)
     state_dir = Path(state) if state is not None else None
     rng = np.random.default_rng(cfg.seed)
     starts0 = [np.zeros(len(params))]
@@ -356,11 +408,13 @@ def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
             at_bound=bool(np.isclose(p_final[i], lo[i], atol=1e-9)
                           or np.isclose(p_final[i], hi[i], atol=1e-9)), **extra))  # fmt: skip
     result = CalibrationResult(
-        cfg, model, data, ident, tuple(parameters), p_final, zeta0, freq, outputs, inputs,
-        excluded, H_test, H_before, H_after, dev_before, dev_after, tuple(cycles), settled,
-        sum(c.searched for c in cycles), frf_modes[0], fi, cfg.noise_sigma is not None,
-        tuple(band_bounds), test_hz, test_shapes, modes0, modes_after, mac_b, mac_a,
-        pairings, time.perf_counter() - t0)  # fmt: skip
+        config=cfg, model=model, data=data, identified=ident, parameters=tuple(parameters),
+        p_final=p_final, zeta0=zeta0, freq=freq, outputs=outputs, inputs=inputs,
+        excluded=excluded, H_test=H_test, H_before=H_before, H_after=H_after,
+        deviation_before=dev_before, deviation_after=dev_after, cycles=tuple(cycles),
+        settled=settled, frf_modes=frf_modes[0], fisher=fi, band_bounds=tuple(band_bounds),
+        test_hz=test_hz, test_shapes=test_shapes, modes_before=modes0, modes_after=modes_after,
+        mac_before=mac_b, mac_after=mac_a, modes=pairings, seconds=time.perf_counter() - t0)
     say(f"deviation {dev_before:.5g} -> {dev_after:.5g}")
     return result
 

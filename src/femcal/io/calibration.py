@@ -13,10 +13,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..atomic import write_atomic, write_lines
 from ..calibrate.config import Config
 from ..calibrate.parameters import Parameter
-from ..calibrate.result import CalibrationResult, Cycle, StartResult
-from ..atomic import write_atomic, write_lines
+from ..calibrate.result import CalibrationResult, Cycle
 
 
 def calibrated_deck_name(cfg: Config) -> str:
@@ -28,10 +28,6 @@ def _finite(v: float | None) -> float | None:
     return None if v is None or not np.isfinite(v) else float(v)
 
 
-def _start(s: StartResult) -> dict:
-    return s.to_dict()
-
-
 def _cycle(c: Cycle) -> dict:
     """A cycle as the report lists it (its starts are listed for cycle 1 only)."""
     f = [float(x) for x in c.center]
@@ -39,7 +35,7 @@ def _cycle(c: Cycle) -> dict:
         return {"cycle": 1, "center": f, "best_start": c.best_start,
                 "p": [float(x) for x in c.p], "deviation": c.deviation,
                 "exact_deviation_at_center": c.exact_deviation_at_center, "moved": c.moved,
-                "accepted": True, "radius": None}  # fmt: skip
+                "accepted": c.accepted, "radius": c.radius}  # fmt: skip
     out = {"cycle": c.cycle, "candidate": [float(x) for x in c.candidate], "rho": c.rho,
            "accepted": c.accepted, "radius": c.radius, "from_search": c.from_search,
            "exact_deviation_at_candidate": c.exact_deviation_at_candidate,
@@ -95,7 +91,7 @@ def report_dict(result: CalibrationResult) -> dict:
                  "correlation": [[_finite(v) for v in row] for row in fi.correlation]},
         "cycles": [_cycle(c) for c in result.cycles],
         "regularization": cfg.regularization,
-        "starts": [_start(s) for s in result.cycles[0].starts],
+        "starts": [s.to_dict() for s in result.cycles[0].starts],
         "settled": result.settled, "restarts": result.restarts,
         "restart_fall": cfg.restart_fall, "reduction_modes": cfg.reduction_modes,
         "surrogate": cfg.surrogate, "enrich_hz": cfg.enrich_hz,

@@ -10,9 +10,9 @@ The pictures and ``report.html`` are :func:`femcal.io.calibration.write_report`'
 
 from __future__ import annotations
 
-import hashlib
-import json
+import time
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 from ..calibrate.config import Config
@@ -25,18 +25,6 @@ from ..io.identified import read_model, write_model, write_summary
 from ..model.build import load_model
 from ..testdata.data import FRFData, convert_units
 from ..testdata.formats import read_frf
-
-
-def _fingerprint(cfg: Config) -> str:
-    """The run's inputs: the configuration (without the report-only truth) and the bytes of
-    every file it names."""
-    raw = {k: v for k, v in cfg.raw.items() if k != "test"}
-    raw["test"] = {k: v for k, v in cfg.raw.get("test", {}).items() if k != "truth"}
-    text = json.dumps(raw, sort_keys=True, default=str)
-    for f in (cfg.deck, cfg.parameters, cfg.test_frf, cfg.test_model):
-        if f is not None:
-            text += hashlib.sha256(Path(f).read_bytes()).hexdigest()
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
 def load_test(cfg: Config, out: Path, say: Callable[[str], None]
@@ -86,6 +74,7 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
         Naming the file and what is wrong in it (deck, parameters, truth, test files).
     """
     say = progress or (lambda _m: None)
+    t0 = time.perf_counter()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     model = load_model(cfg.deck)
@@ -96,9 +85,10 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
         f"{cfg.parameters.name}")
     data, ident = load_test(cfg, out, say)
     result = calibrate(model, params, cfg, data=data, identified=ident, truth=truth,
-                       state=out / "starts", fingerprint=_fingerprint(cfg), fresh=fresh,
-                       workers=workers, starts=starts, progress=progress)  # fmt: skip
+                       state=out / "starts", fresh=fresh, workers=workers, starts=starts,
+                       progress=progress)  # fmt: skip
     write_calibrated_deck(cfg.deck, params, result.values, out / calibrated_deck_name(cfg))
+    result = replace(result, seconds=time.perf_counter() - t0)  # the whole job's run time
     path = write_report_json(out / "report.json", result)
     say(f"wrote {path} and {out / calibrated_deck_name(cfg)}")
     return result

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..calibrate.result import CalibrationResult
-from ..correlate import modal_scale_factor, pair_modes
+from ..correlate import modal_scale_factor
 from ..response.frf import channel_matrix
 from .figures import pyplot, save_figure
 
@@ -137,16 +137,15 @@ def vector_plot(path: Path, outcome: CalibrationResult) -> Path | None:
     """Test shape against FE shape (after calibration, scaled by the modal scale factor),
     component by component, for each paired mode: points on the diagonal agree."""
     plt = pyplot()
-    Cg = channel_matrix(outcome.model, outcome.outputs)
-    fe = np.asarray(Cg @ outcome.modes_after.shapes)
-    pairs = pair_modes(outcome.test_shapes, outcome.test_hz, fe,
-                       outcome.modes_after.frequencies_hz)  # fmt: skip
+    pairs = [m for m in outcome.modes if m.fe_after is not None]
     if not pairs:
         return None
+    Cg = channel_matrix(outcome.model, outcome.outputs)
+    fe = np.asarray(Cg @ outcome.modes_after.shapes[:, [m.fe_after - 1 for m in pairs]])
     fig, axes = plt.subplots(1, len(pairs), figsize=(3.4 * len(pairs), 3.5), squeeze=False)
-    for ax, pr in zip(axes[0], pairs, strict=True):
-        t = outcome.test_shapes[:, pr.test]
-        a = fe[:, pr.fe]
+    for k, (ax, pr) in enumerate(zip(axes[0], pairs, strict=True)):
+        t = outcome.test_shapes[:, pr.test_mode - 1]
+        a = fe[:, k]
         s = modal_scale_factor(t, a)
         t_r = (t / s).real  # test shape in the FE shape's scale and phase
         ax.plot(a, t_r, ".", ms=4)
@@ -155,9 +154,8 @@ def vector_plot(path: Path, outcome: CalibrationResult) -> Path | None:
         ax.set_xlim(-lim, lim)
         ax.set_ylim(-lim, lim)
         ax.set_aspect("equal")
-        ax.set_title(f"test {outcome.test_hz[pr.test]:.1f} Hz / FE "
-                     f"{outcome.modes_after.frequencies_hz[pr.fe]:.1f} Hz\nMAC {pr.mac:.3f}",
-                     fontsize=8)  # fmt: skip
+        ax.set_title(f"test {pr.test_hz:.1f} Hz / FE {pr.fe_after_hz:.1f} Hz\n"
+                     f"MAC {pr.mac_after:.3f}", fontsize=8)  # fmt: skip
         ax.set_xlabel("FE (after)")
         ax.set_ylabel("test (scaled)")
     return _save(fig, path)
