@@ -154,7 +154,9 @@ def test_bad_parameter_files_are_named(plate, tmp_path):
             "PSHELL 77 is not in the deck"),
            ('card = "PSHELL"\nid = 1\nfield = "T"\nlower = 5.5\nupper = 7.0',
             "must hold the nominal"),
-           ('card = "PSHELL"\nid = 1\nfield = "T"', "give bounds")]  # fmt: skip
+           ('card = "PSHELL"\nid = 1\nfield = "T"', "give bounds"),
+           ('card = "PSHELL"\nid = 1\nfield = "T"\nlower = 4.0\nupper = 7.0\nconfidence = -0.1',
+            "confidence = -0.1: expected the standard deviation as a fraction")]  # fmt: skip
     for body, message in bad:
         (tmp_path / "p.toml").write_text(f'[[parameter]]\nname = "x"\n{body}\n')
         with pytest.raises(ValueError, match=message):

@@ -1,12 +1,12 @@
-"""Levenberg-Marquardt within bounds, Latin hypercube starts, Fisher information and CRLB."""
+"""Levenberg-Marquardt within bounds, Latin hypercube starts and the Cramér-Rao bound."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from femcal.calibrate.fisher import fisher
 from femcal.calibrate.lm import latin_hypercube, levenberg_marquardt
+from femcal.calibrate.prior import Likelihood, Prior, likelihood_of, posterior
 
 
 def rosenbrock(p):
@@ -52,12 +52,16 @@ def test_crlb_of_linear_regression_is_its_standard_error():
     y = X @ [1.0, 2.0] + sigma * rng.normal(size=200)
     beta = np.linalg.lstsq(X, y, rcond=None)[0]
     r = X @ beta - y
-    f = fisher(X, r, sigma=sigma)
+    known = Likelihood(sigma=sigma, m=200, n_eff=200.0, estimated=False)
+    vague = Prior(np.full(2, 1e8), np.zeros(2, bool))
+    post = posterior(X, vague, known)
     se = sigma * np.sqrt(np.diag(np.linalg.inv(X.T @ X)))
-    np.testing.assert_allclose(f.crlb, se, rtol=1e-12)
-    f_est = fisher(X, r)  # sigma from the residual
-    assert f_est.sigma == pytest.approx(sigma, rel=0.15)
-    # a parameter the data do not inform has an infinite bound
+    np.testing.assert_allclose(post.crlb, se, rtol=1e-12)
+    np.testing.assert_allclose(post.std, se, rtol=1e-9)  # a vague prior adds nothing
+    # sigma estimated from the residual
+    assert likelihood_of(r, 200, None).sigma == pytest.approx(sigma, rel=0.15)
+    # a parameter the data do not inform has an infinite bound; its posterior is its prior
     X3 = np.column_stack([X, np.zeros(200)])
-    f3 = fisher(X3, r, sigma=sigma)
-    assert np.isinf(f3.crlb[2]) and np.allclose(f3.crlb[:2], se, rtol=1e-9)
+    post3 = posterior(X3, Prior(np.array([1e8, 1e8, 0.1]), np.zeros(3, bool)), known)
+    assert np.isinf(post3.crlb[2]) and np.allclose(post3.crlb[:2], se, rtol=1e-9)
+    assert post3.ratio[2] == pytest.approx(1.0)

@@ -43,7 +43,7 @@ workers = 2
 seed = 1
 max_cycles = 8
 noise_sigma = 0.01
-identifiable_crlb = 0.01
+identifiable_ratio = 0.1
 """
 
 
@@ -123,8 +123,8 @@ def test_report_pictures_and_page(study):
     d, _, outcome, _ = study
     page = write_report(outcome, d / "out")
     text = page.read_text()
-    assert "Parameters" in text and "Cramér-Rao" in text
-    for name in ("frf.png", "crlb.png", "history.png"):
+    assert "Parameters" in text and "posterior" in text and "Summary" in text
+    for name in ("frf.png", "parameters.png", "history.png"):
         assert (d / "out" / "pictures" / name).stat().st_size > 1000
 
 
@@ -208,9 +208,9 @@ def test_a_bad_calibration_key_is_named_in_its_own_section_beside_test_identify(
         read_config(bad)
 
 
-def test_a_synthetic_tests_truth_sets_each_error_against_its_crlb(study, tmp_path):
+def test_a_synthetic_tests_truth_sets_each_error_against_its_posterior(study, tmp_path):
     """[test] truth (the hidden values of a synthetic test) adds each parameter's true value,
-    its error and |error| / CRLB to the report; it does not change the run (the finished
+    its error and |error| / posterior std to the report; it does not change the run (the finished
     starts are resumed)."""
     from femcal.calibrate.parameters import read_truth
     from femcal.io.calibration import write_report
@@ -232,10 +232,10 @@ def test_a_synthetic_tests_truth_sets_each_error_against_its_crlb(study, tmp_pat
         assert row.true_p == pytest.approx(x, abs=1e-12)
         assert row.error_pct == pytest.approx(100 * (row.calibrated / row.true - 1))
         assert abs(row.error_pct) < 0.1
-        assert row.error_over_crlb == pytest.approx(abs(row.p - x) / row.crlb_p)
+        assert row.error_over_std == pytest.approx(abs(row.p - x) / row.posterior_std_p)
     for row, typed in zip(rep["parameters"], again.parameters, strict=True):  # the JSON too
         assert (row["true"], row["error_pct"]) == (typed.true, typed.error_pct)
-    assert "|error| / CRLB" in write_report(again, d / "out").read_text()
+    assert "|error| / posterior std" in write_report(again, d / "out").read_text()
     # a truth file that does not cover the parameters, or names another field
     bad = tmp_path / "t.toml"
     bad.write_text("\n".join(lines[: 1 + 6 * 3]))
@@ -305,6 +305,19 @@ def test_restart_keys(study, tmp_path):
         _read_with(cfg, "restarts = -1")
     with pytest.raises(ValueError, match=r"restart_fall = 1.5: expected a fraction in \[0, 1\)"):
         _read_with(cfg, "restart_fall = 1.5")
+
+
+def test_keys_of_earlier_versions_name_what_replaced_them(study, tmp_path):
+    cfg = _config_beside_the_study(study, tmp_path)
+    with pytest.raises(ValueError, match=r"\[calibration\] identifiable_crlb is replaced by "
+                                         r"identifiable_ratio"):  # fmt: skip
+        _read_with(cfg, "identifiable_crlb = 0.05")
+    with pytest.raises(ValueError, match=r"regularization is replaced by the prior"):
+        _read_with(cfg, "regularization = 1.0")
+    with pytest.raises(ValueError, match=r"bounds_sigma = -1.0: expected a positive number"):
+        _read_with(cfg, "bounds_sigma = -1")
+    c = _read_with(cfg, "bounds_sigma = 2.0\nhold_ratio = 0.95")
+    assert (c.bounds_sigma, c.hold_ratio, c.identifiable_ratio) == (2.0, 0.95, 0.1)
 
 
 def test_a_misspelt_key_is_an_error(study, tmp_path):

@@ -54,12 +54,21 @@
                                             #  cost by less than this fraction, or when the
                                             #  cycles settle; its best start is the next
                                             #  candidate
-    regularization = 0.0                    # w: adds w p_i / h_i to the residuals (h_i the
-                                            #  bounds' half-width); keeps uninformed
-                                            #  parameters near their nominal
-    noise_sigma = 0.0                       # > 0: sigma of the residuals for the CRLB
-    identifiable_crlb = 0.05                # CRLB (of p) below this: identifiable
-    crlb_bands = [[10.0, 40.0], [40.0, 100.0]]  # also per band (optional)
+    bounds_sigma = 3.0                      # the prior: the bounds lie this many standard
+                                            #  deviations from the nominal (a parameter's
+                                            #  confidence in the parameter file wins)
+    noise_sigma = 0.0                       # > 0: the test's known noise (log10 units): the
+                                            #  residuals are independent with this sigma;
+                                            #  0: sigma and the residuals' effective number
+                                            #  of independent observations come from the
+                                            #  nominal model's residual
+    hold_ratio = 0.99                       # parameters whose posterior standard deviation
+                                            #  at the nominal stays at this fraction of the
+                                            #  prior's or more are held at the nominal
+    identifiable_ratio = 0.5                # posterior below this fraction of the prior:
+                                            #  identifiable
+    crlb_bands = [[10.0, 40.0], [40.0, 100.0]]  # the posterior from each band alone
+                                            #  (optional)
     exclude_suspect_channels = true
 
     [output]
@@ -116,9 +125,10 @@ class Config:
     settle: float = 1e-3
     restarts: int = 2
     restart_fall: float = 0.01
-    regularization: float = 0.0
+    bounds_sigma: float = 3.0
     noise_sigma: float | None = None
-    identifiable_crlb: float = 0.05
+    hold_ratio: float = 0.99
+    identifiable_ratio: float = 0.5
     crlb_bands: tuple[tuple[float, float], ...] = ()
     exclude_suspect_channels: bool = True
     test_truth: Path | None = None
@@ -158,10 +168,20 @@ KEYS = {
         "band", "zeta0", "samples_per_bandwidth", "metric", "reduction_modes", "surrogate",
         "enrich_hz", "enrich_vectors", "residual", "modal_hz", "exact_gradient", "starts",
         "workers", "seed", "max_iterations", "max_cycles", "settle", "restarts",
-        "restart_fall", "regularization", "noise_sigma", "identifiable_crlb", "crlb_bands",
+        "restart_fall", "bounds_sigma", "noise_sigma", "hold_ratio", "identifiable_ratio",
+        "crlb_bands",
         "exclude_suspect_channels",
     },
     "output": {"pictures"},
+}  # fmt: skip
+
+
+#: Keys of earlier versions, and what took their place.
+_REPLACED = {
+    "identifiable_crlb": "identifiable_ratio (the posterior over the prior standard deviation "
+                         "below which a parameter is identifiable)",
+    "regularization": "the prior (bounds_sigma, or a parameter's confidence) and the likelihood "
+                      "weighed from the test (noise_sigma)",
 }  # fmt: skip
 
 
@@ -178,11 +198,22 @@ def _no_unknown_keys(doc: dict, path: Path) -> None:
         raise ValueError(f"{path}: [test] identify must be a [test.identify] section")
     sections.append(("test.identify", identify))
     for name, section in sections:
+        for old, new in _REPLACED.items():
+            if name == "calibration" and old in section:
+                raise ValueError(f"{path}: [calibration] {old} is replaced by {new}")
         unknown = sorted(set(section) - KEYS[name])
         if unknown:
             where = f"[{name}]" if name else "the top level"
             raise ValueError(f"{path}: {where}: unknown key {unknown[0]!r} (expected one of "
                              f"{', '.join(sorted(KEYS[name]))})")  # fmt: skip
+
+
+def _positive(section: dict, key: str, default: float, where: str) -> float:
+    """section[key] (or default) as a positive number; ValueError naming the key otherwise."""
+    value = _number(section, key, default, float, where)
+    if not value > 0:
+        raise ValueError(f"{where} {key} = {value}: expected a positive number")
+    return value
 
 
 def _flag(section: dict, key: str, default: bool, where: str) -> bool:
@@ -274,6 +305,9 @@ def read_config(path: str | os.PathLike[str]) -> Config:
         raise ValueError(f"{path}: [calibration] metric = {metric!r}: expected one of "
                          f"{', '.join(METRICS)}")  # fmt: skip
     sigma = _number(cal, "noise_sigma", 0.0, float, where)
+    if sigma < 0:
+        raise ValueError(f"{where} noise_sigma = {sigma}: expected 0 (estimate it) or the "
+                         "noise's standard deviation in log10 units")  # fmt: skip
     surrogate = str(cal.get("surrogate", "exact"))
     if surrogate not in ("exact", "first-order"):
         raise ValueError(f"{path}: [calibration] surrogate = {surrogate!r}: expected \"exact\" "
@@ -310,9 +344,10 @@ def read_config(path: str | os.PathLike[str]) -> Config:
         samples_per_bandwidth=_number(cal, "samples_per_bandwidth", 3.0, float, where),
         metric=metric, settle=_number(cal, "settle", 1e-3, float, where), surrogate=surrogate,
         enrich_hz=enrich_hz,
-        regularization=_number(cal, "regularization", 0.0, float, where),
+        bounds_sigma=_positive(cal, "bounds_sigma", 3.0, where),
         noise_sigma=float(sigma) if sigma else None,
-        identifiable_crlb=_number(cal, "identifiable_crlb", 0.05, float, where),
+        hold_ratio=_positive(cal, "hold_ratio", 0.99, where),
+        identifiable_ratio=_positive(cal, "identifiable_ratio", 0.5, where),
         crlb_bands=tuple(_band(b, f"{path}: [calibration] crlb_bands")
                          for b in cal.get("crlb_bands", [])),
         exclude_suspect_channels=bool(cal.get("exclude_suspect_channels", True)),

@@ -17,6 +17,9 @@ The parameter file is TOML with one ``[[parameter]]`` table per parameter::
     lower = 6.4                 # absolute bounds ...
     upper = 9.6
     # ... or relative ones: lower_rel = -0.2, upper_rel = 0.2  (fractions of P0)
+    confidence = 0.05           # optional: the engineer's standard deviation of the value,
+                                #  as a fraction of the nominal (the prior's; default: the
+                                #  bounds read as bounds_sigma standard deviations)
 
 Each field also states how the element matrices depend on it (polynomial degree of K and M
 in the value), which :mod:`femcal.calibrate.derivatives` uses for exact derivatives.
@@ -96,7 +99,8 @@ _MATERIAL_COLUMNS = ("mid", "mid1", "mid2", "mid3", "mid4")
 @dataclass(frozen=True)
 class Parameter:
     """One calibration parameter: ``P = nominal (1 + p)`` with ``p`` in ``[p_lower,
-    p_upper]``; ``lower`` and ``upper`` are the absolute bounds of P."""
+    p_upper]``; ``lower`` and ``upper`` are the absolute bounds of P; ``confidence`` the
+    standard deviation of p the engineer gives it (None: the bounds set it)."""
 
     name: str
     card: str
@@ -106,6 +110,7 @@ class Parameter:
     lower: float
     upper: float
     description: str = ""
+    confidence: float | None = None
 
     @property
     def spec(self) -> FieldSpec:
@@ -229,6 +234,12 @@ def read_parameters(path: str | os.PathLike[str], model: Model) -> list[Paramete
         lo, hi = min(lo, hi), max(lo, hi)
         if not lo <= nominal <= hi or lo == hi:
             raise ValueError(f"{where}: bounds [{lo}, {hi}] must hold the nominal {nominal}")
+        confidence = None
+        if "confidence" in item:
+            confidence = _value(item, "confidence", float, where)
+            if not 0 < confidence < 10:
+                raise ValueError(f"{where}: confidence = {confidence}: expected the standard "
+                                 "deviation as a fraction of the nominal, e.g. 0.05")  # fmt: skip
         key = f"{card} {ident} {field}"
         if name in seen:
             raise ValueError(f"{where}: the name is used twice")
@@ -236,7 +247,7 @@ def read_parameters(path: str | os.PathLike[str], model: Model) -> list[Paramete
             raise ValueError(f"{where}: {key} is already a parameter")
         seen[name] = key
         out.append(Parameter(name, card, ident, field, nominal, lo, hi,
-                             str(item.get("description", ""))))  # fmt: skip
+                             str(item.get("description", "")), confidence))  # fmt: skip
     return out
 
 

@@ -18,8 +18,9 @@ from ..model.model import Model
 from ..solve.normal_modes import Modes
 from ..testdata.data import Channel, FRFData
 from .config import Config
-from .fisher import Fisher
+from .identifiability import Identifiability
 from .parameters import Parameter
+from .prior import Likelihood, Posterior, Prior
 
 
 @dataclass(frozen=True)
@@ -122,26 +123,38 @@ class ParameterResult:
     ----------
     parameter : its definition (card, id, field, nominal, bounds).
     calibrated : the calibrated value P; p : its scaled change.
-    crlb_p : Cramér-Rao lower bound of p at the solution (inf: not informed); crlb : the
-        same in the field's units (|P0| crlb_p).
-    identifiable : crlb_p below the configuration's ``identifiable_crlb``.
+    held : kept at the nominal value: the test cannot inform it (see ``reason``).
+    prior_std_p : the prior's standard deviation of p.
+    posterior_std_p : the posterior's at the solution (0 where held); posterior_std : the
+        same in the field's units (|P0| posterior_std_p).
+    ratio : posterior over prior standard deviation (1 where held).
+    crlb_p : the data-only Cramér-Rao bound of p with the same likelihood (inf: the test does
+        not inform it); crlb : in the field's units.
+    identifiable : calibrated, and ``ratio`` below the configuration's ``identifiable_ratio``.
     at_bound : p ended on a bound.
-    true, true_p, error_pct, error_over_crlb : with a synthetic test's known values: the
-        true value and scaled change, the error of the calibrated value (% of the true one),
-        and |p - true_p| / crlb_p (None where the bound is infinite or zero).
+    reason : why it is held, identifiable or weakly informed (the analysis before the search).
+    true, true_p, error_pct, error_over_std : with a synthetic test's known values: the true
+        value and scaled change, the error of the calibrated value (% of the true one), and
+        |p - true_p| over the posterior standard deviation (None where that is zero).
     """
 
     parameter: Parameter
     calibrated: float
     p: float
+    held: bool
+    prior_std_p: float
+    posterior_std_p: float
+    posterior_std: float
+    ratio: float
     crlb_p: float
     crlb: float
     identifiable: bool
     at_bound: bool
+    reason: str = ""
     true: float | None = None
     true_p: float | None = None
     error_pct: float | None = None
-    error_over_crlb: float | None = None
+    error_over_std: float | None = None
 
 
 @dataclass(frozen=True)
@@ -173,11 +186,11 @@ class ModePairing:
 
 @dataclass(frozen=True)
 class BandBounds:
-    """The Cramér-Rao bounds (n_p,) of the scaled parameters from one frequency band's
-    residuals alone."""
+    """The posterior standard deviations (n_p,) of the scaled parameters from one frequency
+    band's residuals alone (with the same prior and likelihood)."""
 
     band_hz: tuple[float, float]
-    crlb: np.ndarray
+    std: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -198,7 +211,10 @@ class CalibrationResult:
     cycles : every cycle of the search. settled : the informed parameters stopped moving
         before the cycles ran out.
     frf_modes : the FE FRFs' number of modes.
-    fisher : Fisher information and CRLB at the solution. band_bounds : the CRLB per band.
+    prior, likelihood : how the parameters' uncertainty and the test's residuals were
+        weighed (:mod:`femcal.calibrate.prior`).
+    identifiability : the analysis at the nominal model before the search.
+    posterior : at the solution. band_bounds : the posterior per band.
     test_hz, test_shapes : (k,), (n_out, k) the identified test modes in the band.
     modes_before, modes_after : the full model's modes at the nominal and calibrated point.
     mac_before, mac_after : (k, n_modes) MAC of the test modes against the FE modes.
@@ -225,7 +241,10 @@ class CalibrationResult:
     cycles: tuple[Cycle, ...]
     settled: bool
     frf_modes: int
-    fisher: Fisher
+    prior: Prior
+    likelihood: Likelihood
+    identifiability: Identifiability
+    posterior: Posterior
     band_bounds: tuple[BandBounds, ...]
     test_hz: np.ndarray
     test_shapes: np.ndarray
@@ -240,12 +259,6 @@ class CalibrationResult:
     def restarts(self) -> int:
         """How often the multi-start search ran again after the first cycle."""
         return sum(c.searched for c in self.cycles)
-
-    @property
-    def sigma_given(self) -> bool:
-        """The CRLB's sigma was the configuration's ``noise_sigma`` (else estimated from the
-        residual at the solution)."""
-        return self.config.noise_sigma is not None
 
     @property
     def params(self) -> list[Parameter]:

@@ -53,11 +53,12 @@ from ..response.frf import channel_matrix
 from ..testdata.data import FRFData
 from .config import Config
 from .derivatives import group_polynomials
-from .fisher import fisher
 from .gradient import first_order_correction
+from .identifiability import identifiability, identifiability_summary
 from .lm import latin_hypercube
 from .metric import deviation, log_frequencies, residuals
 from .parameters import Parameter
+from .prior import likelihood_of, posterior, prior_of
 from .reduction import build_surrogate
 from .result import (
     BandBounds,
@@ -213,10 +214,8 @@ def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
     fp = fingerprint(model, params, cfg, n_starts, freq, H_test)
     state_dir = Path(state) if state is not None else None
     rng = np.random.default_rng(cfg.seed)
-    starts0 = [np.zeros(len(params))]
-    if n_starts > 1:
-        starts0 += list(latin_hypercube(n_starts - 1, lo, hi, rng))
-    weights = cfg.regularization / ((hi - lo) / 2.0) if cfg.regularization > 0 else None
+    prior = prior_of(params, cfg.bounds_sigma)
+    weights: list[np.ndarray] = []  # the prior's rows, set from the nominal model's residual
 
     say(f"the exact dependence of K and M on the {len(params)} parameters, element group by "
         "element group")
@@ -249,7 +248,7 @@ def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
         corr = (first_order_correction(sur, sur.exact, freq, H_test, cfg.metric)
                 if sur.exact is not None else None)  # fmt: skip
         return Problem(sur, freq, H_test, cfg.metric, lower, upper, cfg.max_iterations,
-                       weights, corr)  # fmt: skip
+                       weights[0] if weights else None, corr)  # fmt: skip
 
     def starts_in(name: str, problem: Problem, pts: list[np.ndarray],
                   center: np.ndarray) -> list[StartResult]:  # fmt: skip
@@ -274,6 +273,18 @@ def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
     center = np.zeros(len(params))
     sur, modes_c = surrogate_at(center)
     modes0, sur0 = modes_c, sur
+    # before the search: what the test can inform, with the nominal model's residual
+    J0, r0 = problem_on(sur, lo, hi).data_jacobian(center)
+    likelihood = likelihood_of(r0, len(freq), cfg.noise_sigma)
+    before = identifiability(J0, params, prior, likelihood, cfg.hold_ratio,
+                             cfg.identifiable_ratio)  # fmt: skip
+    held = before.held
+    say(identifiability_summary(before, params, likelihood))
+    lo, hi = np.where(held, 0.0, lo), np.where(held, 0.0, hi)  # held at the nominal
+    weights.append(likelihood.weights(prior))
+    starts0 = [np.zeros(len(params))]
+    if n_starts > 1:
+        starts0 += list(latin_hypercube(n_starts - 1, lo, hi, rng))
     problem = problem_on(sur, lo, hi)
     cost_c = problem.cost(center)
     results = starts_in("cycle1", problem, starts0, center)
@@ -303,8 +314,8 @@ def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
         candidate = cand
         stalled, fall = False, 0.0
         if accepted:
-            fi_c = fisher(*prob_new.data_jacobian(cand), sigma=cfg.noise_sigma)
-            informed = np.isfinite(fi_c.crlb) & (fi_c.crlb <= cfg.identifiable_crlb)
+            post_c = posterior(prob_new.data_jacobian(cand)[0], prior, likelihood, ~held)
+            informed = ~held & (post_c.ratio < cfg.identifiable_ratio)
             moved = float(step[informed].max() if informed.any() else step.max())
             fall = (cost_c - cost_new) / cost_c
             center, sur, modes_c, cost_c, problem = cand, sur_new, modes_new, cost_new, prob_new
@@ -377,14 +388,15 @@ def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
     H_after = sur.frf(p_final, freq)
     dev_before = deviation(residuals(H_before, H_test, cfg.metric))
     dev_after = deviation(residuals(H_after, H_test, cfg.metric))
-    J, r = problem.data_jacobian(p_final)
-    fi = fisher(J, r, sigma=cfg.noise_sigma)
+    J = problem.data_jacobian(p_final)[0]
+    post = posterior(J, prior, likelihood, ~held)
     band_bounds = []
     n_pairs = len(outputs) * len(inputs)
     for b in cfg.crlb_bands:
         rows_f = (freq >= b[0]) & (freq <= b[1])
         rows = np.tile(rows_f, n_pairs * (2 if cfg.metric == "complex-log" else 1))
-        band_bounds.append(BandBounds(tuple(b), fisher(J, r, sigma=fi.sigma, rows=rows).crlb))
+        band_bounds.append(BandBounds(tuple(b), posterior(J[rows], prior, likelihood,
+                                                          ~held).std))  # fmt: skip
     fe_before = np.asarray(Cg @ modes0.shapes)
     fe_after = np.asarray(Cg @ modes_after.shapes)
     mac_b = mac(test_shapes, fe_before)
@@ -393,26 +405,31 @@ def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
                          len(outputs))  # fmt: skip
     parameters = []
     for i, par in enumerate(params):
-        crlb_p = float(fi.crlb[i])
-        finite = bool(np.isfinite(crlb_p))
+        std = float(post.std[i])
         extra = {}
         if truth is not None:  # a synthetic test: the error against the known value
             p_true = truth[i] / par.nominal - 1.0
             extra = dict(true=float(truth[i]), true_p=float(p_true),
                          error_pct=float(100 * (values[i] / truth[i] - 1.0)),
-                         error_over_crlb=float(abs(p_final[i] - p_true) / crlb_p)
-                         if finite and crlb_p > 0 else None)  # fmt: skip
+                         error_over_std=float(abs(p_final[i] - p_true) / std)
+                         if std > 0 else None)  # fmt: skip
+        crlb_p = float(post.crlb[i])
         parameters.append(ParameterResult(
-            par, float(values[i]), float(p_final[i]), crlb_p, crlb_p * abs(par.nominal),
-            identifiable=finite and crlb_p <= cfg.identifiable_crlb,
-            at_bound=bool(np.isclose(p_final[i], lo[i], atol=1e-9)
-                          or np.isclose(p_final[i], hi[i], atol=1e-9)), **extra))  # fmt: skip
+            par, float(values[i]), float(p_final[i]), held=bool(held[i]),
+            prior_std_p=float(prior.std[i]), posterior_std_p=std,
+            posterior_std=std * abs(par.nominal), ratio=float(post.ratio[i]), crlb_p=crlb_p,
+            crlb=crlb_p * abs(par.nominal),
+            identifiable=bool(~held[i] & (post.ratio[i] < cfg.identifiable_ratio)),
+            at_bound=bool(not held[i] and (np.isclose(p_final[i], par.p_lower, atol=1e-9)
+                                           or np.isclose(p_final[i], par.p_upper, atol=1e-9))),
+            reason=before.reasons[i], **extra))  # fmt: skip
     result = CalibrationResult(
         config=cfg, model=model, data=data, identified=ident, parameters=tuple(parameters),
         p_final=p_final, zeta0=zeta0, freq=freq, outputs=outputs, inputs=inputs,
         excluded=excluded, H_test=H_test, H_before=H_before, H_after=H_after,
         deviation_before=dev_before, deviation_after=dev_after, cycles=tuple(cycles),
-        settled=settled, frf_modes=frf_modes[0], fisher=fi, band_bounds=tuple(band_bounds),
+        settled=settled, frf_modes=frf_modes[0], prior=prior, likelihood=likelihood,
+        identifiability=before, posterior=post, band_bounds=tuple(band_bounds),
         test_hz=test_hz, test_shapes=test_shapes, modes_before=modes0, modes_after=modes_after,
         mac_before=mac_b, mac_after=mac_a, modes=pairings, seconds=time.perf_counter() - t0)
     say(f"deviation {dev_before:.5g} -> {dev_after:.5g}")

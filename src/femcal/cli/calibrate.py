@@ -1,5 +1,6 @@
 """``femcal calibrate CONFIG.toml --out DIR``: the whole calibration (identification, damping
-equalisation, surrogate, multi-start Levenberg-Marquardt, Cramér-Rao bounds, report)."""
+equalisation, identifiability, surrogate, multi-start Levenberg-Marquardt on the posterior,
+report)."""
 
 from __future__ import annotations
 
@@ -7,8 +8,6 @@ import argparse
 import sys
 import time
 from pathlib import Path
-
-import numpy as np
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -28,6 +27,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..calibrate.config import read_config
+    from ..io.calibration import summary_lines
     from ..jobs.calibration import run as calibrate
 
     t0 = time.perf_counter()
@@ -51,12 +51,13 @@ def run(args: argparse.Namespace) -> int:
 
         write_report(result, args.out, progress=progress)
     print(f"{'parameter':<10} {'nominal':>12} {'calibrated':>12} {'change %':>9} "
-          f"{'CRLB %':>8} identifiable")
+          f"{'prior %':>8} {'post. %':>8} status")
     for r in result.parameters:
-        crlb = f"{100 * r.crlb_p:.2f}" if np.isfinite(r.crlb_p) else "inf"
+        status = "held" if r.held else ("identifiable" if r.identifiable else "weak")
+        post = "-" if r.held else f"{100 * r.posterior_std_p:.2f}"
         print(f"{r.parameter.name:<10} {r.parameter.nominal:12.6g} {r.calibrated:12.6g} "
-              f"{100 * r.p:+9.2f} {crlb:>8} {'yes' if r.identifiable else 'no'}"
-              f"{' (at bound)' if r.at_bound else ''}")
+              f"{100 * r.p:+9.2f} {100 * r.prior_std_p:8.2f} {post:>8} {status}"
+              f"{' (at a bound!)' if r.at_bound else ''}")
     print(f"{'test Hz':>9} {'FE before':>10} {'FE after':>10} {'MAC before':>11} {'MAC after':>10}")
     for m in result.modes:
         def fmt(v, spec):
@@ -66,4 +67,7 @@ def run(args: argparse.Namespace) -> int:
               f"{fmt(m.fe_after_hz, '10.3f')} {fmt(m.mac_before, '11.4f')} "
               f"{fmt(m.mac_after, '10.4f')}")
     print(f"deviation: {result.deviation_before:.6g} before, {result.deviation_after:.6g} after")
+    print()
+    for line in summary_lines(result):
+        print(line)
     return 0

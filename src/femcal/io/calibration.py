@@ -46,11 +46,63 @@ def _cycle(c: Cycle) -> dict:
             "best_start": c.best_start}
 
 
+def noise_level(result: CalibrationResult) -> float | None:
+    """The test's noise in the metric's units (log10), from the identification's median fit
+    error (a relative complex error e spreads e / (sqrt(2) ln 10) on each of the metric's
+    parts); None without an identified model."""
+    ident = result.identified
+    if ident is None or not len(ident.fit_error):
+        return None
+    return float(np.median(ident.fit_error) / (np.sqrt(2.0) * np.log(10.0)))
+
+
+def misfit_sigma(result: CalibrationResult) -> float:
+    """The standard deviation of one residual after calibration (log10 units)."""
+    return float(np.sqrt(result.deviation_after / result.likelihood.m))
+
+
+def summary_lines(result: CalibrationResult) -> list[str]:
+    """The trust summary that leads the report and ends the console output: whether the
+    search settled, what was calibrated, held, identifiable or left on a bound, and whether
+    the misfit points at something the model lacks."""
+    rs = result.parameters
+    held = [r.parameter.name for r in rs if r.held]
+    ident = [r.parameter.name for r in rs if r.identifiable]
+    bound = [r.parameter.name for r in rs if r.at_bound]
+    lines = [("The search settled: the identifiable parameters stopped moving." if result.settled
+              else "The search did not settle: the identifiable parameters were still moving "
+              "when the cycles ran out."),
+             f"{len(rs) - len(held)} of {len(rs)} parameters calibrated, {len(held)} held at "
+             "their nominal values (the test cannot inform them); identifiable: "
+             f"{', '.join(ident) or 'none'}."]  # fmt: skip
+    if bound:
+        lines.append(f"Warning: {', '.join(bound)} ended on a bound: the test asks for more "
+                     "than the bounds allow, which usually means the parameter stands in for "
+                     "something the model lacks.")  # fmt: skip
+    else:
+        lines.append("No parameter ended on a bound.")
+    noise = noise_level(result)
+    after = misfit_sigma(result)
+    if noise is not None and after > 3.0 * noise:
+        lines.append(f"Model-form warning: the misfit after calibration (sigma {after:.3g} in "
+                     f"log10) is {after / noise:.0f} times the test's noise ({noise:.2g}): the "
+                     "model lacks something the structure has (a joint, a support, a mass), "
+                     "which the parameters cannot stand for without bias.")  # fmt: skip
+    elif noise is not None:
+        lines.append(f"The misfit after calibration (sigma {after:.3g}) is within 3 times the "
+                     f"test's noise ({noise:.2g}).")  # fmt: skip
+    dev = (f"Deviation {result.deviation_before:.6g} before, {result.deviation_after:.6g} "
+           "after.")
+    lines.append(dev)
+    return lines
+
+
 def report_dict(result: CalibrationResult) -> dict:
-    """``report.json``'s content: the run's inputs and settings, every parameter (nominal,
-    calibrated, bounds, CRLB, identifiable, at a bound, and the error against the truth of a
-    synthetic test), the paired modes, the deviation, the CRLB's sigma, bands and
-    correlation, the cycles and the first cycle's starts."""
+    """``report.json``'s content: the run's inputs and settings, the trust summary, every
+    parameter (nominal, calibrated, bounds, held or identifiable and why, prior and
+    posterior standard deviations, at a bound, and the error against the truth of a synthetic
+    test), the paired modes, the deviation, the prior and likelihood, the posterior's bands
+    and correlation, the cycles and the first cycle's starts."""
     cfg = result.config
     params = []
     for r in result.parameters:
@@ -58,11 +110,14 @@ def report_dict(result: CalibrationResult) -> dict:
         row = {"name": par.name, "description": par.description, "card": par.card,
                "id": par.id, "field": par.field, "nominal": par.nominal,
                "calibrated": r.calibrated, "lower": par.lower, "upper": par.upper, "p": r.p,
+               "held": r.held, "identifiable": r.identifiable, "at_bound": r.at_bound,
+               "prior_std_p": r.prior_std_p, "posterior_std_p": r.posterior_std_p,
+               "posterior_std": r.posterior_std, "ratio": r.ratio,
                "crlb": _finite(r.crlb), "crlb_p": _finite(r.crlb_p),
-               "identifiable": r.identifiable, "at_bound": r.at_bound}  # fmt: skip
+               "reason": r.reason}  # fmt: skip
         if r.true is not None:
             row.update({"true": r.true, "true_p": r.true_p, "error_pct": r.error_pct,
-                        "error_over_crlb": r.error_over_crlb})  # fmt: skip
+                        "error_over_std": r.error_over_std})  # fmt: skip
         params.append(row)
     modes = [{"test_mode": m.test_mode, "test_hz": m.test_hz, "fe_before_mode": m.fe_before,
               "fe_before_hz": m.fe_before_hz, "mac_before": m.mac_before,
@@ -72,7 +127,7 @@ def report_dict(result: CalibrationResult) -> dict:
               "frequency_error_after_pct": m.frequency_error_after_pct,
               "pseudo_orthogonality_after": m.pseudo_orthogonality_after}
              for m in result.modes]  # fmt: skip
-    fi = result.fisher
+    lik, post = result.likelihood, result.posterior
     return {
         "deck": str(cfg.deck), "parameters_file": str(cfg.parameters),
         "test": str(cfg.test_frf or cfg.test_model),
@@ -81,16 +136,24 @@ def report_dict(result: CalibrationResult) -> dict:
         "n_frequencies": len(result.freq), "outputs": [c.label for c in result.outputs],
         "inputs": [c.label for c in result.inputs],
         "excluded_channels": [c.label for c in result.excluded],
-        "parameters": params, "modes": modes,
+        "summary": summary_lines(result), "parameters": params, "modes": modes,
         "deviation": {"before": result.deviation_before, "after": result.deviation_after,
                       "surrogate_history": [c.deviation for c in result.cycles]},
-        "crlb": {"sigma": fi.sigma, "sigma_given": result.sigma_given,
-                 "identifiable_below": cfg.identifiable_crlb,
-                 "per_band": [{"band_hz": list(b.band_hz), "crlb": [float(x) for x in b.crlb]}
-                              for b in result.band_bounds],
-                 "correlation": [[_finite(v) for v in row] for row in fi.correlation]},
+        "prior": {"bounds_sigma": cfg.bounds_sigma,
+                  "std_p": [float(x) for x in result.prior.std],
+                  "from_confidence": [bool(x) for x in result.prior.from_confidence]},
+        "likelihood": {"sigma": lik.sigma, "residuals": lik.m,
+                       "effective_observations": lik.n_eff, "estimated": lik.estimated,
+                       "misfit_sigma_after": misfit_sigma(result),
+                       "noise_sigma": noise_level(result)},
+        "posterior": {"hold_ratio": cfg.hold_ratio,
+                      "identifiable_below": cfg.identifiable_ratio,
+                      "collinearity_identifiable": result.identifiability.collinearity,
+                      "per_band": [{"band_hz": list(b.band_hz),
+                                    "std_p": [float(x) for x in b.std]}
+                                   for b in result.band_bounds],
+                      "correlation": [[_finite(v) for v in row] for row in post.correlation]},
         "cycles": [_cycle(c) for c in result.cycles],
-        "regularization": cfg.regularization,
         "starts": [s.to_dict() for s in result.cycles[0].starts],
         "settled": result.settled, "restarts": result.restarts,
         "restart_fall": cfg.restart_fall, "reduction_modes": cfg.reduction_modes,
@@ -145,20 +208,27 @@ def _f(v, spec: str) -> str:
 def write_html(path: Path, report: dict, pictures: dict[str, str], mode_pictures: list[str]
                ) -> Path:  # fmt: skip
     """The HTML page: tables of parameters, modes, deviation and runs, and the pictures."""
+    def status(p: dict) -> str:
+        s = "held" if p["held"] else ("identifiable" if p["identifiable"] else "weakly informed")
+        return s + (" (at a bound!)" if p["at_bound"] else "")
+
     prm = [[p["name"], p["description"], f"{p['card']} {p['id']} {p['field']}",
             _f(p["nominal"], ".6g"), _f(p["calibrated"], ".6g"), f"{100 * p['p']:+.2f}",
-            f"[{p['lower']:.6g}, {p['upper']:.6g}]", _f(p["crlb"], ".3g"),
-            _f(None if p["crlb_p"] is None else 100 * p["crlb_p"], ".2f"),
-            ("yes" if p["identifiable"] else "no") + (" (at a bound)" if p["at_bound"] else "")]
-           for p in report["parameters"]]  # fmt: skip
+            f"[{p['lower']:.6g}, {p['upper']:.6g}]", f"{100 * p['prior_std_p']:.2f}",
+            "-" if p["held"] else f"{100 * p['posterior_std_p']:.2f}", f"{p['ratio']:.2f}",
+            status(p)] for p in report["parameters"]]  # fmt: skip
     prm_head = ["name", "description", "field", "nominal", "calibrated", "change %", "bounds",
-                "CRLB", "CRLB %", "identifiable"]  # fmt: skip
+                "prior std %", "posterior std %", "posterior / prior", "status"]  # fmt: skip
     truth = report.get("truth")
-    if truth:  # a synthetic test: each parameter's error against its known value and CRLB
+    if truth:  # a synthetic test: each parameter's error against its known value
         for row, p in zip(prm, report["parameters"], strict=True):
             row += [_f(p["true"], ".6g"), _f(p["error_pct"], "+.2f"),
-                    _f(p["error_over_crlb"], ".1f")]  # fmt: skip
-        prm_head += ["true", "error %", "|error| / CRLB"]
+                    _f(p["error_over_std"], ".1f")]  # fmt: skip
+        prm_head += ["true", "error %", "|error| / posterior std"]
+    why = "".join(f"<li><b>{html.escape(p['name'])}</b>: {html.escape(p['reason'])}</li>"
+                  for p in report["parameters"])  # fmt: skip
+    summary = "".join(f"<li>{html.escape(line)}</li>" for line in report["summary"])
+    lik = report["likelihood"]
     modes = [[f"{m['test_hz']:.3f}", _f(m["fe_before_hz"], ".3f"), _f(m["fe_after_hz"], ".3f"),
               _f(m["frequency_error_before_pct"], "+.2f"),
               _f(m["frequency_error_after_pct"], "+.2f"), _f(m["mac_before"], ".4f"),
@@ -183,8 +253,10 @@ def write_html(path: Path, report: dict, pictures: dict[str, str], mode_pictures
 <style>body{{font-family:sans-serif;margin:2em;max-width:1500px}}table{{border-collapse:collapse;
 margin:1em 0}}td,th{{border:1px solid #bbb;padding:3px 8px;text-align:right}}th{{background:#eee}}
 img{{max-width:100%;display:block;margin:0.5em 0}}img.mode{{max-width:48%;display:inline-block}}
+ul.summary{{background:#f4f4f4;padding:0.8em 2em;font-size:1.05em}}
 </style></head><body>
 <h1>femcal calibration</h1>
+<h2>Summary</h2><ul class="summary">{summary}</ul>
 <p>Deck {html.escape(report['deck'])}; test {html.escape(report['test'])}; band
 {report['band_hz'][0]:g}-{report['band_hz'][1]:g} Hz; metric {report['metric']} at
 {report['n_frequencies']} frequencies; damping equalised to zeta0 = {report['zeta0']:.4f};
@@ -196,10 +268,16 @@ Run time {report['seconds']:.0f} s.</p>
 (full model, log10 FRF residuals squared and summed){'' if report['settled'] else
 '; the parameters had not settled when the cycles ran out'}.</p>
 <h2>Parameters</h2>{_table(prm, prm_head)}
-<p>CRLB: Cramér-Rao lower bound (one standard deviation) with sigma = {report['crlb']['sigma']:.4g}
-({'given' if report['crlb']['sigma_given'] else 'from the residual'}); identifiable: CRLB below
-{100 * report['crlb']['identifiable_below']:g} % of the nominal.{
+<p>The estimate is the posterior's maximum: the prior is each parameter's standard deviation
+(the bounds at {report['prior']['bounds_sigma']:g} standard deviations, or the parameter file's
+confidence), the likelihood counts the {lik['residuals']} residuals as
+{lik['effective_observations']:.0f} independent observations of sigma {lik['sigma']:.3g}
+({'from the nominal model' if lik['estimated'] else 'the given noise level'}). Identifiable:
+the posterior standard deviation below {100 * report['posterior']['identifiable_below']:g} % of
+the prior's; held: the test cannot narrow the prior by more than
+{100 * (1 - report['posterior']['hold_ratio']):g} %.{
 f" True values: {html.escape(truth)} (a synthetic test)." if truth else ""}</p>
+<ul>{why}</ul>
 <h2>Modes</h2>{_table(modes, ["test Hz", "FE before Hz", "FE after Hz", "error before %",
  "error after %", "MAC before", "MAC after"])}
 <h2>Runs</h2><p>Cycle 1 runs Levenberg-Marquardt from every start on the nominal model's

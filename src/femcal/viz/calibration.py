@@ -78,33 +78,46 @@ def mac_matrices(path: Path, outcome: CalibrationResult) -> Path:
     return _save(fig, path)
 
 
-def crlb_plot(path: Path, outcome: CalibrationResult) -> Path:
-    """Per parameter: the change p and its Cramér-Rao bound (bars, %), and the bound's
-    correlation matrix (the CRLB matrix normalised)."""
+def parameters_plot(path: Path, outcome: CalibrationResult) -> Path:
+    """Per parameter: the change p (dots, % of the nominal) with its prior (grey) and
+    posterior (blue) standard deviation as error bars about the nominal and the estimate,
+    held parameters marked, a synthetic test's true changes as crosses; and the posterior's
+    correlation matrix of the calibrated parameters."""
     plt = pyplot()
-    names = [r.parameter.name for r in outcome.parameters]
-    crlb = np.array([r.crlb_p for r in outcome.parameters])
-    change = np.array([r.p for r in outcome.parameters])
-    fig, axes = plt.subplots(1, 2, figsize=(14, 5.5), gridspec_kw={"width_ratios": [1.4, 1]})
+    rs = outcome.parameters
+    names = [r.parameter.name for r in rs]
     x = np.arange(len(names))
+    change = 100 * np.array([r.p for r in rs])
+    held = np.array([r.held for r in rs])
+    fig, axes = plt.subplots(1, 2, figsize=(15, 5.8), gridspec_kw={"width_ratios": [1.5, 1]})
     ax = axes[0]
-    shown = np.where(np.isfinite(crlb), crlb, np.nan) * 100
-    ax.bar(x - 0.2, np.abs(change) * 100, 0.4, color="tab:red", label="|change| (%)")
-    ax.bar(x + 0.2, shown, 0.4, color="tab:blue", label="CRLB (%)")
-    ax.axhline(100 * outcome.config.identifiable_crlb, color="k", ls="--", lw=0.8,
-               label="identifiable below")  # fmt: skip
-    ax.set_yscale("log")
+    ax.errorbar(x - 0.15, np.zeros(len(x)), yerr=100 * np.array([r.prior_std_p for r in rs]),
+                fmt="none", ecolor="0.6", elinewidth=3, label="prior (nominal +- 1 std)")
+    ax.errorbar(x[~held] + 0.15, change[~held],
+                yerr=100 * np.array([r.posterior_std_p for r in rs])[~held], fmt="o",
+                color="tab:blue", ms=4, capsize=2, label="calibrated +- posterior std")  # fmt: skip
+    ax.plot(x[held] + 0.15, change[held], "s", color="0.3", ms=4, label="held at nominal")
+    if rs and rs[0].true_p is not None:
+        ax.plot(x, 100 * np.array([r.true_p for r in rs]), "x", color="tab:red", ms=6,
+                label="true (synthetic test)")  # fmt: skip
+    bound = np.array([r.at_bound for r in rs])
+    if bound.any():
+        ax.plot(x[bound] + 0.15, change[bound], "o", mfc="none", mec="tab:red", ms=11,
+                label="on a bound")  # fmt: skip
+    ax.axhline(0.0, color="k", lw=0.6)
     ax.set_xticks(x, names, rotation=90, fontsize=8)
-    ax.set_ylabel("% of the nominal value")
-    ax.set_title("parameter change and Cramér-Rao lower bound")
-    ax.legend(fontsize=8)
-    ax.grid(True, axis="y", which="both", alpha=0.3)
-    corr = np.where(np.isfinite(outcome.fisher.correlation), outcome.fisher.correlation, np.nan)
-    im = axes[1].imshow(corr, vmin=-1, vmax=1, cmap="RdBu_r")
-    axes[1].set_xticks(x, names, rotation=90, fontsize=7)
-    axes[1].set_yticks(x, names, fontsize=7)
-    axes[1].set_title("CRLB matrix (correlation of the bound)")
-    fig.colorbar(im, ax=axes[1], fraction=0.046)
+    ax.set_ylabel("change from the nominal value (%)")
+    ax.set_title("parameters: prior, calibrated value and posterior")
+    ax.legend(fontsize=7, ncol=2)
+    ax.grid(True, axis="y", alpha=0.3)
+    free = np.flatnonzero(~held)
+    corr = outcome.posterior.correlation[np.ix_(free, free)]
+    im = axes[1].imshow(np.where(np.isfinite(corr), corr, np.nan), vmin=-1, vmax=1,
+                        cmap="RdBu_r")  # fmt: skip
+    axes[1].set_xticks(range(len(free)), [names[i] for i in free], rotation=90, fontsize=7)
+    axes[1].set_yticks(range(len(free)), [names[i] for i in free], fontsize=7)
+    axes[1].set_title("posterior correlation of the calibrated parameters")
+    fig.colorbar(im, ax=axes[1], fraction=0.046, label="correlation")
     return _save(fig, path)
 
 
@@ -172,7 +185,8 @@ def report_pictures(result: CalibrationResult, folder: Path) -> dict[str, Path]:
     pairs = [(int(o), i) for o in chans[:3] for i in range(len(result.inputs))][:6]
     pictures = {"FRFs: test, FE before and after": frf_comparison(folder / "frf.png", result,
                                                                   pairs),
-                "Parameter changes and Cramér-Rao bounds": crlb_plot(folder / "crlb.png", result),
+                "Parameters: prior, calibrated value and posterior":
+                    parameters_plot(folder / "parameters.png", result),
                 "Deviation history": history_plot(folder / "history.png", result)}  # fmt: skip
     if len(result.test_hz):  # test modes to correlate (an identified test model)
         pictures["MAC matrices"] = mac_matrices(folder / "mac.png", result)
