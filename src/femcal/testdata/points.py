@@ -1,0 +1,75 @@
+"""Sensor and input position files: CSV tables of the points a test measures or excites.
+
+::
+
+    label,grid,x,y,z,directions
+    L01,39,50,430,127.5,123
+
+``directions`` lists direction codes (1-3 translations along X, Y, Z, 4-6 rotations; 123
+is a triaxial sensor), or a ``direction`` column gives one signed code. A channel's label
+is ``GRID:+X`` (:func:`point_label`); :func:`channel_names` gives each channel the sensor's
+own name, for pictures and reports.
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+
+def read_points(path: str | Path) -> list[tuple[str, int, int]]:
+    """(label, grid, direction) rows of a sensors or inputs CSV (``directions`` 123 expands
+    to three rows labelled GRID:+X, +Y, +Z; a signed ``direction`` gives one).
+
+    Raises
+    ------
+    ValueError
+        Naming the file and line of a missing column or a field that is not a number.
+    """
+    out = []
+    with open(path, newline="") as fh:
+        reader = csv.DictReader(fh)
+        fields = reader.fieldnames or []
+        dir_col = "directions" if "directions" in fields else "direction"
+        missing = [c for c in ("label", "grid", dir_col) if c not in fields]
+        if missing:
+            raise ValueError(f"{path}:1: missing column(s) {', '.join(missing)}; expected "
+                             "label, grid and directions (or direction)")  # fmt: skip
+        for row in reader:
+            line = reader.line_num
+            try:
+                g = int(row["grid"])
+                text = row[dir_col].strip()
+                codes = [int(c) for c in text] if dir_col == "directions" else [int(text)]
+            except (TypeError, ValueError):
+                raise ValueError(f"{path}:{line}: grid {row['grid']!r} and {dir_col} "
+                                 f"{row[dir_col]!r} must be integers") from None  # fmt: skip
+            if not codes or any(not 1 <= abs(c) <= 6 for c in codes):
+                raise ValueError(f"{path}:{line}: {dir_col} {text!r}: expected codes 1-6")
+            out += [(row["label"], g, c) for c in codes]
+    return out
+
+
+def point_label(grid: int, code: int) -> str:
+    """The channel label of a grid and direction code (``455:+Z``, ``12:-RX``)."""
+    axis = "XYZ"[abs(code) - 1] if abs(code) <= 3 else f"R{'XYZ'[abs(code) - 4]}"
+    return f"{grid}:{'-' if code < 0 else '+'}{axis}"
+
+
+def channel_names(path: str | Path) -> dict[str, str]:
+    """Each channel label the file's points make, in both spellings (``455:+Z`` and
+    ``455:3``, as FRF files label a component), and its sensor's name with the direction
+    (``L03 +Z``).
+
+    Raises
+    ------
+    ValueError
+        As :func:`read_points`.
+    """
+    out = {}
+    for label, grid, code in read_points(path):
+        channel = point_label(grid, code)
+        name = f"{label} {channel.split(':', 1)[1]}"
+        out[channel] = name
+        out[f"{grid}:{code}"] = name
+    return out
