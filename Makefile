@@ -16,8 +16,9 @@ $(STAMP): pyproject.toml
 
 # The main job, the reference study on the bundled truck frame: identify the shipped synthetic
 # hammer test (72 x 2 FRFs), calibrate the hammer frame's 30 parameters against it (damping
-# equalisation, surrogate, multi-start Levenberg-Marquardt, Cramér-Rao bounds), and write
-# out/report.json, out/report.html with its pictures, the calibrated deck and out/identify/.
+# equalisation, identifiability, prior and posterior, surrogate, multi-start
+# Levenberg-Marquardt), and write out/report.json, out/report.html with its pictures, the
+# calibrated deck and out/identify/.
 demo: setup
 	@mkdir -p out
 	$(VENV)/bin/femcal calibrate models/truck_frame/hammer_calibration.toml --out out

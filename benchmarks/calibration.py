@@ -64,9 +64,11 @@ def timing(rep: dict, seconds: float) -> None:
     starts = rep["starts"]
     it = sum(s["iterations"] for s in starts)
     sec = sum(s["seconds"] for s in starts)
-    print(f"\nwhole run {seconds:.0f} s ({rep['model_dof']} DOF, {len(rep['parameters'])} "
-          f"parameters, {len(rep['outputs'])} x {len(rep['inputs'])} channels at "
-          f"{rep['n_frequencies']} frequencies, {rep['reduction_modes']} modes in the surrogate)")
+    conf = rep["configurations"][0]
+    print(f"\nwhole run {seconds:.0f} s ({conf['model_dof']} DOF, {len(rep['parameters'])} "
+          f"parameters, {len(conf['outputs'])} x {len(conf['inputs'])} channels at "
+          f"{conf['n_frequencies']} frequencies, {rep['reduction_modes']} modes in the "
+          "surrogate)")
     print(f"cycle 1: {len(starts)} starts, {it} LM iterations, {sec:.0f} s of LM in all "
           f"(in parallel processes): {sec / max(it, 1):.2f} s per iteration, "
           f"{sec / len(starts):.1f} s per start")
@@ -87,7 +89,7 @@ def demo() -> None:
     print("\n## the bundled study\n")
     timing(rep, seconds)
     print("\n| test Hz | FE before | FE after | MAC before | MAC after |\n|---|---|---|---|---|")
-    for m in rep["modes"]:
+    for m in rep["configurations"][0]["modes"]:
         print(f"| {m['test_hz']:.3f} | {m['fe_before_hz']:.3f} | {m['fe_after_hz']:.3f} "
               f"| {m['mac_before']:.4f} | {m['mac_after']:.4f} |")
     d = rep["deviation"]

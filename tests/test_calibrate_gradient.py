@@ -8,8 +8,8 @@ import pytest
 
 from femcal.calibrate.gradient import first_order_correction
 from femcal.calibrate.metric import jacobian, log_frequencies, residuals
+from femcal.calibrate.problem import Problem
 from femcal.calibrate.reduction import build_surrogate
-from femcal.calibrate.starts import Problem
 from femcal.testdata.data import Channel
 
 from .calib_decks import write_plate
@@ -79,10 +79,10 @@ def test_first_order_correction_gives_the_full_jacobian_at_the_centre(setup):
     H, dH = sur.exact.frf_and_jacobian(f, 0.02, "accelerance")
     J_full = jacobian(H, dH, "complex-log", H_test)
     lo, hi = -0.3 * np.ones(n), 0.3 * np.ones(n)
-    prob = Problem(sur, f, H_test, "complex-log", lo, hi, 10, None, E)
+    prob = Problem.single(sur, f, H_test, "complex-log", lo, hi, 10, None, E)
     r, jac = prob.fun(c)
     np.testing.assert_allclose(r, residuals(H, H_test, "complex-log"), atol=1e-12)
     np.testing.assert_allclose(jac(), J_full, rtol=1e-10, atol=1e-12 * np.abs(J_full).max())
     p = c + 0.01
-    plain = Problem(sur, f, H_test, "complex-log", lo, hi, 10)
+    plain = Problem.single(sur, f, H_test, "complex-log", lo, hi, 10)
     np.testing.assert_allclose(prob.fun(p)[0], plain.fun(p)[0] + E @ (p - c), atol=1e-12)

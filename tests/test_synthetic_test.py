@@ -77,7 +77,7 @@ def test_the_shipped_set_regenerates():
 
 
 def test_bad_sensor_and_parameter_files_are_named(tmp_path):
-    from femcal.jobs.synthetic_test import read_points
+    from femcal.testdata.points import read_points
 
     bad = tmp_path / "s.csv"
     bad.write_text("label,grid,directions\nA,1,123\nB,x1,123\n")

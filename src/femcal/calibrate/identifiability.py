@@ -82,15 +82,20 @@ def identifiability(J: np.ndarray, params: Sequence[Parameter], prior: Prior,
 
 
 def identifiability_summary(result: Identifiability, params: Sequence[Parameter],
-                            likelihood: Likelihood) -> str:  # fmt: skip
-    """One line: what is held, what is identifiable, and how the residuals were counted."""
-    names = [p.name for p in params]
-    ident = [names[i] for i in np.flatnonzero(result.identifiable)]
+                            likelihoods: Sequence[Likelihood],
+                            names: Sequence[str] = ()) -> str:  # fmt: skip
+    """One line: what is held, what is identifiable, and how each configuration's residuals
+    were counted (``names`` label them where there are several)."""
+    pnames = [p.name for p in params]
+    ident = [pnames[i] for i in np.flatnonzero(result.identifiable)]
     held = int(result.held.sum())
-    count = (f"{likelihood.m} residuals counted as {likelihood.n_eff:.0f} independent "
-             f"observations (sigma {likelihood.sigma:.3g} from the nominal model's residual)"
-             if likelihood.estimated else
-             f"{likelihood.m} independent residuals of sigma {likelihood.sigma:.3g}")  # fmt: skip
-    return (f"identifiability at the nominal model: {len(names) - held} of {len(names)} "
+    counts = []
+    for k, lk in enumerate(likelihoods):
+        label = f"{names[k]}: " if len(likelihoods) > 1 and k < len(names) else ""
+        counts.append(label + (
+            f"{lk.m} residuals counted as {lk.n_eff:.0f} independent observations (sigma "
+            f"{lk.sigma:.3g} from the nominal model's residual)" if lk.estimated else
+            f"{lk.m} independent residuals of sigma {lk.sigma:.3g}"))  # fmt: skip
+    return (f"identifiability at the nominal model: {len(pnames) - held} of {len(pnames)} "
             f"parameters calibrated, {held} held at their nominal values (the test cannot "
-            f"inform them); identifiable: {', '.join(ident) or 'none'}; {count}")
+            f"inform them); identifiable: {', '.join(ident) or 'none'}; {'; '.join(counts)}")

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import os
 import tomllib
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -284,6 +285,43 @@ def read_truth(path: str | os.PathLike[str], params: list[Parameter]) -> np.ndar
             raise ValueError(f"{where}: missing true (the parameter's true value)")
         out[i] = _value(item, "true", float, where)
     return out
+
+
+def share_parameters(lists: Sequence[Sequence[Parameter]], sources: Sequence[str]
+                     ) -> tuple[list[Parameter], list[np.ndarray]]:  # fmt: skip
+    """The parameters of several configurations as one set, shared by name: the union in
+    order of first appearance, and for each configuration the positions (n_p_c,) of its
+    parameters in it. A parameter named in several configurations is one parameter: its
+    scaled change p is the same in all of them, so its nominal value, bounds and confidence
+    must agree (its card and id may differ from deck to deck).
+
+    Raises
+    ------
+    ValueError
+        Naming the parameter and both sources where a shared parameter's nominal value,
+        bounds or confidence differ.
+    """
+    shared: list[Parameter] = []
+    first: dict[str, tuple[int, str]] = {}
+    index = []
+    for params, source in zip(lists, sources, strict=True):
+        pos = []
+        for par in params:
+            if par.name not in first:
+                first[par.name] = (len(shared), source)
+                shared.append(par)
+            k, where = first[par.name]
+            known = shared[k]
+            for what in ("nominal", "lower", "upper", "confidence"):
+                a, b = getattr(known, what), getattr(par, what)
+                if (a is None) != (b is None) or (a is not None and not np.isclose(
+                        a, b, rtol=1e-9, atol=0.0)):
+                    raise ValueError(f"parameter {par.name}: {what} {a} in {where} but {b} in "
+                                     f"{source}; a parameter shared by name needs one "
+                                     f"{what}")  # fmt: skip
+            pos.append(k)
+        index.append(np.array(pos, dtype=int))
+    return shared, index
 
 
 def with_values(model: Model, params: list[Parameter], values: np.ndarray) -> Model:

@@ -9,7 +9,7 @@ pictures are made from these at the edge (:mod:`femcal.io.calibration`,
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -18,7 +18,9 @@ from ..model.model import Model
 from ..solve.normal_modes import Modes
 from ..testdata.data import Channel, FRFData
 from .config import Config
+from .holdout import HoldOut
 from .identifiability import Identifiability
+from .modelform import ModelForm
 from .parameters import Parameter
 from .prior import Likelihood, Posterior, Prior
 
@@ -194,40 +196,36 @@ class BandBounds:
 
 
 @dataclass(frozen=True)
-class CalibrationResult:
-    """A calibration run and its outcome.
+class CaseResult:
+    """One configuration's outcome.
 
     Attributes
     ----------
-    config : the run's settings. model : the nominal model. data : the measured FRFs (None
-        where only an identified model was given). identified : the identified test model,
-        if any.
-    parameters : per parameter, the outcome. p_final : (n_p,) scaled solution.
-    zeta0 : the equalised damping ratio. freq : (n_f,) Hz, the metric's frequencies.
+    name : the configuration's. model : its nominal model. data : its measured FRFs (None
+        where only an identified model was given). identified : its identified test model,
+        if any. index : (n_p_c,) its parameters' positions in the shared set.
+    band : Hz. zeta0 : the equalised damping ratio. freq : (n_f,) Hz, the metric's
+        frequencies.
     outputs, inputs : the channels compared; excluded : outputs left out as suspect.
     H_test, H_before, H_after : (n_out, n_in, n_f) the damping-equalised test FRFs and the FE
         model's before and after calibration, in the test's quantity.
     deviation_before, deviation_after : the full model's deviation.
-    cycles : every cycle of the search. settled : the informed parameters stopped moving
-        before the cycles ran out.
     frf_modes : the FE FRFs' number of modes.
-    prior, likelihood : how the parameters' uncertainty and the test's residuals were
-        weighed (:mod:`femcal.calibrate.prior`).
-    identifiability : the analysis at the nominal model before the search.
-    posterior : at the solution. band_bounds : the posterior per band.
+    likelihood : how its residuals were weighed (:mod:`femcal.calibrate.prior`).
     test_hz, test_shapes : (k,), (n_out, k) the identified test modes in the band.
     modes_before, modes_after : the full model's modes at the nominal and calibrated point.
     mac_before, mac_after : (k, n_modes) MAC of the test modes against the FE modes.
     modes : the test modes with their pairings.
-    seconds : the run's wall time.
+    model_form : where the calibrated model still misses the test, and what it may lack.
+    channel_names : channel label -> the sensor's or input's own name (may be empty).
     """
 
-    config: Config
+    name: str
     model: Model
     data: FRFData | None
     identified: IdentifiedModel | None
-    parameters: tuple[ParameterResult, ...]
-    p_final: np.ndarray
+    index: np.ndarray
+    band: tuple[float, float]
     zeta0: float
     freq: np.ndarray
     outputs: tuple[Channel, ...]
@@ -238,14 +236,8 @@ class CalibrationResult:
     H_after: np.ndarray
     deviation_before: float
     deviation_after: float
-    cycles: tuple[Cycle, ...]
-    settled: bool
     frf_modes: int
-    prior: Prior
     likelihood: Likelihood
-    identifiability: Identifiability
-    posterior: Posterior
-    band_bounds: tuple[BandBounds, ...]
     test_hz: np.ndarray
     test_shapes: np.ndarray
     modes_before: Modes
@@ -253,7 +245,45 @@ class CalibrationResult:
     mac_before: np.ndarray
     mac_after: np.ndarray
     modes: tuple[ModePairing, ...]
+    model_form: ModelForm | None = None
+    channel_names: dict[str, str] = field(default_factory=dict)
+
+    def channel_name(self, channel: Channel) -> str:
+        """The channel's sensor name and label (``L03 +Z (455:+Z)``), or its label."""
+        own = self.channel_names.get(channel.label)
+        return f"{own} ({channel.label})" if own else channel.label
+
+
+@dataclass(frozen=True)
+class CalibrationResult:
+    """A calibration run and its outcome.
+
+    Attributes
+    ----------
+    config : the run's settings.
+    parameters : per (shared) parameter, the outcome. p_final : (n_p,) scaled solution.
+    cases : per configuration, its outcome (one for a single deck and test).
+    cycles : every cycle of the search. settled : the informed parameters stopped moving
+        before the cycles ran out.
+    prior : the parameters' prior (:mod:`femcal.calibrate.prior`).
+    identifiability : the analysis at the nominal model before the search.
+    posterior : at the solution. band_bounds : the posterior per band.
+    holdout : the validation on data the fit did not see (None: not run).
+    seconds : the run's wall time.
+    """
+
+    config: Config
+    parameters: tuple[ParameterResult, ...]
+    p_final: np.ndarray
+    cases: tuple[CaseResult, ...]
+    cycles: tuple[Cycle, ...]
+    settled: bool
+    prior: Prior
+    identifiability: Identifiability
+    posterior: Posterior
+    band_bounds: tuple[BandBounds, ...]
     seconds: float
+    holdout: HoldOut | None = None
 
     @property
     def restarts(self) -> int:
@@ -269,3 +299,13 @@ class CalibrationResult:
     def values(self) -> np.ndarray:
         """(n_p,) the calibrated values P."""
         return np.array([r.calibrated for r in self.parameters])
+
+    @property
+    def deviation_before(self) -> float:
+        """Every configuration's full-model deviation before calibration, summed."""
+        return float(sum(c.deviation_before for c in self.cases))
+
+    @property
+    def deviation_after(self) -> float:
+        """Every configuration's full-model deviation after calibration, summed."""
+        return float(sum(c.deviation_after for c in self.cases))

@@ -8,7 +8,6 @@ import queue as queue_mod
 import time
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, wait
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -17,66 +16,8 @@ from threadpoolctl import threadpool_limits
 from ..atomic import write_atomic
 from ..parallel import executor, message_queue
 from .lm import levenberg_marquardt
-from .metric import jacobian, residuals
+from .problem import Problem
 from .result import StartResult
-from .surrogate import Surrogate
-
-
-@dataclass(frozen=True)
-class Problem:
-    """What every start minimises: the metric between the surrogate's FRFs and the test's
-    at ``freq`` (n_f,), within the bounds, plus ``(weights p)^2`` (the regularisation rows,
-    zero weights for none). ``correction`` (n_residuals, n_p), if given, is added to the
-    metric's residuals as ``correction (p - p_c)`` about the surrogate's centre p_c (the
-    first-order correction of :mod:`femcal.calibrate.gradient`)."""
-
-    surrogate: Surrogate
-    freq: np.ndarray
-    H_test: np.ndarray
-    metric: str
-    lower: np.ndarray
-    upper: np.ndarray
-    max_iter: int
-    weights: np.ndarray | None = None
-    correction: np.ndarray | None = None
-
-    def _data_residuals(self, p: np.ndarray) -> np.ndarray:
-        r = residuals(self.surrogate.frf(p, self.freq), self.H_test, self.metric)
-        if self.correction is not None:
-            r = r + self.correction @ (np.asarray(p, float) - self.surrogate.p_center)
-        return r
-
-    def data_jacobian(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(J (n_residuals, n_p), eps (n_residuals,)) of the data part at p, the correction
-        included (at the centre of a corrected problem: the full model's)."""
-        H, dH = self.surrogate.frf_and_jacobian(p, self.freq)
-        J = jacobian(H, dH, self.metric, self.H_test)
-        r = residuals(H, self.H_test, self.metric)
-        if self.correction is not None:
-            J = J + self.correction
-            r = r + self.correction @ (np.asarray(p, float) - self.surrogate.p_center)
-        return J, r
-
-    def fun(self, p: np.ndarray):
-        """Residuals and a callable for their Jacobian (computed for accepted points only)."""
-        r = self._data_residuals(p)
-        w = self.weights
-
-        def jac() -> np.ndarray:
-            J = self.data_jacobian(p)[0]
-            return J if w is None else np.vstack([J, np.diag(w)])
-
-        return (r if w is None else np.concatenate([r, w * p])), jac
-
-    def cost(self, p: np.ndarray) -> float:
-        """|r|^2 / 2 at p, regularisation included."""
-        r = self.fun(p)[0]
-        return 0.5 * float(r @ r)
-
-    def deviation(self, p: np.ndarray) -> float:
-        """The data part alone: eps^T eps."""
-        r = self._data_residuals(p)
-        return float(r @ r)
 
 
 def run_one(problem: Problem, start: int, p0: np.ndarray,

@@ -1,35 +1,44 @@
-"""The reference study's calibration, end to end (FEMCali's method, Abrahamsson and Kammer):
+"""The reference study's calibration, end to end (FEMCali's method, Abrahamsson and Kammer),
+made Bayesian so that its parameters carry over to configurations it did not see:
 
-1. the test side is the measured FRFs, an identified model of them
+1. one or more configurations of the structure, each a model and a test, their parameters
+   shared by name; each test is the measured FRFs, an identified model of them
    (:func:`femcal.identify.identify`), or both; channels the identification calls suspect
-   are left out;
+   are left out (:mod:`femcal.calibrate.cases`);
 2. damping equalisation: every test pole gets the damping zeta0 (the median identified
    damping by default) with its damped frequency kept, and every FE mode gets modal damping
    zeta0, so mass and stiffness parameters are calibrated without pairing modes;
 3. frequencies at equal logarithmic steps, a few per half-power bandwidth 2 zeta0 w;
-4. the FE model is reduced on its modes at the current point (with static
+4. each FE model is reduced on its modes at the current point (with static
    eigenvector-derivative vectors of the modes up to ``enrich_hz``, and with ``residual``
    the static responses to the inputs for the residual flexibility), with the exact
    polynomial dependence of K and M on the parameters (or FEMCali's first-order form): built
    by :mod:`femcal.calibrate.reduction`, evaluated by :mod:`femcal.calibrate.surrogate`; with
    ``exact_gradient`` its residuals get the first-order correction that gives them the full
    model's Jacobian at the centre (:mod:`femcal.calibrate.gradient`);
-5. Levenberg-Marquardt within the bounds on the log-FRF deviation, from Latin hypercube
-   starts (the nominal among them) in parallel processes; the best minimum wins;
-6. trust-region cycles: the surrogate is rebuilt at the candidate, where it is the full
-   model; the step is kept if the full model's cost fell, and LM runs again within the trust
-   radius, until the parameters the CRLB calls informed move less than ``settle`` (or the
-   radius falls below it, or ``max_cycles`` is reached); when a kept step lowers the full
-   model's cost by less than ``restart_fall``, or the cycles settle, the multi-start search
-   runs again over the whole box on the current surrogate (at most ``restarts`` times), and
-   its best start is the next candidate (the full model decides again): a local minimum the
-   cycles have reached is left when a search on the newer surrogate finds a lower one;
-7. the calibrated model is solved in full; frequencies, MAC and the deviation before and
-   after and the Cramér-Rao bounds at the solution make the typed
+5. before the search, at the nominal point: the bounds (or each parameter's confidence)
+   make a Gaussian prior, each test's residual sets its likelihood, and the parameters the
+   tests cannot inform are held at their nominal values (:mod:`femcal.calibrate.prior`,
+   :mod:`femcal.calibrate.identifiability`);
+6. Levenberg-Marquardt within the bounds on the log-FRF deviation plus the prior's term
+   (the posterior's maximum), from Latin hypercube starts (the nominal among them) in
+   parallel processes; the best minimum wins;
+7. trust-region cycles: the surrogates are rebuilt at the candidate, where they are the full
+   models; the step is kept if the full models' cost fell, and LM runs again within the
+   trust radius, until the identifiable parameters move less than ``settle`` (or the radius
+   falls below it, or ``max_cycles`` is reached); when a kept step lowers the cost by less
+   than ``restart_fall``, or the cycles settle, the multi-start search runs again over the
+   whole box on the current surrogates (at most ``restarts`` times), and its best start is
+   the next candidate (the full models decide again): a local minimum the cycles have
+   reached is left when a search on the newer surrogates finds a lower one;
+8. the calibrated models are solved in full; frequencies, MAC, the deviation before and
+   after and the posterior at the solution, with each configuration's model-form
+   diagnostics (:mod:`femcal.calibrate.modelform`) and the validation on held-out data
+   (:mod:`femcal.calibrate.holdout`), make the typed
    :class:`~femcal.calibrate.result.CalibrationResult`.
 
 The starts and cycles are kept in a state folder as they finish, so a stopped run resumes
-(:mod:`femcal.calibrate.starts`); files of the edge (report, calibrated deck, pictures) are
+(:mod:`femcal.calibrate.starts`); files of the edge (report, calibrated decks, pictures) are
 written by :mod:`femcal.jobs.calibration`.
 """
 
@@ -47,39 +56,44 @@ import numpy as np
 
 from ..atomic import write_atomic
 from ..correlate import mac, pair_modes, pseudo_orthogonality, serep_mass
-from ..identify import IdentifiedModel, equalize_damping
+from ..identify import IdentifiedModel
 from ..model.model import Model
 from ..response.frf import channel_matrix
 from ..testdata.data import FRFData
+from .cases import Case, TestSetup, prepare_case, residual_rows
 from .config import Config
-from .derivatives import group_polynomials
 from .gradient import first_order_correction
+from .holdout import fold_plan, validate
 from .identifiability import identifiability, identifiability_summary
 from .lm import latin_hypercube
-from .metric import deviation, log_frequencies, residuals
-from .parameters import Parameter
-from .prior import likelihood_of, posterior, prior_of
+from .metric import deviation, residuals
+from .modelform import diagnose, noise_level
+from .parameters import Parameter, share_parameters
+from .prior import Likelihood, likelihood_of, posterior, prior_of
+from .problem import Problem, Term
 from .reduction import build_surrogate
 from .result import (
     BandBounds,
     CalibrationResult,
+    CaseResult,
     Cycle,
     ModePairing,
     ParameterResult,
     StartResult,
 )
-from .starts import Problem, run_starts
+from .starts import run_starts
+from .surrogate import Surrogate
 
 #: The surrogate's construction version: part of the resume fingerprint, so that starts
 #: finished by a version that built the surrogate (or its elements) differently are run
 #: again rather than mixed with new ones. Raise it with every such change.
-SURROGATE_VERSION = 7
+SURROGATE_VERSION = 8
 
 
-#: Config fields that do not change a start's result (file names, the report-only truth, the
-#: number of worker processes, pictures, the raw text).
-_NOT_IN_FINGERPRINT = ("path", "deck", "parameters", "test_frf", "test_model", "test_truth",
-                       "workers", "pictures", "raw")  # fmt: skip
+#: Config fields that do not change a start's result (the configurations' files, whose
+#: content enters through the models and test FRFs; the number of worker processes,
+#: pictures, the raw text).
+_NOT_IN_FINGERPRINT = ("path", "configurations", "workers", "pictures", "raw")
 
 
 def _digest(value: object) -> str:
@@ -112,31 +126,20 @@ def _digest(value: object) -> str:
     return h.hexdigest()[:16]
 
 
-def fingerprint(model: Model, params: Sequence[Parameter], cfg: Config, n_starts: int,
-                freq: np.ndarray, H_test: np.ndarray) -> str:  # fmt: skip
+def fingerprint(parts: Sequence[tuple[Model, Sequence[Parameter], np.ndarray, np.ndarray, float]],
+                cfg: Config, n_starts: int) -> str:  # fmt: skip
     """What decides a calibration's starts, hashed: the surrogate's version, the number of
-    starts, the settings (not file names or worker counts), the parameters, the model's
-    arrays and tables (not where they were read from) and the test FRFs compared."""
+    starts, the settings (not file names or worker counts) and, per configuration, its
+    model's arrays and tables (not where they were read from), its parameters, the test
+    FRFs compared at their frequencies and the equalised damping: ``parts`` holds
+    (model, params, freq, H_test, zeta0) per configuration."""
     settings = {k: v for k, v in vars(cfg).items() if k not in _NOT_IN_FINGERPRINT}
-    physics = replace(model, files=[], elements={t: replace(b, file=b.file[:0], line=b.line[:0])
-                                                 for t, b in model.elements.items()})  # fmt: skip
-    return _digest((SURROGATE_VERSION, n_starts, settings, list(params), physics, freq, H_test))
-
-
-def _test_frfs(data: FRFData | None, ident: IdentifiedModel | None, keep: np.ndarray,
-               zeta0: float, freq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
-    """(frequencies, H_X (n_out, n_in, n_f)): the damping-equalised identified model at
-    ``freq``, or, without an identified model, the measured FRFs at the measured frequencies
-    nearest to ``freq`` (no interpolation: it would bend the resonance peaks)."""
-    if ident is not None:
-        return freq, equalize_damping(ident, zeta0).frf(freq).H[keep]
-    f = data.frequency_hz
-    if freq[0] < f[0] * (1 - 1e-9) or freq[-1] > f[-1] * (1 + 1e-9):
-        raise ValueError(f"the calibration band {freq[0]:g}-{freq[-1]:g} Hz lies outside the "
-                         f"test data ({f[0]:g}-{f[-1]:g} Hz)")  # fmt: skip
-    pos = np.clip(np.searchsorted(f, freq), 1, len(f) - 1)
-    idx = np.unique(np.where(freq - f[pos - 1] <= f[pos] - freq, pos - 1, pos))
-    return f[idx], data.H[keep][:, :, idx]
+    physics = []
+    for model, params, freq, H_test, zeta0 in parts:
+        bare = replace(model, files=[], elements={t: replace(b, file=b.file[:0], line=b.line[:0])
+                                                  for t, b in model.elements.items()})  # fmt: skip
+        physics.append((bare, list(params), freq, H_test, float(zeta0)))
+    return _digest((SURROGATE_VERSION, n_starts, settings, physics))
 
 
 def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
@@ -145,17 +148,36 @@ def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
               fresh: bool = False, workers: int | None = None,
               starts: int | None = None,
               progress: Callable[[str], None] | None = None) -> CalibrationResult:  # fmt: skip
-    """Calibrate ``params`` of ``model`` against the test (see the module docstring).
+    """Calibrate ``params`` of ``model`` against one test: :func:`calibrate_setups` with the
+    first configuration of ``cfg`` (its name, band and zeta0; its files are not read here).
+    ``data``, ``identified``: the measured FRFs and/or an identified model of them."""
+    conf = cfg.configurations[0]
+    setup = TestSetup(conf.name, model, tuple(params), conf.band, data, identified, conf.zeta0,
+                      conf.model_units)
+    return calibrate_setups([setup], cfg, truth=truth, state=state,
+                            fresh=fresh, workers=workers, starts=starts,
+                            progress=progress)  # fmt: skip
+
+
+def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
+                     truth: np.ndarray | None = None, state: str | Path | None = None,
+                     fresh: bool = False, workers: int | None = None,
+                     starts: int | None = None,
+                     progress: Callable[[str], None] | None = None
+                     ) -> CalibrationResult:  # fmt: skip
+    """Calibrate the parameters of one or more configurations, shared by name, against their
+    tests (see the module docstring).
 
     Parameters
     ----------
-    cfg : the calibration's settings (its ``[calibration]`` section; the file names are not
-        read here).
-    data, identified : the measured FRFs and/or an identified model of them (at least one;
-        with an identified model its poles, shapes and suspect channels are used).
-    truth : (n_p,) a synthetic test's known values P, for the report's errors only.
+    setups : per configuration its model, parameters, band and test
+        (:class:`~femcal.calibrate.cases.TestSetup`).
+    cfg : the calibration's settings (its ``[calibration]`` section; the files of its
+        configurations are not read here).
+    truth : (n_p,) a synthetic test's known values P of the shared parameters, for the
+        report's errors only.
     state : folder for the finished starts and cycles (``starts/`` in a job's output). Each
-        start is kept with a fingerprint of everything that decides it (the model's arrays and
+        start is kept with a fingerprint of everything that decides it (the models' arrays and
         tables, the parameters, the settings, the test FRFs compared, the surrogate's version),
         and a run resumes from the starts whose fingerprint is its own. None: nothing kept.
     fresh : ignore finished starts in ``state``. workers, starts : override the
@@ -164,91 +186,69 @@ def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
     Raises
     ------
     ValueError
-        For test data in other units than ``cfg.model_units``, a band without test modes or
-        data, test FRFs that are zero in the band.
+        For no configuration, shared parameters that disagree, test data in other units,
+        a band without test modes or data, test FRFs that are zero in the band.
     """
     say = progress or (lambda _m: None)
     t0 = time.perf_counter()
-    params = list(params)
-    if data is None and identified is None:
-        raise ValueError("calibrate needs the test FRFs or an identified test model")
-    for what, test in (("test FRFs", data), ("identified test model", identified)):
-        if test is not None and cfg.model_units and test.units and test.units != cfg.model_units:
-            raise ValueError(f"the {what} are in {test.units}, the FE model in "
-                             f"{cfg.model_units}: convert them first "
-                             "(femcal.testdata.convert_units)")  # fmt: skip
+    if not setups:
+        raise ValueError("calibrate needs at least one configuration")
+    params, indices = share_parameters([s.params for s in setups], [s.name for s in setups])
+    n_p = len(params)
+    cases = [prepare_case(s, idx, cfg, say) for s, idx in zip(setups, indices, strict=True)]
+    plan = fold_plan(cases, cfg.holdout, cfg.holdout_folds, cfg.metric)  # bad settings fail now
     n_workers = workers or cfg.workers
     n_starts = starts or cfg.starts
     lo = np.array([p.p_lower for p in params])
     hi = np.array([p.p_upper for p in params])
-    ident = identified
-    source = ident if ident is not None else data
-    keep = np.ones(len(source.outputs), bool)
-    if ident is not None and cfg.exclude_suspect_channels and ident.suspect.any():
-        keep = ~ident.suspect
-        say("suspect channels left out: "
-            + ", ".join(ident.outputs[i].label for i in np.flatnonzero(ident.suspect)))
-    outputs = tuple(c for c, k in zip(source.outputs, keep, strict=True) if k)
-    excluded = tuple(c for c, k in zip(source.outputs, keep, strict=True) if not k)
-    inputs = tuple(source.inputs)
-    quantity = source.quantity
-    band = cfg.band
-    if ident is not None:
-        sel = (ident.frequency_hz >= band[0]) & (ident.frequency_hz <= band[1])
-        if not sel.any():
-            raise ValueError(f"no identified test mode lies in the calibration band "
-                             f"{band[0]:g}-{band[1]:g} Hz")  # fmt: skip
-        test_hz, test_shapes = ident.frequency_hz[sel], ident.shapes[keep][:, sel]
-        zeta0 = cfg.zeta0 or float(np.median(ident.damping_ratio[sel]))
-    else:
-        test_hz, test_shapes = np.zeros(0), np.zeros((len(outputs), 0))
-        zeta0 = float(cfg.zeta0)
-    freq = log_frequencies(band[0], band[1], zeta0, cfg.samples_per_bandwidth)
-    freq, H_test = _test_frfs(data, ident, keep, zeta0, freq)
-    if (np.abs(H_test) == 0).any():
-        raise ValueError("the test FRFs are zero somewhere in the band: the log metric needs "
-                         "nonzero values")  # fmt: skip
-    say(f"metric: {cfg.metric} over {band[0]:g}-{band[1]:g} Hz, {len(freq)} frequencies "
-        f"({cfg.samples_per_bandwidth:g} per half-power bandwidth at zeta0 = {zeta0:.4f}), "
-        f"{len(outputs)} outputs x {len(inputs)} inputs")  # fmt: skip
-    fp = fingerprint(model, params, cfg, n_starts, freq, H_test)
+    fp = fingerprint([(c.model, c.params, c.freq, c.H_test, c.zeta0) for c in cases], cfg,
+                     n_starts)  # fmt: skip
     state_dir = Path(state) if state is not None else None
     rng = np.random.default_rng(cfg.seed)
     prior = prior_of(params, cfg.bounds_sigma)
-    weights: list[np.ndarray] = []  # the prior's rows, set from the nominal model's residual
+    weighing: dict[str, object] = {}  # the prior's rows and the terms' factors, set below
 
-    say(f"the exact dependence of K and M on the {len(params)} parameters, element group by "
-        "element group")
-    polys = group_polynomials(model, params, np.zeros(len(params)), constant=True)
+    frf_modes: dict[int, int] = {}  # per configuration the FRFs' mode count, fixed at the nominal
 
-    frf_modes: list[int] = []  # the FRFs' mode count, fixed at the nominal model
-
-    def surrogate_at(p: np.ndarray):
-        say(f"surrogate at p = [{', '.join(f'{x:+.4f}' for x in p)}]")
+    def surrogate_at(k: int, p: np.ndarray) -> tuple[Surrogate, object]:
+        case = cases[k]
+        q = p[case.index]
+        say(f"{case.name}: surrogate at p = [{', '.join(f'{x:+.4f}' for x in q)}]")
         sur, modes = build_surrogate(
-            model, params, p, outputs, inputs, n_modes=cfg.reduction_modes, zeta=zeta0,
-            quantity=quantity, order=cfg.surrogate, polynomials=polys,
+            case.model, list(case.params), q, case.outputs, case.inputs,
+            n_modes=cfg.reduction_modes, zeta=case.zeta0, quantity=case.quantity,
+            order=cfg.surrogate, polynomials=case.polynomials,
             enrich_hz=cfg.enrich_hz or None, n_enrich=cfg.enrich_vectors,
-            residual=cfg.residual, frf_modes=frf_modes[0] if frf_modes else None,
-            frf_hz=cfg.modal_hz if not frf_modes and cfg.modal_hz else None,
+            residual=cfg.residual, frf_modes=frf_modes.get(k),
+            frf_hz=cfg.modal_hz if k not in frf_modes and cfg.modal_hz else None,
             exact_gradient=cfg.exact_gradient, progress=say)  # fmt: skip
-        if not frf_modes:
-            frf_modes.append(sur.n_frf)
+        if k not in frf_modes:
+            frf_modes[k] = sur.n_frf
             if cfg.modal_hz:
                 top = float(sur.basis_hz[-1])
                 which = (f"the {sur.n_frf} modes up to {cfg.modal_hz:g} Hz"
                          if cfg.modal_hz < top else
                          f"all {sur.n_frf} reduction modes (up to {top:.1f} Hz: modal_hz = "
                          f"{cfg.modal_hz:g} lies above them)")  # fmt: skip
-                say(f"the FRFs sum {which} at the nominal" + (
+                say(f"{case.name}: the FRFs sum {which} at the nominal" + (
                     ", the others as residual flexibility" if cfg.residual else ""))
         return sur, modes
 
-    def problem_on(sur, lower: np.ndarray, upper: np.ndarray) -> Problem:
-        corr = (first_order_correction(sur, sur.exact, freq, H_test, cfg.metric)
-                if sur.exact is not None else None)  # fmt: skip
-        return Problem(sur, freq, H_test, cfg.metric, lower, upper, cfg.max_iterations,
-                       weights[0] if weights else None, corr)  # fmt: skip
+    def surrogates_at(p: np.ndarray) -> tuple[list[Surrogate], list]:
+        built = [surrogate_at(k, p) for k in range(len(cases))]
+        return [b[0] for b in built], [b[1] for b in built]
+
+    def terms_on(surs: Sequence[Surrogate]) -> tuple[Term, ...]:
+        factors = weighing.get("factors", [1.0] * len(cases))
+        return tuple(
+            Term(sur, c.freq, c.H_test, cfg.metric, c.index, float(f),
+                 first_order_correction(sur, sur.exact, c.freq, c.H_test, cfg.metric)
+                 if sur.exact is not None else None)
+            for c, sur, f in zip(cases, surs, factors, strict=True))  # fmt: skip
+
+    def problem_on(surs: Sequence[Surrogate], lower: np.ndarray, upper: np.ndarray) -> Problem:
+        return Problem(terms_on(surs), lower, upper, cfg.max_iterations,
+                       weighing.get("weights"))  # fmt: skip
 
     def starts_in(name: str, problem: Problem, pts: list[np.ndarray],
                   center: np.ndarray) -> list[StartResult]:  # fmt: skip
@@ -268,24 +268,30 @@ def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
         text = json.dumps([_cycle_state(c) for c in cycles], indent=1)
         write_atomic(state_dir / "cycles.json", lambda tmp: Path(tmp).write_text(text))
 
-    # cycle 1: the multi-start search over the whole box on the nominal surrogate
+    # cycle 1: the multi-start search over the whole box on the nominal surrogates
     say("cycle 1: Levenberg-Marquardt from every start on the nominal model's surrogate")
-    center = np.zeros(len(params))
-    sur, modes_c = surrogate_at(center)
-    modes0, sur0 = modes_c, sur
-    # before the search: what the test can inform, with the nominal model's residual
-    J0, r0 = problem_on(sur, lo, hi).data_jacobian(center)
-    likelihood = likelihood_of(r0, len(freq), cfg.noise_sigma)
-    before = identifiability(J0, params, prior, likelihood, cfg.hold_ratio,
+    center = np.zeros(n_p)
+    surs, modes_c = surrogates_at(center)
+    surs0, modes0 = surs, modes_c
+    # before the search: what the tests can inform, with the nominal models' residuals; each
+    # configuration's residuals are weighed by its own likelihood, the first's as reference
+    terms0 = terms_on(surs)  # the full models at the nominal point
+    r0s = [t.residuals(center) for t in terms0]
+    likelihoods = [likelihood_of(r, len(c.freq), cfg.noise_sigma)
+                   for r, c in zip(r0s, cases, strict=True)]  # fmt: skip
+    reference = likelihoods[0]
+    weighing["factors"] = [reference.scale / lk.scale for lk in likelihoods]
+    J0 = problem_on(surs, lo, hi).data_jacobian(center)[0]
+    before = identifiability(J0, params, prior, reference, cfg.hold_ratio,
                              cfg.identifiable_ratio)  # fmt: skip
     held = before.held
-    say(identifiability_summary(before, params, likelihood))
+    say(identifiability_summary(before, params, likelihoods, [c.name for c in cases]))
     lo, hi = np.where(held, 0.0, lo), np.where(held, 0.0, hi)  # held at the nominal
-    weights.append(likelihood.weights(prior))
-    starts0 = [np.zeros(len(params))]
+    weighing["weights"] = reference.weights(prior)
+    starts0 = [np.zeros(n_p)]
     if n_starts > 1:
         starts0 += list(latin_hypercube(n_starts - 1, lo, hi, rng))
-    problem = problem_on(sur, lo, hi)
+    problem = problem_on(surs, lo, hi)
     cost_c = problem.cost(center)
     results = starts_in("cycle1", problem, starts0, center)
     best = min(results, key=lambda r: r.cost)
@@ -295,15 +301,15 @@ def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
                         moved=float(np.abs(cand).max())))  # fmt: skip
     save_cycles()
     say(f"cycle 1: best start {best.start + 1}, deviation {best.deviation:.5g} (surrogate)")
-    # cycles 2...: trust region; the surrogate rebuilt at the candidate is the full model
-    # there, which decides whether the step is kept
+    # cycles 2...: trust region; the surrogates rebuilt at the candidate are the full models
+    # there, which decide whether the step is kept
     radius = max(float(np.abs(cand - center).max()), cfg.settle)
     settled = False
     restarts_left = cfg.restarts if n_starts > 1 else 0
     searched = False  # the candidate came from a multi-start search over the whole box
     for c in range(2, cfg.max_cycles + 1):
-        sur_new, modes_new = surrogate_at(cand)
-        prob_new = problem_on(sur_new, lo, hi)
+        surs_new, modes_new = surrogates_at(cand)
+        prob_new = problem_on(surs_new, lo, hi)
         cost_new = prob_new.cost(cand)
         predicted = cost_c - pred
         rho = (cost_c - cost_new) / predicted if predicted > 0 else 0.0
@@ -314,11 +320,11 @@ def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
         candidate = cand
         stalled, fall = False, 0.0
         if accepted:
-            post_c = posterior(prob_new.data_jacobian(cand)[0], prior, likelihood, ~held)
+            post_c = posterior(prob_new.data_jacobian(cand)[0], prior, reference, ~held)
             informed = ~held & (post_c.ratio < cfg.identifiable_ratio)
             moved = float(step[informed].max() if informed.any() else step.max())
             fall = (cost_c - cost_new) / cost_c
-            center, sur, modes_c, cost_c, problem = cand, sur_new, modes_new, cost_new, prob_new
+            center, surs, modes_c, cost_c, problem = cand, surs_new, modes_new, cost_new, prob_new
             radius = min(2 * radius, 1.0) if rho > 0.75 else (radius / 2 if rho < 0.25 else radius)
             say(f"cycle {c}: step kept (full-model cost {cost_new:.5g}, {100 * fall:.3g} % "
                 f"lower, ratio to the predicted fall {rho:.2f}); the informed parameters "
@@ -379,30 +385,21 @@ def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
         save_cycles()
     p_final = center
     values = np.array([par.value(p) for par, p in zip(params, p_final, strict=True)])
-    # the full model at the solution is the last surrogate's centre
-    modes_after = modes_c
-    Cg = channel_matrix(model, outputs)
-    # the full model's FRFs: each surrogate at its centre (the modal sum over the reduction
-    # modes, with the residual flexibility if asked)
-    H_before = sur0.frf(np.zeros(len(params)), freq)
-    H_after = sur.frf(p_final, freq)
-    dev_before = deviation(residuals(H_before, H_test, cfg.metric))
-    dev_after = deviation(residuals(H_after, H_test, cfg.metric))
     J = problem.data_jacobian(p_final)[0]
-    post = posterior(J, prior, likelihood, ~held)
+    post = posterior(J, prior, reference, ~held)
     band_bounds = []
-    n_pairs = len(outputs) * len(inputs)
     for b in cfg.crlb_bands:
-        rows_f = (freq >= b[0]) & (freq <= b[1])
-        rows = np.tile(rows_f, n_pairs * (2 if cfg.metric == "complex-log" else 1))
-        band_bounds.append(BandBounds(tuple(b), posterior(J[rows], prior, likelihood,
+        rows = np.concatenate([residual_rows(c, cfg.metric, band=b) for c in cases])
+        band_bounds.append(BandBounds(tuple(b), posterior(J[rows], prior, reference,
                                                           ~held).std))  # fmt: skip
-    fe_before = np.asarray(Cg @ modes0.shapes)
-    fe_after = np.asarray(Cg @ modes_after.shapes)
-    mac_b = mac(test_shapes, fe_before)
-    mac_a = mac(test_shapes, fe_after)
-    pairings = _pairings(test_hz, test_shapes, fe_before, fe_after, modes0, modes_after, band,
-                         len(outputs))  # fmt: skip
+    at_bound = {params[i].name for i in range(n_p) if not held[i] and (
+        np.isclose(p_final[i], params[i].p_lower, atol=1e-9)
+        or np.isclose(p_final[i], params[i].p_upper, atol=1e-9))}  # fmt: skip
+    case_results = tuple(
+        _case_result(case, surs0[k], surs[k], modes0[k], modes_c[k], p_final, frf_modes[k],
+                     likelihoods[k], cfg.metric, r0s[k],
+                     [q.name for q in case.params if q.name in at_bound], cfg.noise_sigma)
+        for k, case in enumerate(cases))  # fmt: skip
     parameters = []
     for i, par in enumerate(params):
         std = float(post.std[i])
@@ -420,20 +417,66 @@ def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
             posterior_std=std * abs(par.nominal), ratio=float(post.ratio[i]), crlb_p=crlb_p,
             crlb=crlb_p * abs(par.nominal),
             identifiable=bool(~held[i] & (post.ratio[i] < cfg.identifiable_ratio)),
-            at_bound=bool(not held[i] and (np.isclose(p_final[i], par.p_lower, atol=1e-9)
-                                           or np.isclose(p_final[i], par.p_upper, atol=1e-9))),
-            reason=before.reasons[i], **extra))  # fmt: skip
+            at_bound=par.name in at_bound, reason=before.reasons[i], **extra))  # fmt: skip
+
+    def full_residuals(k: int, p: np.ndarray) -> np.ndarray:
+        """Configuration k's residuals on its full model at the shared p."""
+        case = cases[k]
+        q = p[case.index]
+        sur, _ = build_surrogate(
+            case.model, list(case.params), q, case.outputs, case.inputs,
+            n_modes=cfg.reduction_modes, zeta=case.zeta0, quantity=case.quantity,
+            order=cfg.surrogate, polynomials=case.polynomials, residual=cfg.residual,
+            frf_modes=frf_modes[k], exact_gradient=False)  # fmt: skip
+        return residuals(sur.frf(q, case.freq), case.H_test, cfg.metric)
+
+    holdout = (validate(cases, problem.terms, terms0, params, p_final, prior, plan,
+                        noise_sigma=cfg.noise_sigma, hold_ratio=cfg.hold_ratio,
+                        identifiable_ratio=cfg.identifiable_ratio,
+                        max_iter=cfg.max_iterations, full_residuals=full_residuals,
+                        progress=say)
+               if plan[1] else None)  # fmt: skip
     result = CalibrationResult(
-        config=cfg, model=model, data=data, identified=ident, parameters=tuple(parameters),
-        p_final=p_final, zeta0=zeta0, freq=freq, outputs=outputs, inputs=inputs,
-        excluded=excluded, H_test=H_test, H_before=H_before, H_after=H_after,
-        deviation_before=dev_before, deviation_after=dev_after, cycles=tuple(cycles),
-        settled=settled, frf_modes=frf_modes[0], prior=prior, likelihood=likelihood,
-        identifiability=before, posterior=post, band_bounds=tuple(band_bounds),
-        test_hz=test_hz, test_shapes=test_shapes, modes_before=modes0, modes_after=modes_after,
-        mac_before=mac_b, mac_after=mac_a, modes=pairings, seconds=time.perf_counter() - t0)
-    say(f"deviation {dev_before:.5g} -> {dev_after:.5g}")
+        config=cfg, parameters=tuple(parameters), p_final=p_final, cases=case_results,
+        cycles=tuple(cycles), settled=settled, prior=prior, identifiability=before,
+        posterior=post, band_bounds=tuple(band_bounds), seconds=time.perf_counter() - t0,
+        holdout=holdout)
+    say(f"deviation {result.deviation_before:.5g} -> {result.deviation_after:.5g}")
     return result
+
+
+def _case_result(case: Case, sur0: Surrogate, sur: Surrogate, modes0, modes_after,
+                 p_final: np.ndarray, frf_modes: int, likelihood: Likelihood, metric: str,
+                 eps_before: np.ndarray, at_bound: list[str],
+                 noise_sigma: float | None) -> CaseResult:  # fmt: skip
+    """One configuration's outcome: the full model's FRFs (each surrogate at its centre: the
+    modal sum over the reduction modes, with the residual flexibility if asked), deviations,
+    MAC and mode pairings before and after, and the model-form diagnostics against the
+    given noise level (else the identification's)."""
+    n_p_c = len(case.params)
+    H_before = sur0.frf(np.zeros(n_p_c), case.freq)
+    H_after = sur.frf(p_final[case.index], case.freq)
+    eps_after = residuals(H_after, case.H_test, metric)
+    form = diagnose(case.model, modes_after, case.outputs, case.inputs, case.freq, case.zeta0,
+                    case.setup.band, case.test_hz, eps_before, eps_after, H_after, case.H_test,
+                    metric, noise_sigma or noise_level(case.setup.identified), at_bound,
+                    case.setup.channel_names)  # fmt: skip
+    Cg = channel_matrix(case.model, case.outputs)
+    fe_before = np.asarray(Cg @ modes0.shapes)
+    fe_after = np.asarray(Cg @ modes_after.shapes)
+    return CaseResult(
+        name=case.name, model=case.model, data=case.setup.data,
+        identified=case.setup.identified, index=case.index, band=case.setup.band,
+        zeta0=case.zeta0, freq=case.freq, outputs=case.outputs, inputs=case.inputs,
+        excluded=case.excluded, H_test=case.H_test, H_before=H_before, H_after=H_after,
+        deviation_before=deviation(residuals(H_before, case.H_test, metric)),
+        deviation_after=deviation(eps_after),
+        frf_modes=frf_modes, likelihood=likelihood, test_hz=case.test_hz,
+        test_shapes=case.test_shapes, modes_before=modes0, modes_after=modes_after,
+        mac_before=mac(case.test_shapes, fe_before), mac_after=mac(case.test_shapes, fe_after),
+        modes=_pairings(case.test_hz, case.test_shapes, fe_before, fe_after, modes0,
+                        modes_after, case.setup.band, len(case.outputs)),
+        model_form=form, channel_names=dict(case.setup.channel_names))  # fmt: skip
 
 
 def _pairings(test_hz: np.ndarray, test_shapes: np.ndarray, fe_before: np.ndarray,

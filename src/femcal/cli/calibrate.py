@@ -58,15 +58,20 @@ def run(args: argparse.Namespace) -> int:
         print(f"{r.parameter.name:<10} {r.parameter.nominal:12.6g} {r.calibrated:12.6g} "
               f"{100 * r.p:+9.2f} {100 * r.prior_std_p:8.2f} {post:>8} {status}"
               f"{' (at a bound!)' if r.at_bound else ''}")
-    print(f"{'test Hz':>9} {'FE before':>10} {'FE after':>10} {'MAC before':>11} {'MAC after':>10}")
-    for m in result.modes:
-        def fmt(v, spec):
-            return format(v, spec) if v is not None else "-"
+    def fmt(v, spec):
+        return format(v, spec) if v is not None else "-"
 
-        print(f"{m.test_hz:9.3f} {fmt(m.fe_before_hz, '10.3f')} "
-              f"{fmt(m.fe_after_hz, '10.3f')} {fmt(m.mac_before, '11.4f')} "
-              f"{fmt(m.mac_after, '10.4f')}")
-    print(f"deviation: {result.deviation_before:.6g} before, {result.deviation_after:.6g} after")
+    for case in result.cases:
+        if len(result.cases) > 1:
+            print(f"configuration {case.name}:")
+        print(f"{'test Hz':>9} {'FE before':>10} {'FE after':>10} {'MAC before':>11} "
+              f"{'MAC after':>10}")
+        for m in case.modes:
+            print(f"{m.test_hz:9.3f} {fmt(m.fe_before_hz, '10.3f')} "
+                  f"{fmt(m.fe_after_hz, '10.3f')} {fmt(m.mac_before, '11.4f')} "
+                  f"{fmt(m.mac_after, '10.4f')}")
+        print(f"deviation: {case.deviation_before:.6g} before, {case.deviation_after:.6g} "
+              "after")
     print()
     for line in summary_lines(result):
         print(line)

@@ -14,14 +14,18 @@ from pathlib import Path
 import numpy as np
 
 from ..atomic import write_atomic, write_lines
-from ..calibrate.config import Config
+from ..calibrate.config import Config, Configuration
 from ..calibrate.parameters import Parameter
-from ..calibrate.result import CalibrationResult, Cycle
+from ..calibrate.result import CalibrationResult, CaseResult, Cycle
 
 
-def calibrated_deck_name(cfg: Config) -> str:
-    """The calibrated deck's file name: the deck's stem with ``_calibrated.bdf``."""
-    return f"{cfg.deck.stem}_calibrated.bdf"
+def calibrated_deck_name(conf: Configuration, cfg: Config) -> str:
+    """A configuration's calibrated deck's file name: the deck's stem with
+    ``_calibrated.bdf``, after the configuration's name where another configuration's deck
+    has the same stem."""
+    stem = conf.deck.stem
+    clash = sum(c.deck.stem == stem for c in cfg.configurations) > 1
+    return f"{conf.name}_{stem}_calibrated.bdf" if clash else f"{stem}_calibrated.bdf"
 
 
 def _finite(v: float | None) -> float | None:
@@ -46,19 +50,10 @@ def _cycle(c: Cycle) -> dict:
             "best_start": c.best_start}
 
 
-def noise_level(result: CalibrationResult) -> float | None:
-    """The test's noise in the metric's units (log10), from the identification's median fit
-    error (a relative complex error e spreads e / (sqrt(2) ln 10) on each of the metric's
-    parts); None without an identified model."""
-    ident = result.identified
-    if ident is None or not len(ident.fit_error):
-        return None
-    return float(np.median(ident.fit_error) / (np.sqrt(2.0) * np.log(10.0)))
-
-
-def misfit_sigma(result: CalibrationResult) -> float:
-    """The standard deviation of one residual after calibration (log10 units)."""
-    return float(np.sqrt(result.deviation_after / result.likelihood.m))
+def misfit_sigma(case: CaseResult) -> float:
+    """The standard deviation of one of a configuration's residuals after calibration (log10
+    units)."""
+    return float(np.sqrt(case.deviation_after / case.likelihood.m))
 
 
 def summary_lines(result: CalibrationResult) -> list[str]:
@@ -81,28 +76,126 @@ def summary_lines(result: CalibrationResult) -> list[str]:
                      "something the model lacks.")  # fmt: skip
     else:
         lines.append("No parameter ended on a bound.")
-    noise = noise_level(result)
-    after = misfit_sigma(result)
-    if noise is not None and after > 3.0 * noise:
-        lines.append(f"Model-form warning: the misfit after calibration (sigma {after:.3g} in "
-                     f"log10) is {after / noise:.0f} times the test's noise ({noise:.2g}): the "
-                     "model lacks something the structure has (a joint, a support, a mass), "
-                     "which the parameters cannot stand for without bias.")  # fmt: skip
-    elif noise is not None:
-        lines.append(f"The misfit after calibration (sigma {after:.3g}) is within 3 times the "
-                     f"test's noise ({noise:.2g}).")  # fmt: skip
-    dev = (f"Deviation {result.deviation_before:.6g} before, {result.deviation_after:.6g} "
-           "after.")
-    lines.append(dev)
+    several = len(result.cases) > 1
+    for case in result.cases:
+        form = case.model_form
+        if form is None:
+            continue
+        at = f"{case.name}: " if several else ""
+        noise = form.noise_sigma
+        if form.warning:
+            lines.append(f"{at}Model-form warning: the misfit after calibration (RMS "
+                         f"{form.misfit_after:.3g} in log10) is {form.misfit_after / noise:.0f} "
+                         f"times the test's noise ({noise:.2g}): the model lacks something "
+                         "the structure has, which the parameters cannot stand for without "
+                         "bias.")  # fmt: skip
+            useful = [c for c in form.candidates if c.fall >= 0.05]
+            if useful:
+                lines.append(f"{at}Where: {useful[0].describe()} would remove about "
+                             f"{100 * useful[0].fall:.0f} % of it (see the model-form "
+                             "section).")  # fmt: skip
+        elif noise is not None:
+            lines.append(f"{at}The misfit after calibration (RMS {form.misfit_after:.3g}) is "
+                         f"within 3 times the test's noise ({noise:.2g}).")  # fmt: skip
+    ho = result.holdout
+    if ho is not None:
+        what = {"inputs": "each input's FRFs", "sensors": "each group of sensors",
+                "configurations": "each configuration"}[ho.kind]  # fmt: skip
+        worse = [f.name for f in ho.folds if not f.better]
+        if ho.better:
+            lines.append(f"Held-out prediction: calibrated without {what} in turn, the model "
+                         "predicts the held-out data better than the nominal one (deviation "
+                         f"{ho.deviation_calibrated:.5g} against {ho.deviation_nominal:.5g})"
+                         + (f", though not for {', '.join(worse)}." if worse else "."))
+        else:
+            lines.append(f"Warning: calibrated without {what} in turn, the model predicts the "
+                         "held-out data worse than the nominal one (deviation "
+                         f"{ho.deviation_calibrated:.5g} against {ho.deviation_nominal:.5g}): "
+                         "the calibrated values fit this test rather than the structure.")
+    lines.append(f"Deviation {result.deviation_before:.6g} before, {result.deviation_after:.6g} "
+                 "after.")  # fmt: skip
     return lines
 
 
+def _modes(case: CaseResult) -> list[dict]:
+    return [{"test_mode": m.test_mode, "test_hz": m.test_hz, "fe_before_mode": m.fe_before,
+             "fe_before_hz": m.fe_before_hz, "mac_before": m.mac_before,
+             "fe_after_mode": m.fe_after, "fe_after_hz": m.fe_after_hz,
+             "mac_after": m.mac_after,
+             "frequency_error_before_pct": m.frequency_error_before_pct,
+             "frequency_error_after_pct": m.frequency_error_after_pct,
+             "pseudo_orthogonality_after": m.pseudo_orthogonality_after}
+            for m in case.modes]  # fmt: skip
+
+
+def _model_form(case: CaseResult) -> dict | None:
+    """A configuration's model-form diagnostics as the report lists them."""
+    form = case.model_form
+    if form is None:
+        return None
+    edges = form.band_edges_hz
+    return {
+        "noise_sigma": form.noise_sigma, "misfit_before": form.misfit_before,
+        "misfit_after": form.misfit_after, "warning": form.warning,
+        "suggestions": list(form.suggestions),
+        "outputs": [{"channel": ch.label, "name": case.channel_names.get(ch.label),
+                     "rms_before": float(b), "rms_after": float(a)}
+                    for ch, b, a in zip(case.outputs, form.output_rms_before,
+                                        form.output_rms_after, strict=True)],
+        "bands": [{"band_hz": [float(edges[k]), float(edges[k + 1])],
+                   "rms_before": _finite(form.band_rms_before[k]),
+                   "rms_after": _finite(form.band_rms_after[k])}
+                  for k in range(len(edges) - 1)],
+        "candidates": [{"kind": c.kind, "grid": c.grid, "component": c.component,
+                        "xyz": [float(x) for x in c.xyz], "fall": c.fall, "value": c.value,
+                        "text": c.describe()} for c in form.candidates],
+    }  # fmt: skip
+
+
+def _holdout(result: CalibrationResult) -> dict | None:
+    """The hold-out validation as the report lists it."""
+    ho = result.holdout
+    if ho is None:
+        return None
+    names = [p.name for p in result.params]
+    return {"kind": ho.kind, "deviation_nominal": ho.deviation_nominal,
+            "deviation_calibrated": ho.deviation_calibrated, "better": ho.better,
+            "folds": [{"name": f.name, "configuration": result.cases[f.case].name,
+                       "residuals": int(f.rows.sum()),
+                       "deviation_nominal": f.deviation_nominal,
+                       "deviation_calibrated": f.deviation_calibrated, "better": f.better,
+                       "p": {n: float(x) for n, x, h in zip(names, f.p, f.held, strict=True)
+                             if not h}} for f in ho.folds]}  # fmt: skip
+
+
+def _configuration(conf: Configuration, case: CaseResult, cfg: Config) -> dict:
+    """One configuration's part of the report."""
+    lk = case.likelihood
+    return {
+        "name": case.name, "deck": str(conf.deck), "parameters_file": str(conf.parameters),
+        "test": str(conf.test_frf or conf.test_model),
+        "truth": str(conf.test_truth) if conf.test_truth is not None else None,
+        "band_hz": list(case.band), "zeta0": case.zeta0, "n_frequencies": len(case.freq),
+        "outputs": [c.label for c in case.outputs], "inputs": [c.label for c in case.inputs],
+        "excluded_channels": [c.label for c in case.excluded],
+        "parameters": [int(i) for i in case.index], "modes": _modes(case),
+        "deviation": {"before": case.deviation_before, "after": case.deviation_after},
+        "likelihood": {"sigma": lk.sigma, "residuals": lk.m,
+                       "effective_observations": lk.n_eff, "estimated": lk.estimated,
+                       "misfit_sigma_after": misfit_sigma(case),
+                       "noise_sigma": case.model_form.noise_sigma if case.model_form else None},
+        "model_form": _model_form(case),
+        "frf_modes": case.frf_modes, "model_dof": case.model.n_dof,
+        "calibrated_deck": calibrated_deck_name(conf, cfg),
+    }  # fmt: skip
+
+
 def report_dict(result: CalibrationResult) -> dict:
-    """``report.json``'s content: the run's inputs and settings, the trust summary, every
-    parameter (nominal, calibrated, bounds, held or identifiable and why, prior and
-    posterior standard deviations, at a bound, and the error against the truth of a synthetic
-    test), the paired modes, the deviation, the prior and likelihood, the posterior's bands
-    and correlation, the cycles and the first cycle's starts."""
+    """``report.json``'s content: the trust summary, every parameter (nominal, calibrated,
+    bounds, held or identifiable and why, prior and posterior standard deviations, at a
+    bound, and the error against the truth of a synthetic test), per configuration its test,
+    channels, paired modes, deviation and likelihood, the prior, the posterior's bands and
+    correlation, the settings, the cycles and the first cycle's starts."""
     cfg = result.config
     params = []
     for r in result.parameters:
@@ -119,33 +212,17 @@ def report_dict(result: CalibrationResult) -> dict:
             row.update({"true": r.true, "true_p": r.true_p, "error_pct": r.error_pct,
                         "error_over_std": r.error_over_std})  # fmt: skip
         params.append(row)
-    modes = [{"test_mode": m.test_mode, "test_hz": m.test_hz, "fe_before_mode": m.fe_before,
-              "fe_before_hz": m.fe_before_hz, "mac_before": m.mac_before,
-              "fe_after_mode": m.fe_after, "fe_after_hz": m.fe_after_hz,
-              "mac_after": m.mac_after,
-              "frequency_error_before_pct": m.frequency_error_before_pct,
-              "frequency_error_after_pct": m.frequency_error_after_pct,
-              "pseudo_orthogonality_after": m.pseudo_orthogonality_after}
-             for m in result.modes]  # fmt: skip
-    lik, post = result.likelihood, result.posterior
+    post = result.posterior
     return {
-        "deck": str(cfg.deck), "parameters_file": str(cfg.parameters),
-        "test": str(cfg.test_frf or cfg.test_model),
-        "truth": str(cfg.test_truth) if cfg.test_truth is not None else None,
-        "band_hz": list(cfg.band), "zeta0": result.zeta0, "metric": cfg.metric,
-        "n_frequencies": len(result.freq), "outputs": [c.label for c in result.outputs],
-        "inputs": [c.label for c in result.inputs],
-        "excluded_channels": [c.label for c in result.excluded],
-        "summary": summary_lines(result), "parameters": params, "modes": modes,
+        "summary": summary_lines(result), "metric": cfg.metric,
+        "configurations": [_configuration(conf, case, cfg) for conf, case
+                           in zip(cfg.configurations, result.cases, strict=True)],
+        "parameters": params, "holdout": _holdout(result),
         "deviation": {"before": result.deviation_before, "after": result.deviation_after,
                       "surrogate_history": [c.deviation for c in result.cycles]},
         "prior": {"bounds_sigma": cfg.bounds_sigma,
                   "std_p": [float(x) for x in result.prior.std],
                   "from_confidence": [bool(x) for x in result.prior.from_confidence]},
-        "likelihood": {"sigma": lik.sigma, "residuals": lik.m,
-                       "effective_observations": lik.n_eff, "estimated": lik.estimated,
-                       "misfit_sigma_after": misfit_sigma(result),
-                       "noise_sigma": noise_level(result)},
         "posterior": {"hold_ratio": cfg.hold_ratio,
                       "identifiable_below": cfg.identifiable_ratio,
                       "collinearity_identifiable": result.identifiability.collinearity,
@@ -159,9 +236,8 @@ def report_dict(result: CalibrationResult) -> dict:
         "restart_fall": cfg.restart_fall, "reduction_modes": cfg.reduction_modes,
         "surrogate": cfg.surrogate, "enrich_hz": cfg.enrich_hz,
         "enrich_vectors": cfg.enrich_vectors, "residual": cfg.residual,
-        "modal_hz": cfg.modal_hz, "frf_modes": result.frf_modes,
-        "exact_gradient": cfg.exact_gradient, "model_dof": result.model.n_dof,
-        "seconds": result.seconds, "calibrated_deck": calibrated_deck_name(cfg),
+        "modal_hz": cfg.modal_hz, "exact_gradient": cfg.exact_gradient,
+        "seconds": result.seconds,
     }  # fmt: skip
 
 
@@ -205,9 +281,96 @@ def _f(v, spec: str) -> str:
     return "-" if v is None else format(v, spec)
 
 
-def write_html(path: Path, report: dict, pictures: dict[str, str], mode_pictures: list[str]
-               ) -> Path:  # fmt: skip
-    """The HTML page: tables of parameters, modes, deviation and runs, and the pictures."""
+def _figure(title: str, src: str, caption: str) -> str:
+    return (f"<figure><h3>{html.escape(title)}</h3><img src='{html.escape(src)}'>"
+            f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+
+
+def _model_form_html(form: dict | None) -> str:
+    """The model-form part of a configuration's section: what the misfit says, by band, the
+    worst sensors, the missing-element candidates."""
+    if form is None:
+        return ""
+    says = "".join(f"<li>{html.escape(x)}</li>" for x in form["suggestions"])
+    bands = [[f"{b['band_hz'][0]:.1f}-{b['band_hz'][1]:.1f}", _f(b["rms_before"], ".3g"),
+              _f(b["rms_after"], ".3g")] for b in form["bands"]]  # fmt: skip
+    worst = sorted(form["outputs"], key=lambda o: -o["rms_after"])[:8]
+    outs = [[o["name"] or o["channel"], o["channel"], f"{o['rms_before']:.3g}",
+             f"{o['rms_after']:.3g}"] for o in worst]  # fmt: skip
+    cands = [[c["kind"], c["grid"], c["component"] or "1-3",
+              ", ".join(f"{x:.6g}" for x in c["xyz"]), f"{c['value']:.3g}",
+              f"{100 * c['fall']:.1f}"] for c in form["candidates"]]  # fmt: skip
+    missing = "" if not cands else (
+        "<p>Missing elements the misfit asks for most (first order, on Huber-weighted "
+        "residuals; sizes in the model's units):</p>"
+        + _table(cands, ["element", "grid", "component", "x, y, z", "size",
+                         "misfit removed %"]))  # fmt: skip
+    return f"""<h3>Model form</h3><ul>{says}</ul>
+<p>Residual RMS (log10) by band, before and after calibration:</p>
+{_table(bands, ["band Hz", "RMS before", "RMS after"])}
+<p>The channels that fit worst after calibration:</p>
+{_table(outs, ["sensor", "channel", "RMS before", "RMS after"])}
+{missing}"""
+
+
+def _holdout_html(ho: dict | None) -> str:
+    """The hold-out validation's section."""
+    if ho is None:
+        return ""
+    what = {"inputs": "each input's FRFs", "sensors": "each group of sensor positions",
+            "configurations": "each configuration"}[ho["kind"]]  # fmt: skip
+    rows = [[f["name"], f["residuals"], f"{f['deviation_nominal']:.6g}",
+             f"{f['deviation_calibrated']:.6g}", "better" if f["better"] else "WORSE"]
+            for f in ho["folds"]]  # fmt: skip
+    return f"""<h2>Validation on held-out data</h2>
+<p>The calibration was repeated without {what} in turn (likelihood, held parameters and search
+as for the whole test), and the full model at those parameters predicts the held-out residuals;
+the nominal model's deviation on them is the reference. In all: {ho['deviation_calibrated']:.6g}
+calibrated against {ho['deviation_nominal']:.6g} nominal ({'better' if ho['better'] else
+'WORSE: the calibrated values fit this test rather than the structure'}).</p>
+{_table(rows, ["held out", "residuals", "deviation, nominal", "deviation, calibrated without it",
+ ""])}"""
+
+
+def _configuration_html(c: dict, figures: list[tuple[str, str, str]],
+                        mode_pictures: list[str], several: bool) -> str:  # fmt: skip
+    """One configuration's section: its test, deviation, modes and pictures."""
+    modes = [[f"{m['test_hz']:.3f}", _f(m["fe_before_hz"], ".3f"), _f(m["fe_after_hz"], ".3f"),
+              _f(m["frequency_error_before_pct"], "+.2f"),
+              _f(m["frequency_error_after_pct"], "+.2f"), _f(m["mac_before"], ".4f"),
+              _f(m["mac_after"], ".4f")] for m in c["modes"]]  # fmt: skip
+    lk = c["likelihood"]
+    deck = html.escape(c["calibrated_deck"])
+    noise = lk["noise_sigma"]
+    head = f"<h2>Configuration {html.escape(c['name'])}</h2>" if several else "<h2>Test</h2>"
+    return f"""{head}
+<p>Deck {html.escape(c['deck'])}; test {html.escape(c['test'])}; band
+{c['band_hz'][0]:g}-{c['band_hz'][1]:g} Hz at {c['n_frequencies']} frequencies; damping
+equalised to zeta0 = {c['zeta0']:.4f}; {len(c['outputs'])} outputs x {len(c['inputs'])}
+inputs; channels left out: {html.escape(', '.join(c['excluded_channels']) or 'none')}.
+Calibrated deck: <a href="{deck}">{deck}</a>.</p>
+<p>Deviation before {c['deviation']['before']:.6g}, after {c['deviation']['after']:.6g} (full
+model, log10 FRF residuals squared and summed). One residual's standard deviation: {lk['sigma']:.3g}
+at the nominal model, {lk['misfit_sigma_after']:.3g} after calibration{
+'' if noise is None else f"; the test's noise (from the identification's fit) {noise:.2g}"};
+the {lk['residuals']} residuals count as {lk['effective_observations']:.0f} independent
+observations.</p>
+<h3>Modes</h3>{_table(modes, ["test Hz", "FE before Hz", "FE after Hz", "error before %",
+ "error after %", "MAC before", "MAC after"]) if modes else
+ "<p>No identified test modes (raw FRFs compared).</p>"}
+{_model_form_html(c.get("model_form"))}
+{''.join(_figure(*f) for f in figures)}
+{'<h3>Paired modes after calibration</h3>' if mode_pictures else ''}{
+''.join(f"<img class='mode' src='{html.escape(s)}'>" for s in mode_pictures)}
+"""
+
+
+def write_html(path: Path, report: dict, figures: list[tuple[str, str, str]],
+               case_figures: list[list[tuple[str, str, str]]],
+               mode_pictures: list[list[str]]) -> Path:  # fmt: skip
+    """The HTML page: the trust summary first, then the parameters, each configuration's
+    test, modes and pictures, and the runs. ``figures`` (title, file, caption) are the
+    whole calibration's, ``case_figures`` and ``mode_pictures`` each configuration's."""
     def status(p: dict) -> str:
         s = "held" if p["held"] else ("identifiable" if p["identifiable"] else "weakly informed")
         return s + (" (at a bound!)" if p["at_bound"] else "")
@@ -219,8 +382,8 @@ def write_html(path: Path, report: dict, pictures: dict[str, str], mode_pictures
             status(p)] for p in report["parameters"]]  # fmt: skip
     prm_head = ["name", "description", "field", "nominal", "calibrated", "change %", "bounds",
                 "prior std %", "posterior std %", "posterior / prior", "status"]  # fmt: skip
-    truth = report.get("truth")
-    if truth:  # a synthetic test: each parameter's error against its known value
+    truth = any(c.get("truth") for c in report["configurations"])
+    if truth and "true" in report["parameters"][0]:  # a synthetic test: errors against it
         for row, p in zip(prm, report["parameters"], strict=True):
             row += [_f(p["true"], ".6g"), _f(p["error_pct"], "+.2f"),
                     _f(p["error_over_std"], ".1f")]  # fmt: skip
@@ -228,11 +391,6 @@ def write_html(path: Path, report: dict, pictures: dict[str, str], mode_pictures
     why = "".join(f"<li><b>{html.escape(p['name'])}</b>: {html.escape(p['reason'])}</li>"
                   for p in report["parameters"])  # fmt: skip
     summary = "".join(f"<li>{html.escape(line)}</li>" for line in report["summary"])
-    lik = report["likelihood"]
-    modes = [[f"{m['test_hz']:.3f}", _f(m["fe_before_hz"], ".3f"), _f(m["fe_after_hz"], ".3f"),
-              _f(m["frequency_error_before_pct"], "+.2f"),
-              _f(m["frequency_error_after_pct"], "+.2f"), _f(m["mac_before"], ".4f"),
-              _f(m["mac_after"], ".4f")] for m in report["modes"]]  # fmt: skip
     cyc = [[c["cycle"], "multi-start" if c["cycle"] == 1 else
             ("kept" if c["accepted"] else "rejected")
             + (" (search candidate)" if c.get("from_search") else ""),
@@ -245,41 +403,37 @@ def write_html(path: Path, report: dict, pictures: dict[str, str], mode_pictures
                s["iterations"], f"{s['seconds']:.1f}", s["message"]]
               for s in report["starts"]]  # fmt: skip
     dev = report["deviation"]
-    imgs = "".join(f"<h2>{html.escape(t)}</h2><img src='{html.escape(src)}'>"
-                   for t, src in pictures.items())  # fmt: skip
-    mimgs = "".join(f"<img class='mode' src='{html.escape(s)}'>" for s in mode_pictures)
-    deck = html.escape(report["calibrated_deck"])
+    confs = report["configurations"]
+    several = len(confs) > 1
+    sections = "".join(_configuration_html(c, f, m, several)
+                       for c, f, m in zip(confs, case_figures, mode_pictures, strict=True))
     page = f"""<!DOCTYPE html><html><head><meta charset="utf-8"><title>femcal calibration</title>
 <style>body{{font-family:sans-serif;margin:2em;max-width:1500px}}table{{border-collapse:collapse;
 margin:1em 0}}td,th{{border:1px solid #bbb;padding:3px 8px;text-align:right}}th{{background:#eee}}
 img{{max-width:100%;display:block;margin:0.5em 0}}img.mode{{max-width:48%;display:inline-block}}
 ul.summary{{background:#f4f4f4;padding:0.8em 2em;font-size:1.05em}}
+figure{{margin:1.5em 0}}figcaption{{color:#333;max-width:1100px;font-size:0.95em}}
 </style></head><body>
 <h1>femcal calibration</h1>
 <h2>Summary</h2><ul class="summary">{summary}</ul>
-<p>Deck {html.escape(report['deck'])}; test {html.escape(report['test'])}; band
-{report['band_hz'][0]:g}-{report['band_hz'][1]:g} Hz; metric {report['metric']} at
-{report['n_frequencies']} frequencies; damping equalised to zeta0 = {report['zeta0']:.4f};
-{len(report['outputs'])} outputs x {len(report['inputs'])} inputs; channels left out:
-{html.escape(', '.join(report['excluded_channels']) or 'none')}.
-Calibrated deck: <a href="{deck}">{deck}</a>.
-Run time {report['seconds']:.0f} s.</p>
-<h2>Deviation</h2><p>before {dev['before']:.6g}, after {dev['after']:.6g}
-(full model, log10 FRF residuals squared and summed){'' if report['settled'] else
-'; the parameters had not settled when the cycles ran out'}.</p>
+<p>Metric {report['metric']}; {len(confs)} configuration{'s' if several else ''}
+({html.escape(', '.join(c['name'] for c in confs))}); deviation before {dev['before']:.6g},
+after {dev['after']:.6g}{'' if report['settled'] else
+'; the parameters had not settled when the cycles ran out'}. Run time
+{report['seconds']:.0f} s.</p>
 <h2>Parameters</h2>{_table(prm, prm_head)}
 <p>The estimate is the posterior's maximum: the prior is each parameter's standard deviation
 (the bounds at {report['prior']['bounds_sigma']:g} standard deviations, or the parameter file's
-confidence), the likelihood counts the {lik['residuals']} residuals as
-{lik['effective_observations']:.0f} independent observations of sigma {lik['sigma']:.3g}
-({'from the nominal model' if lik['estimated'] else 'the given noise level'}). Identifiable:
+confidence), the likelihood weighs each test's residuals by their standard deviation and
+effective number of independent observations (see each configuration below). Identifiable:
 the posterior standard deviation below {100 * report['posterior']['identifiable_below']:g} % of
 the prior's; held: the test cannot narrow the prior by more than
 {100 * (1 - report['posterior']['hold_ratio']):g} %.{
-f" True values: {html.escape(truth)} (a synthetic test)." if truth else ""}</p>
+" True values from a synthetic test's file." if truth else ""}</p>
 <ul>{why}</ul>
-<h2>Modes</h2>{_table(modes, ["test Hz", "FE before Hz", "FE after Hz", "error before %",
- "error after %", "MAC before", "MAC after"])}
+{''.join(_figure(*f) for f in figures)}
+{_holdout_html(report.get("holdout"))}
+{sections}
 <h2>Runs</h2><p>Cycle 1 runs Levenberg-Marquardt from every start on the nominal model's
 surrogate; each later cycle rebuilds the surrogate at the candidate point, where it is the full
 model, keeps the step if the full model's cost fell (trust region) and runs LM again inside the
@@ -289,8 +443,8 @@ on the current surrogate ({report.get('restarts', 0)} times here); a lower minim
 the next candidate.</p>{_table(cyc, ["cycle", "step", "full-model deviation at the candidate",
  "actual / predicted fall", "trust radius", "largest change (informed parameters)",
  "search again: best deviation (surrogate)"])}
-{_table(starts, ["start", "deviation at start", "deviation", "iterations", "seconds", "stop"])}
-{imgs}<h2>Paired modes after calibration</h2>{mimgs}
+{_table(starts, ["start", "deviation + prior at start", "deviation", "iterations", "seconds",
+ "stop"])}
 </body></html>
 """
     return write_atomic(path, lambda tmp: Path(tmp).write_text(page))
@@ -298,8 +452,9 @@ the next candidate.</p>{_table(cyc, ["cycle", "step", "full-model deviation at t
 
 def write_report(result: CalibrationResult, out: str | os.PathLike[str], *,
                  progress: Callable[[str], None] | None = None) -> Path:  # fmt: skip
-    """The pictures (``out/pictures``: FRFs, CRLB, history, MAC, paired shapes, renderings of
-    the calibrated paired modes) and ``out/report.html``; returns the page's path."""
+    """The pictures (``out/pictures``: parameters, history, and per configuration FRFs, MAC,
+    paired shapes and renderings of the calibrated paired modes) and ``out/report.html``;
+    returns the page's path."""
     from ..viz import calibration as pictures_of
     from ..viz.render import render_modes
 
@@ -307,15 +462,25 @@ def write_report(result: CalibrationResult, out: str | os.PathLike[str], *,
     out = Path(out)
     pics = out / "pictures"
     pics.mkdir(parents=True, exist_ok=True)
-    pictures = pictures_of.report_pictures(result, pics)
-    say("rendering the calibrated model's paired modes")
-    which = sorted({m.fe_after - 1 for m in result.modes if m.fe_after is not None})
-    mode_pngs = []
-    if which:
-        mode_pngs = render_modes(result.modes_after, result.model, pics / "modes",
-                                 title="calibrated", which=which, window=(960, 600))  # fmt: skip
-    rel = {t: str(p.relative_to(out)) for t, p in pictures.items()}
-    page = write_html(out / "report.html", report_dict(result), rel,
-                      [str(p.relative_to(out)) for p in mode_pngs])  # fmt: skip
-    say(f"wrote {page} and {len(pictures) + len(mode_pngs)} pictures")
+    figures = pictures_of.report_pictures(result, pics)
+    several = len(result.cases) > 1
+
+    def rel(p: Path) -> str:
+        return str(p.relative_to(out))
+
+    whole = [(f.title, rel(f.path), f.caption) for f in figures if f.case is None]
+    per_case, modes = [], []
+    for case in result.cases:
+        per_case.append([(f.title, rel(f.path), f.caption) for f in figures
+                         if f.case == case.name])  # fmt: skip
+        which = sorted({m.fe_after - 1 for m in case.modes if m.fe_after is not None})
+        pngs = []
+        if which:
+            say(f"{case.name}: rendering the calibrated model's paired modes")
+            pngs = render_modes(case.modes_after, case.model,
+                                pics / (f"modes_{case.name}" if several else "modes"),
+                                title="calibrated", which=which, window=(960, 600))  # fmt: skip
+        modes.append([rel(p) for p in pngs])
+    page = write_html(out / "report.html", report_dict(result), whole, per_case, modes)
+    say(f"wrote {page} and {len(figures) + sum(map(len, modes))} pictures")
     return page

@@ -1,11 +1,13 @@
 """A calibration from its configuration file (:mod:`femcal.calibrate.config`), files in and
 files out.
 
-Reads the deck, the parameters and the test (FRFs, identified first if the configuration
-asks, or an identified model), runs :func:`femcal.calibrate.workflow.calibrate` with its
-state in ``out/starts`` (a stopped run resumes), and writes ``out/report.json``, the
-calibrated deck and, when identified here, ``out/identify/`` (model.npz, identify.json).
-The pictures and ``report.html`` are :func:`femcal.io.calibration.write_report`'s.
+Reads each configuration's deck, parameters and test (FRFs, identified first if the
+configuration asks, or an identified model), runs
+:func:`femcal.calibrate.workflow.calibrate_setups` with its state in ``out/starts`` (a
+stopped run resumes), and writes ``out/report.json``, each configuration's calibrated deck
+and, when identified here, ``out/identify/`` (``out/identify/<name>/`` with several
+configurations: model.npz, identify.json). The pictures and ``report.html`` are
+:func:`femcal.io.calibration.write_report`'s.
 """
 
 from __future__ import annotations
@@ -15,22 +17,26 @@ from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
-from ..calibrate.config import Config
-from ..calibrate.parameters import read_parameters, read_truth
+import numpy as np
+
+from ..calibrate.cases import TestSetup
+from ..calibrate.config import Config, Configuration
+from ..calibrate.parameters import read_parameters, read_truth, share_parameters
 from ..calibrate.result import CalibrationResult
-from ..calibrate.workflow import calibrate
+from ..calibrate.workflow import calibrate_setups
 from ..identify import IdentifiedModel, Settings, identify
 from ..io.calibration import calibrated_deck_name, write_calibrated_deck, write_report_json
 from ..io.identified import read_model, write_model, write_summary
 from ..model.build import load_model
 from ..testdata.data import FRFData, convert_units
 from ..testdata.formats import read_frf
+from ..testdata.points import channel_names
 
 
-def load_test(cfg: Config, out: Path, say: Callable[[str], None]
+def load_test(conf: Configuration, out: Path, say: Callable[[str], None]
               ) -> tuple[FRFData | None, IdentifiedModel | None]:  # fmt: skip
-    """The measured FRFs (in the model's units) and the identified model: identified here
-    (written to ``out/identify``) or read from the configuration's file.
+    """The measured FRFs (in the model's units) and the identified model of one
+    configuration: identified here (written to ``out``) or read from its file.
 
     Raises
     ------
@@ -38,26 +44,39 @@ def load_test(cfg: Config, out: Path, say: Callable[[str], None]
         For units that do not convert, or an identified model in other units than the
         model's.
     """
-    data = read_frf(cfg.test_frf) if cfg.test_frf is not None else None
-    if data is not None and cfg.model_units and data.units and data.units != cfg.model_units:
-        data = convert_units(data, cfg.model_units)
-        say(f"test FRFs converted to {cfg.model_units}")
+    data = read_frf(conf.test_frf) if conf.test_frf is not None else None
+    if data is not None and conf.model_units and data.units and data.units != conf.model_units:
+        data = convert_units(data, conf.model_units)
+        say(f"{conf.name}: test FRFs converted to {conf.model_units}")
     ident = None
-    if cfg.identify is not None:
-        s = cfg.identify
-        say(f"identifying the test FRFs over {s.band[0]:g}-{s.band[1]:g} Hz")
+    if conf.identify is not None:
+        s = conf.identify
+        say(f"{conf.name}: identifying the test FRFs over {s.band[0]:g}-{s.band[1]:g} Hz")
         ident = identify(data, s.band, splits=s.splits, orders=s.orders,
                          settings=Settings(gamma=s.gamma, beta=s.beta, max_order=s.max_order),
                          progress=say)  # fmt: skip
-        write_model(out / "identify" / "model.npz", ident)
-        write_summary(out / "identify" / "identify.json", ident)
-    elif cfg.test_model is not None:
-        ident = read_model(cfg.test_model)
-        say(f"identified test model read from {cfg.test_model}")
-        if cfg.model_units and ident.units and ident.units != cfg.model_units:
-            raise ValueError(f"{cfg.test_model}: the identified model is in {ident.units}, the "
-                             f"FE model in {cfg.model_units}")  # fmt: skip
+        write_model(out / "model.npz", ident)
+        write_summary(out / "identify.json", ident)
+    elif conf.test_model is not None:
+        ident = read_model(conf.test_model)
+        say(f"{conf.name}: identified test model read from {conf.test_model}")
+        if conf.model_units and ident.units and ident.units != conf.model_units:
+            raise ValueError(f"{conf.test_model}: the identified model is in {ident.units}, the "
+                             f"FE model in {conf.model_units}")  # fmt: skip
     return data, ident
+
+
+def _truth(cfg: Config, per_config: list[list], shared: list) -> np.ndarray | None:
+    """A synthetic test's known values of the shared parameters, from the configurations'
+    truth files (None unless every shared parameter's is known)."""
+    known: dict[str, float] = {}
+    for conf, params in zip(cfg.configurations, per_config, strict=True):
+        if conf.test_truth is not None:
+            known.update(zip((p.name for p in params), read_truth(conf.test_truth, params),
+                             strict=True))  # fmt: skip
+    if not known or any(p.name not in known for p in shared):
+        return None
+    return np.array([known[p.name] for p in shared])
 
 
 def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | None = None,
@@ -77,18 +96,35 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
     t0 = time.perf_counter()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    model = load_model(cfg.deck)
-    params = read_parameters(cfg.parameters, model)
+    several = len(cfg.configurations) > 1
+    models, per_config = [], []
+    for conf in cfg.configurations:
+        model = load_model(conf.deck)
+        params = read_parameters(conf.parameters, model)
+        say(f"{conf.deck.name}: {model.n_dof} DOF; {len(params)} parameters from "
+            f"{conf.parameters.name}")
+        models.append(model)
+        per_config.append(params)
+    shared, _ = share_parameters(per_config, [str(c.parameters) for c in cfg.configurations])
     # a synthetic test's known values, for the report only (read now: a bad file fails fast)
-    truth = read_truth(cfg.test_truth, params) if cfg.test_truth is not None else None
-    say(f"{cfg.deck.name}: {model.n_dof} DOF; {len(params)} parameters from "
-        f"{cfg.parameters.name}")
-    data, ident = load_test(cfg, out, say)
-    result = calibrate(model, params, cfg, data=data, identified=ident, truth=truth,
-                       state=out / "starts", fresh=fresh, workers=workers, starts=starts,
-                       progress=progress)  # fmt: skip
-    write_calibrated_deck(cfg.deck, params, result.values, out / calibrated_deck_name(cfg))
+    truth = _truth(cfg, per_config, shared)
+    setups = []
+    for conf, model, params in zip(cfg.configurations, models, per_config, strict=True):
+        data, ident = load_test(conf, out / "identify" / conf.name if several
+                                else out / "identify", say)  # fmt: skip
+        names = {}
+        for points in (conf.sensors, conf.inputs):
+            if points is not None:
+                names.update(channel_names(points))
+        setups.append(TestSetup(conf.name, model, tuple(params), conf.band, data, ident,
+                                conf.zeta0, conf.model_units, names))  # fmt: skip
+    result = calibrate_setups(setups, cfg, truth=truth, state=out / "starts", fresh=fresh,
+                              workers=workers, starts=starts, progress=progress)  # fmt: skip
+    for conf, params, case in zip(cfg.configurations, per_config, result.cases, strict=True):
+        deck = out / calibrated_deck_name(conf, cfg)
+        write_calibrated_deck(conf.deck, params, result.values[case.index], deck)
+        say(f"wrote {deck}")
     result = replace(result, seconds=time.perf_counter() - t0)  # the whole job's run time
     path = write_report_json(out / "report.json", result)
-    say(f"wrote {path} and {out / calibrated_deck_name(cfg)}")
+    say(f"wrote {path}")
     return result

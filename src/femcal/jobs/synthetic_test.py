@@ -18,7 +18,6 @@ FRF's magnitude, plus a floor), and the runs are assembled into one MIMO set
 
 from __future__ import annotations
 
-import csv
 import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -31,6 +30,7 @@ from ..model.build import load_model
 from ..response.frf import modal_frf, point_matrix
 from ..solve.normal_modes import solve_normal_modes
 from ..testdata.data import FRFData
+from ..testdata.points import point_label, read_points
 from ..testdata.runs import assemble_runs
 
 #: Parameter tables and the column each field lives in.
@@ -66,44 +66,6 @@ class SynthTest:
     damping: np.ndarray  # (k,) per mode
     frequencies_hz: np.ndarray  # (k,) of the "real" frame
     settings: SynthSettings
-
-
-def read_points(path: str | Path) -> list[tuple[str, int, int]]:
-    """(label, grid, direction) rows of a sensors or inputs CSV (``directions`` 123 expands
-    to three rows labelled GRID:+X, +Y, +Z; a signed ``direction`` gives one).
-
-    Raises
-    ------
-    ValueError
-        Naming the file and line of a missing column or a field that is not a number.
-    """
-    out = []
-    with open(path, newline="") as fh:
-        reader = csv.DictReader(fh)
-        fields = reader.fieldnames or []
-        dir_col = "directions" if "directions" in fields else "direction"
-        missing = [c for c in ("label", "grid", dir_col) if c not in fields]
-        if missing:
-            raise ValueError(f"{path}:1: missing column(s) {', '.join(missing)}; expected "
-                             "label, grid and directions (or direction)")  # fmt: skip
-        for row in reader:
-            line = reader.line_num
-            try:
-                g = int(row["grid"])
-                text = row[dir_col].strip()
-                codes = [int(c) for c in text] if dir_col == "directions" else [int(text)]
-            except (TypeError, ValueError):
-                raise ValueError(f"{path}:{line}: grid {row['grid']!r} and {dir_col} "
-                                 f"{row[dir_col]!r} must be integers") from None  # fmt: skip
-            if not codes or any(not 1 <= abs(c) <= 6 for c in codes):
-                raise ValueError(f"{path}:{line}: {dir_col} {text!r}: expected codes 1-6")
-            out += [(row["label"], g, c) for c in codes]
-    return out
-
-
-def _label(grid: int, code: int) -> str:
-    axis = "XYZ"[abs(code) - 1] if abs(code) <= 3 else f"R{'XYZ'[abs(code) - 4]}"
-    return f"{grid}:{'-' if code < 0 else '+'}{axis}"
 
 
 def hidden_frame(deck_path: str | Path, params_path: str | Path, settings: SynthSettings,
@@ -183,8 +145,8 @@ def make_hammer_test(deck_path: str | Path, params_path: str | Path,
             local = [f"ch{k + 1}" for k in range(len(chans))]
             runs.append(FRFData.from_labels(f, H + scale * noise, local, ["hammer"],
                                             "accelerance", "mm/s^2/N"))  # fmt: skip
-            cmap = {lab: _label(g, c) for lab, (g, c) in zip(local, chans, strict=True)}
-            cmap["hammer"] = _label(g_in, c_in)
+            cmap = {lab: point_label(g, c) for lab, (g, c) in zip(local, chans, strict=True)}
+            cmap["hammer"] = point_label(g_in, c_in)
             maps.append(cmap)
     data = assemble_runs(runs, maps)
     return SynthTest(data, truth, zeta, modes.frequencies_hz, s)

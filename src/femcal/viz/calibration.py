@@ -1,18 +1,31 @@
 """The calibration report's pictures (matplotlib, Agg backend) from a
-:class:`~femcal.calibrate.result.CalibrationResult`: FRFs before and after, MAC matrices, the
-parameter changes with their Cramér-Rao bounds, the deviation history, paired shapes. Every
-file is written atomically; the page that shows them is :mod:`femcal.io.calibration`'s."""
+:class:`~femcal.calibrate.result.CalibrationResult`: per configuration the FRFs before and
+after, MAC matrices and paired shapes; the parameters' prior and posterior, the deviation
+history. Each comes with a caption; every file is written atomically; the page that shows
+them is :mod:`femcal.io.calibration`'s."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ..calibrate.result import CalibrationResult
+from ..calibrate.result import CalibrationResult, CaseResult
 from ..correlate import modal_scale_factor
 from ..response.frf import channel_matrix
 from .figures import pyplot, save_figure
+
+
+@dataclass(frozen=True)
+class Figure:
+    """A picture of the report: its title, file, the caption that says what it shows, and
+    the configuration it belongs to (None: the whole calibration)."""
+
+    title: str
+    path: Path
+    caption: str
+    case: str | None = None
 
 
 def _save(fig, path: Path) -> Path:
@@ -20,7 +33,8 @@ def _save(fig, path: Path) -> Path:
     return path
 
 
-def frf_comparison(path: Path, outcome: CalibrationResult, pairs: list[tuple[int, int]]) -> Path:
+def frf_comparison(path: Path, outcome: CaseResult, pairs: list[tuple[int, int]],
+                   units: str = "") -> Path:  # fmt: skip
     """Magnitude panels: the measured FRFs, the damping-equalised test model, the FE model
     before and after, for the given (output, input) index pairs."""
     plt = pyplot()
@@ -28,7 +42,7 @@ def frf_comparison(path: Path, outcome: CalibrationResult, pairs: list[tuple[int
     rows = -(-len(pairs) // cols)
     fig, axes = plt.subplots(rows, cols, figsize=(5 * cols, 3.3 * rows), squeeze=False)
     data = outcome.data
-    band = outcome.config.band
+    band = outcome.band
     for n, (o, i) in enumerate(pairs):
         ax = axes[divmod(n, cols)]
         lab_o, lab_i = outcome.outputs[o].label, outcome.inputs[i].label
@@ -43,8 +57,10 @@ def frf_comparison(path: Path, outcome: CalibrationResult, pairs: list[tuple[int
         ax.semilogy(f, np.abs(outcome.H_before[o, i]), color="tab:blue", lw=1.0, ls="--",
                     label="FE before")  # fmt: skip
         ax.semilogy(f, np.abs(outcome.H_after[o, i]), color="tab:red", lw=1.0, label="FE after")
-        ax.set_title(f"{lab_o} / {lab_i}", fontsize=9)
+        ax.set_title(f"{outcome.channel_name(outcome.outputs[o])} / "
+                     f"{outcome.channel_name(outcome.inputs[i])}", fontsize=8)
         ax.set_xlabel("frequency (Hz)")
+        ax.set_ylabel(f"|H| ({units})" if units else "|H|")
         ax.grid(True, which="both", alpha=0.3)
         if n == 0:
             ax.legend(fontsize=7)
@@ -53,10 +69,10 @@ def frf_comparison(path: Path, outcome: CalibrationResult, pairs: list[tuple[int
     return _save(fig, path)
 
 
-def mac_matrices(path: Path, outcome: CalibrationResult) -> Path:
+def mac_matrices(path: Path, outcome: CaseResult) -> Path:
     """MAC between test modes and FE modes near the band, before and after."""
     plt = pyplot()
-    band = outcome.config.band
+    band = outcome.band
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
     panels = ((axes[0], outcome.mac_before, outcome.modes_before, "before"),
               (axes[1], outcome.mac_after, outcome.modes_after, "after"))
@@ -129,7 +145,7 @@ def history_plot(path: Path, outcome: CalibrationResult) -> Path:
     for s in outcome.cycles[0].starts:
         axes[0].semilogy(s.history, marker=".", lw=0.8, label=f"start {s.start + 1}")
     axes[0].set_xlabel("Levenberg-Marquardt iteration")
-    axes[0].set_ylabel("deviation (surrogate)")
+    axes[0].set_ylabel("deviation + prior term (surrogate)")
     axes[0].set_title("starts of the first cycle")
     axes[0].legend(fontsize=7, ncol=2)
     axes[0].grid(True, which="both", alpha=0.3)
@@ -140,13 +156,14 @@ def history_plot(path: Path, outcome: CalibrationResult) -> Path:
     axes[1].axhline(outcome.deviation_after, color="tab:red", ls="--",
                     label="after (full model)")  # fmt: skip
     axes[1].set_xlabel("cycle (surrogate rebuilt)")
+    axes[1].set_ylabel("deviation (sum of squared log10 residuals)")
     axes[1].set_title("deviation")
     axes[1].legend(fontsize=8)
     axes[1].grid(True, which="both", alpha=0.3)
     return _save(fig, path)
 
 
-def vector_plot(path: Path, outcome: CalibrationResult) -> Path | None:
+def vector_plot(path: Path, outcome: CaseResult) -> Path | None:
     """Test shape against FE shape (after calibration, scaled by the modal scale factor),
     component by component, for each paired mode: points on the diagonal agree."""
     plt = pyplot()
@@ -169,28 +186,134 @@ def vector_plot(path: Path, outcome: CalibrationResult) -> Path | None:
         ax.set_aspect("equal")
         ax.set_title(f"test {pr.test_hz:.1f} Hz / FE {pr.fe_after_hz:.1f} Hz\n"
                      f"MAC {pr.mac_after:.3f}", fontsize=8)  # fmt: skip
-        ax.set_xlabel("FE (after)")
-        ax.set_ylabel("test (scaled)")
+        ax.set_xlabel("FE shape after calibration (mass-normalised)")
+        ax.set_ylabel("test shape, scaled by the MSF")
     return _save(fig, path)
 
 
-def report_pictures(result: CalibrationResult, folder: Path) -> dict[str, Path]:
-    """Every picture of the report in ``folder``, by title: FRFs of the worst-fitting
-    channels before calibration and a spread of the others (first and second input), the
-    parameter changes and bounds, the deviation history, and with identified test modes the
-    MAC matrices and the paired shapes."""
-    err = np.mean(np.abs(np.log10(np.abs(result.H_before / result.H_test))), axis=(1, 2))
-    order = np.argsort(err)[::-1]
-    chans = list(dict.fromkeys([*order[:2], *np.linspace(0, len(order) - 1, 4).astype(int)]))
-    pairs = [(int(o), i) for o in chans[:3] for i in range(len(result.inputs))][:6]
-    pictures = {"FRFs: test, FE before and after": frf_comparison(folder / "frf.png", result,
-                                                                  pairs),
-                "Parameters: prior, calibrated value and posterior":
-                    parameters_plot(folder / "parameters.png", result),
-                "Deviation history": history_plot(folder / "history.png", result)}  # fmt: skip
-    if len(result.test_hz):  # test modes to correlate (an identified test model)
-        pictures["MAC matrices"] = mac_matrices(folder / "mac.png", result)
-        vp = vector_plot(folder / "vectors.png", result)
-        if vp is not None:
-            pictures["Paired shapes, component against component"] = vp
-    return pictures
+def model_form_plot(path: Path, outcome: CaseResult) -> Path | None:
+    """Where the calibrated model still misses the test: on the frame, each sensor position
+    coloured by its residual's RMS after calibration and the missing-element candidates
+    numbered; beside it the residual's RMS over the channels at each frequency, before and
+    after, with the test modes and the noise level."""
+    form = outcome.model_form
+    if form is None:
+        return None
+    plt = pyplot()
+    model = outcome.model
+    fig = plt.figure(figsize=(15, 5.8))
+    ax = fig.add_subplot(1, 2, 1, projection="3d")
+    xyz = model.xyz[model.is_grid]
+    step = max(len(xyz) // 4000, 1)
+    ax.scatter(*xyz[::step].T, s=0.3, c="0.75", depthshade=False)
+    positions: dict[int, list[int]] = {}
+    for o, ch in enumerate(outcome.outputs):
+        if ch.grid is not None:
+            positions.setdefault(ch.grid, []).append(o)
+    if positions:
+        grids = np.array(list(positions))
+        at = model.xyz[model.node_index(grids)]
+        rms = np.array([np.sqrt(np.mean(form.output_rms_after[v] ** 2))
+                        for v in positions.values()])  # fmt: skip
+        sc = ax.scatter(*at.T, c=rms, cmap="plasma", s=40, depthshade=False, edgecolors="k",
+                        linewidths=0.4)  # fmt: skip
+        fig.colorbar(sc, ax=ax, shrink=0.6, pad=0.08,
+                     label="residual RMS after calibration (log10)")  # fmt: skip
+        for g, p_, r in zip(grids, at, rms, strict=True):
+            if r >= np.sort(rms)[-min(5, len(rms))]:  # the worst five by name
+                first = outcome.outputs[positions[int(g)][0]]
+                name = outcome.channel_names.get(first.label, first.label).split(" ")[0]
+                ax.text(*p_, f" {name}", fontsize=7)
+    for k, c in enumerate(form.candidates, start=1):
+        ax.scatter(*c.xyz, marker="*", s=160, c="tab:red", depthshade=False)
+        ax.text(*c.xyz, f"  {k}", color="tab:red", fontsize=9, weight="bold")
+    ax.set_xlabel("x (model units)")
+    ax.set_ylabel("y")
+    ax.set_zlabel("z")
+    span = np.ptp(xyz, axis=0)
+    ax.set_box_aspect(np.maximum(span, 0.05 * span.max()))
+    ax.set_title("residual by sensor; red stars: missing-element candidates", fontsize=9)
+    ax2 = fig.add_subplot(1, 2, 2)
+    ax2.semilogy(outcome.freq, form.frequency_rms_before, color="tab:blue", lw=0.9, ls="--",
+                 label="before calibration")  # fmt: skip
+    ax2.semilogy(outcome.freq, form.frequency_rms_after, color="tab:red", lw=1.0,
+                 label="after calibration")  # fmt: skip
+    if form.noise_sigma is not None:
+        ax2.axhline(form.noise_sigma, color="k", lw=0.8, ls=":",
+                    label="the test's noise (identification)")  # fmt: skip
+    for n, f in enumerate(outcome.test_hz):
+        ax2.axvline(f, color="0.6", lw=0.6, label="test modes" if n == 0 else None)
+    ax2.set_xlabel("frequency (Hz)")
+    ax2.set_ylabel("residual RMS over the channels (log10)")
+    ax2.set_title("residual by frequency")
+    ax2.grid(True, which="both", alpha=0.3)
+    ax2.legend(fontsize=8)
+    return _save(fig, path)
+
+
+def report_pictures(result: CalibrationResult, folder: Path) -> list[Figure]:
+    """Every picture of the report in ``folder`` with its caption: the parameters' prior and
+    posterior, the deviation history, and per configuration the FRFs of the worst-fitting
+    channels before calibration and a spread of the others, with identified test modes the
+    MAC matrices and the paired shapes (file names after the configuration's name where there
+    are several)."""
+    figures = [
+        Figure("Parameters: prior, calibrated value and posterior",
+               parameters_plot(folder / "parameters.png", result),
+               "Left: each parameter's change from its nominal value (%), with the prior's "
+               "standard deviation (grey bar about the nominal), the calibrated value with its "
+               "posterior standard deviation (blue), held parameters (grey squares) and, for a "
+               "synthetic test, the true change (red cross); a posterior bar much shorter than "
+               "the prior's means the test informs the parameter. Right: the posterior "
+               "correlation of the calibrated parameters; strong correlation means the test "
+               "informs their combination more than each."),
+        Figure("Deviation history", history_plot(folder / "history.png", result),
+               "Left: the deviation plus the prior's term along the Levenberg-Marquardt "
+               "iterations of every start of the first cycle (on the nominal surrogate). "
+               "Right: the best deviation of each cycle on its surrogate, and the full "
+               "model's before and after calibration."),
+    ]  # fmt: skip
+    several = len(result.cases) > 1
+    for case in result.cases:
+        pre = f"{case.name}_" if several else ""
+        err = np.mean(np.abs(np.log10(np.abs(case.H_before / case.H_test))), axis=(1, 2))
+        order = np.argsort(err)[::-1]
+        chans = list(dict.fromkeys([*order[:2], *np.linspace(0, len(order) - 1, 4).astype(int)]))
+        pairs = [(int(o), i) for o in chans[:3] for i in range(len(case.inputs))][:6]
+        units = case.data.units if case.data is not None else (
+            case.identified.units if case.identified is not None else "")
+        figures.append(Figure(
+            "FRFs: test, FE before and after",
+            frf_comparison(folder / f"{pre}frf.png", case, pairs, units),
+            "FRF magnitudes of the two channels that fit worst before calibration and a "
+            "spread of the others, for each input: the measured FRF (grey), the identified "
+            "test model with its damping equalised to zeta0 (black, what the FE model is "
+            f"compared with), and the FE model before (blue, dashed) and after (red) "
+            f"calibration, over the calibration band {case.band[0]:g}-{case.band[1]:g} "
+            "Hz.", case.name))  # fmt: skip
+        mf = model_form_plot(folder / f"{pre}model_form.png", case)
+        if mf is not None:
+            figures.append(Figure(
+                "Model form: where the calibrated model still misses the test", mf,
+                "Left: the frame (grey), each sensor position coloured by the RMS of its "
+                "residuals after calibration (the five worst named), and the missing-element "
+                "candidates of the table above numbered in red. Right: the residuals' RMS over "
+                "all channels at each frequency before (blue, dashed) and after (red) "
+                "calibration, the identified test modes (grey lines) and the test's noise "
+                "(dotted): what stays far above the noise after calibration is what the "
+                "model cannot represent.", case.name))  # fmt: skip
+        if len(case.test_hz):  # test modes to correlate (an identified test model)
+            figures.append(Figure(
+                "MAC matrices", mac_matrices(folder / f"{pre}mac.png", case),
+                "MAC of each identified test mode (rows) against the FE modes near the band "
+                "(columns, by frequency) before and after calibration; values over 0.3 are "
+                "printed.", case.name))  # fmt: skip
+            vp = vector_plot(folder / f"{pre}vectors.png", case)
+            if vp is not None:
+                figures.append(Figure(
+                    "Paired shapes, component against component", vp,
+                    "For each test mode paired with an FE mode after calibration: every "
+                    "sensor component of the test shape (scaled by the modal scale factor) "
+                    "against the FE shape's; points on the diagonal agree.",
+                    case.name))  # fmt: skip
+    return figures

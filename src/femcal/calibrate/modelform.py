@@ -1,0 +1,417 @@
+"""Model-form diagnostics: where the calibrated model still misses the test, and what it may
+lack.
+
+When the misfit after calibration stays well above the test's noise, the model lacks
+something the structure has, and no value of its parameters can stand for it without bias.
+Three views say where:
+
+* the residual by sensor and by frequency band (around each test mode), before and after
+  calibration: a misfit that calibration cannot lower, concentrated on a few neighbouring
+  sensors or one mode, points at a local feature;
+* missing elements: for every degree of freedom of the calibrated model, the first-order
+  effect on the misfit of a spring to ground there (a support, a clamp) and, at every grid,
+  of a point mass. The relative FRF derivatives are exact for the modal model,
+  ``dH_oi/dk / H_oi = -R_od R_di / R_oi`` for a spring k on DOF d and ``omega^2 R_od R_di /
+  R_oi`` for a mass (R the receptance), so the misfit's gradient over all DOF is one modal
+  sum, ``g_d = Re(phi_d^T S phi_d)`` with ``S = sum_f G_f Phi_O^T W_f Phi_I G_f`` (G the
+  modal factors, W the residual weights), and the best-sized element's fall of the
+  deviation, g^2 / h, is computed for the most promising ones (h the Gauss-Newton
+  curvature). Only physical ones are kept (positive stiffness and mass). The best of those
+  are then sized exactly: the modal receptance with the element added follows from a
+  rank-one (spring) or rank-three (mass) update, ``R' = R - R_.d dZ (I + R_dd dZ)^-1 R_d.``,
+  and the size that lowers the deviation most is searched on it, which holds where the
+  missing element is too large for the first order; the best few at distinct places are the
+  candidates. This is error localisation by candidate parameters
+  (Friswell and Mottershead, Finite Element Model Updating in Structural Dynamics, ch. 8),
+  with the candidates every DOF rather than a list the engineer guesses. The residuals are
+  weighed by Huber's weights first: near antiresonances the log metric's residuals are
+  large where the FRFs differ little in absolute terms (a few per cent of the residuals
+  can carry most of the squared misfit), and unweighted they make every local spring look
+  useful; weighted, the search points at what the model lacks (benchmarks/RESULTS.md);
+* the parameters on a bound, which stand for something beyond their range.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..identify import IdentifiedModel
+from ..model.model import Model
+from ..response.frf import channel_matrix
+from ..solve.normal_modes import Modes
+from ..testdata.data import Channel
+
+_LN10 = np.log(10.0)
+
+#: The misfit after calibration above this many times the test's noise is a model-form warning.
+NOISE_FACTOR = 3.0
+
+#: Huber's constant for the missing-element search, in robust standard deviations.
+HUBER_C = 2.0
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A missing element the misfit asks for.
+
+    Attributes
+    ----------
+    kind : ``spring to ground`` or ``point mass``.
+    grid : the GRID; component : 1-6 in the grid's displacement frame (0 for a point mass,
+        which acts in all three translations).
+    xyz : (3,) the grid's position in the basic frame.
+    fall : the fraction of the configuration's deviation that the best-sized element
+        removes.
+    value : that size, in the model's units (force / length, moment / radian, mass).
+    """
+
+    kind: str
+    grid: int
+    component: int
+    xyz: np.ndarray
+    fall: float
+    value: float
+
+    def describe(self) -> str:
+        """``a spring to ground at GRID 455 (800, 430, 127.5), component 5 (RY), 2.1e+08``."""
+        at = f"GRID {self.grid} ({', '.join(f'{x:.6g}' for x in self.xyz)})"
+        if self.kind == "point mass":
+            return f"a point mass of {self.value:.3g} at {at}"
+        name = ("X", "Y", "Z", "RX", "RY", "RZ")[self.component - 1]
+        return (f"a spring to ground of {self.value:.3g} at {at}, component {self.component} "
+                f"({name})")  # fmt: skip
+
+
+@dataclass(frozen=True)
+class ModelForm:
+    """One configuration's model-form diagnostics.
+
+    Attributes
+    ----------
+    noise_sigma : the test's noise in log10 units (None: unknown).
+    misfit_before, misfit_after : one residual's RMS (log10) before and after calibration.
+    output_rms_before, output_rms_after : (n_out,) RMS residual of each output channel.
+    band_edges_hz : (n_b + 1,) the bands' edges: one band around each test mode (edges at
+        the geometric means of neighbouring modes), or octaves without test modes.
+    band_rms_before, band_rms_after : (n_b,) RMS residual in each band.
+    frequency_rms_before, frequency_rms_after : (n_f,) RMS over the channels at each of the
+        metric's frequencies.
+    candidates : the missing elements the misfit asks for most, at distinct places.
+    warning : the misfit after calibration is above NOISE_FACTOR times the noise.
+    suggestions : what the model may lack, in words.
+    """
+
+    noise_sigma: float | None
+    misfit_before: float
+    misfit_after: float
+    output_rms_before: np.ndarray
+    output_rms_after: np.ndarray
+    band_edges_hz: np.ndarray
+    band_rms_before: np.ndarray
+    band_rms_after: np.ndarray
+    frequency_rms_before: np.ndarray
+    frequency_rms_after: np.ndarray
+    candidates: tuple[Candidate, ...]
+    warning: bool
+    suggestions: tuple[str, ...]
+
+
+def noise_level(identified: IdentifiedModel | None) -> float | None:
+    """The test's noise in the metric's units (log10), from its identification's median fit
+    error (a relative complex error e spreads e / (sqrt(2) ln 10) on each of the metric's
+    parts); None without an identified model."""
+    if identified is None or not len(identified.fit_error):
+        return None
+    return float(np.median(identified.fit_error) / (np.sqrt(2.0) * _LN10))
+
+
+def _split(eps: np.ndarray, shape: tuple[int, int, int]) -> np.ndarray:
+    """The metric's residual (magnitude part, then phase part for complex-log) as
+    (parts, n_out, n_in, n_f)."""
+    return eps.reshape(-1, *shape)
+
+
+def robust_weights(eps: np.ndarray, c: float = HUBER_C) -> np.ndarray:
+    """Huber's weights of the residuals: 1 within c robust standard deviations (1.4826 times
+    the median absolute residual), c s / |e| beyond."""
+    s = 1.4826 * float(np.median(np.abs(eps)))
+    if not s > 0:
+        return np.ones_like(eps)
+    return np.minimum(1.0, c * s / np.maximum(np.abs(eps), 1e-300))
+
+
+def band_edges(test_hz: np.ndarray, band: tuple[float, float]) -> np.ndarray:
+    """One band around each test mode, or octaves from the band's bottom without modes."""
+    f = np.sort(np.asarray(test_hz, float))
+    if len(f):
+        inner = np.sqrt(f[:-1] * f[1:])
+        return np.concatenate([[band[0]], inner, [band[1]]])
+    n = max(int(np.ceil(np.log2(band[1] / band[0]))), 1)
+    return np.geomspace(band[0], band[1], n + 1)
+
+
+def _rms(x: np.ndarray, axis) -> np.ndarray:
+    return np.sqrt(np.mean(x**2, axis=axis))
+
+
+def _sample_grids(xyz: np.ndarray, target: int) -> np.ndarray:
+    """Indices of at most about ``target`` points spread over ``xyz`` (n, 3): the point
+    nearest each occupied cell's centre of a cubic grid whose cell is sized to the target."""
+    if len(xyz) <= target:
+        return np.arange(len(xyz))
+    lo = xyz.min(axis=0)
+    span = float(np.ptp(xyz, axis=0).max()) or 1.0
+    edge = span / target ** (1 / 3)
+    for _ in range(30):
+        cells = np.floor((xyz - lo) / edge).astype(np.int64)
+        keys, inverse = np.unique(cells, axis=0, return_inverse=True)
+        if len(keys) <= target:
+            break
+        edge *= (len(keys) / target) ** 0.5
+    inverse = inverse.ravel()
+    dist = np.linalg.norm(xyz - (lo + (cells + 0.5) * edge), axis=1)
+    order = np.lexsort((dist, inverse))
+    first = np.ones(len(order), bool)
+    first[1:] = inverse[order][1:] != inverse[order][:-1]
+    return np.sort(order[first])
+
+
+def missing_elements(model: Model, modes: Modes, outputs: Sequence[Channel],
+                     inputs: Sequence[Channel], freq: np.ndarray, zeta: float,
+                     eps: np.ndarray, H_model: np.ndarray, H_test: np.ndarray, metric: str,
+                     *, n_best: int = 5, n_sites: int = 1500,
+                     min_distance: float | None = None,
+                     weights: np.ndarray | None = None) -> tuple[Candidate, ...]:  # fmt: skip
+    """The springs to ground and point masses whose best size lowers the deviation most, at
+    distinct places (see the module docstring).
+
+    Every DOF of up to ``n_sites`` grids spread over the model is screened to first order
+    (every other frequency), the grids near the best screened ones are evaluated to first
+    order at all frequencies, and the best of those sized exactly.
+
+    Parameters
+    ----------
+    modes : the calibrated model's modes (g-set shapes) that its FRFs sum, with modal
+        damping ``zeta``.
+    eps : the metric's residual of the calibrated model against the test (unweighted).
+    H_model, H_test : (n_out, n_in, n_f) the calibrated model's and the test's FRFs.
+    min_distance : candidates closer than this to a better one are left out (default: 5 % of
+        the model's size).
+    weights : (n_residuals,) each residual's weight in the deviation (default 1).
+    """
+    shape = H_test.shape
+    wts = np.ones_like(eps) if weights is None else np.asarray(weights, float)
+    parts = _split(wts * eps, shape)
+    wparts = _split(wts, shape)
+    total = float(eps @ (wts * eps))
+    grids = np.flatnonzero(model.is_grid)
+    if total <= 0 or not len(grids):
+        return ()
+    w = 2 * np.pi * np.asarray(freq, float)
+    gm = np.asarray(modes.generalized_mass, float)
+    Phi = np.asarray(modes.shapes) / np.sqrt(np.where(gm > 0, gm, 1.0))
+    lam = np.asarray(modes.eigenvalues, float)
+    wr = np.sqrt(np.abs(lam))
+    G = 1.0 / (lam[None, :] - w[:, None] ** 2 + 2j * zeta * wr[None, :] * w[:, None])  # (f, m)
+    PO = np.asarray(channel_matrix(model, outputs) @ Phi)  # (o, m)
+    PI = np.asarray(channel_matrix(model, inputs) @ Phi)  # (i, m)
+    R = np.einsum("or,fr,ir->oif", PO, G, PI, optimize=True)  # the modal receptance
+    complex_log = metric == "complex-log"
+    cosf = np.cos(np.angle(H_model / H_test) / 2.0) if complex_log else np.zeros(shape)
+    e_mag = parts[0]
+    e_ph = parts[1] if complex_log else np.zeros(shape)
+    w_mag = wparts[0]
+    w_ph = wparts[1] if complex_log else np.zeros(shape)
+
+    def gains(dofs: np.ndarray, mass: bool, fsel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(g, h) of the deviation's half for candidates on ``dofs`` (n_c, k): a spring on
+        each single DOF (k = 1) or a mass on each grid's translations (k = 3), summed over
+        the frequencies ``fsel``."""
+        g = np.zeros(len(dofs))
+        h = np.zeros(len(dofs))
+        P = Phi[dofs]  # (c, k, m)
+        for f in fsel:
+            Rod = np.einsum("om,ckm->ock", PO * G[f], P, optimize=True)
+            Rdi = np.einsum("im,ckm->ick", PI * G[f], P, optimize=True)
+            u = np.einsum("ock,ick->oic", Rod, Rdi) / R[:, :, f, None]
+            u = u * w[f] ** 2 if mass else -u
+            dm = u.real / _LN10
+            dp = cosf[:, :, f, None] * u.imag / _LN10
+            g += np.einsum("oic,oi->c", dm, e_mag[:, :, f]) + np.einsum("oic,oi->c", dp,
+                                                                        e_ph[:, :, f])
+            h += (np.einsum("oic,oic,oi->c", dm, dm, w_mag[:, :, f])
+                  + np.einsum("oic,oic,oi->c", dp, dp, w_ph[:, :, f]))
+        return g, h
+
+    def candidates(nodes: np.ndarray, fsel: np.ndarray, scale: float) -> list[Candidate]:
+        out = []
+        start = model.dof_start[nodes]
+        springs = (start[:, None] + np.arange(6)[None, :]).reshape(-1, 1)
+        masses = start[:, None] + np.arange(3)[None, :]
+        for kind, dofs in (("spring to ground", springs), ("point mass", masses)):
+            g, h = gains(dofs, kind == "point mass", fsel)
+            g, h = g * scale, h * scale
+            for k in np.flatnonzero((g < 0) & (h > 0)):  # a positive stiffness or mass
+                node, comp = model.dof_owner(dofs[k, 0])
+                out.append(Candidate(kind, int(model.node_ids[node[0]]),
+                                     int(comp[0]) if kind == "spring to ground" else 0,
+                                     np.asarray(model.xyz[node[0]], float),
+                                     float(g[k] ** 2 / h[k] / total), float(-g[k] / h[k])))
+        return out
+
+    size = float(np.ptp(model.xyz[grids], axis=0).max()) or 1.0
+    min_distance = 0.05 * size if min_distance is None else min_distance
+    sites = grids[_sample_grids(model.xyz[grids], n_sites)]
+    every = np.arange(len(freq))
+    screened = candidates(sites, every[::2], float(len(every)) / len(every[::2]))
+    screened.sort(key=lambda c: -c.fall)
+    spacing = size / max(len(sites), 1) ** (1 / 3)
+    near: set[int] = set()
+    picked: list[Candidate] = []
+    for c in screened:
+        if all(np.linalg.norm(c.xyz - b.xyz) >= min_distance for b in picked):
+            picked.append(c)
+            d = np.linalg.norm(model.xyz[grids] - c.xyz, axis=1)
+            near.update(grids[np.argsort(d)[:60]][np.sort(d)[:60] <= 2 * spacing].tolist())
+        if len(picked) == 2 * n_best:
+            break
+    found = candidates(np.array(sorted(near), dtype=np.int64), every, 1.0) if near else []
+    found.sort(key=lambda c: -c.fall)
+
+    def deviation_with(c: Candidate, size: float) -> float:
+        """The weighted deviation with the element added at ``size``: the modal receptance
+        updated exactly (Sherman-Morrison for a spring, Woodbury over the three translations
+        for a mass), the model's FRFs scaled by the update's ratio."""
+        node = int(model.node_index(c.grid)[0])
+        dofs = model.dof_start[node] + (np.arange(3) if c.kind == "point mass"
+                                        else np.array([c.component - 1]))  # fmt: skip
+        P = Phi[dofs]  # (k, m)
+        Rod = np.einsum("om,fm,km->fok", PO, G, P, optimize=True)
+        Rdi = np.einsum("km,fm,im->fki", P, G, PI, optimize=True)
+        Rdd = np.einsum("km,fm,lm->fkl", P, G, P, optimize=True)
+        n = len(dofs)
+        # Z + dZ with dZ = size (spring) or -w^2 size (mass) on the DOF: R' = R - R_.d
+        # dZ (I + R_dd dZ)^-1 R_d.
+        dz = (size * np.ones(len(freq)) if c.kind == "spring to ground"
+              else -(w**2) * size)[:, None, None] * np.eye(n)[None]  # fmt: skip
+        core = np.linalg.solve(np.eye(n)[None] + Rdd @ dz, dz)
+        R_new = R - np.einsum("fok,fkl,fli->oif", Rod, core, Rdi, optimize=True)
+        e = residuals_of(H_model * (R_new / R))
+        return float(e @ (wts * e))
+
+    def residuals_of(H: np.ndarray) -> np.ndarray:
+        ratio = H / H_test
+        mag = np.log10(np.abs(ratio)).ravel()
+        if not complex_log:
+            return mag
+        return np.concatenate([mag, (2.0 * np.sin(np.angle(ratio) / 2.0) / _LN10).ravel()])
+
+    def exact(c: Candidate) -> Candidate:
+        """The candidate at the size that lowers the deviation most (golden section on the
+        logarithm of the size, about the first-order size)."""
+        lo, hi = np.log(c.value) - np.log(100.0), np.log(c.value) + np.log(100.0)
+        ratio = (np.sqrt(5.0) - 1.0) / 2.0
+        a, b = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
+        fa, fb = deviation_with(c, np.exp(a)), deviation_with(c, np.exp(b))
+        for _ in range(40):
+            if fa < fb:
+                hi, b, fb = b, a, fa
+                a = hi - ratio * (hi - lo)
+                fa = deviation_with(c, np.exp(a))
+            else:
+                lo, a, fa = a, b, fb
+                b = lo + ratio * (hi - lo)
+                fb = deviation_with(c, np.exp(b))
+            if hi - lo < 1e-3:
+                break
+        size, dev = (np.exp(a), fa) if fa < fb else (np.exp(b), fb)
+        return Candidate(c.kind, c.grid, c.component, c.xyz, max(1.0 - dev / total, 0.0),
+                         float(size))  # fmt: skip
+
+    found = sorted((exact(c) for c in found[: 6 * n_best]), key=lambda c: -c.fall)
+    best: list[Candidate] = []
+    for c in found:
+        if all(np.linalg.norm(c.xyz - b.xyz) >= min_distance for b in best):
+            best.append(c)
+        if len(best) == n_best:
+            break
+    return tuple(best)
+
+
+def diagnose(model: Model, modes: Modes, outputs: Sequence[Channel],
+             inputs: Sequence[Channel], freq: np.ndarray, zeta: float, band: tuple[float, float],
+             test_hz: np.ndarray, eps_before: np.ndarray, eps_after: np.ndarray,
+             H_after: np.ndarray, H_test: np.ndarray, metric: str,
+             noise_sigma: float | None, bound_names: Sequence[str] = (),
+             channel_names: dict[str, str] | None = None) -> ModelForm:  # fmt: skip
+    """One configuration's diagnostics (see the module docstring) from its residuals before
+    and after calibration and the calibrated model's modes."""
+    shape = H_test.shape
+    before, after = _split(eps_before, shape), _split(eps_after, shape)
+    names = channel_names or {}
+    edges = band_edges(test_hz, band)
+    idx = np.clip(np.searchsorted(edges, freq, side="right") - 1, 0, len(edges) - 2)
+    band_b = np.array([_rms(before[..., idx == b], None) if (idx == b).any() else np.nan
+                       for b in range(len(edges) - 1)])  # fmt: skip
+    band_a = np.array([_rms(after[..., idx == b], None) if (idx == b).any() else np.nan
+                       for b in range(len(edges) - 1)])  # fmt: skip
+    out_b, out_a = _rms(before, (0, 2, 3)), _rms(after, (0, 2, 3))
+    mis_b, mis_a = float(_rms(eps_before, None)), float(_rms(eps_after, None))
+    warning = noise_sigma is not None and mis_a > NOISE_FACTOR * noise_sigma
+    candidates = (missing_elements(model, modes, outputs, inputs, freq, zeta, eps_after,
+                                   H_after, H_test, metric, weights=robust_weights(eps_after))
+                  if warning or noise_sigma is None else ())  # fmt: skip
+    say = []
+    if noise_sigma is not None and not warning:
+        say.append(f"The misfit after calibration (RMS {mis_a:.3g} in log10) is within "
+                   f"{NOISE_FACTOR:g} times the test's noise ({noise_sigma:.2g}): no sign of "
+                   "a feature the model lacks.")  # fmt: skip
+    else:
+        if noise_sigma is not None:
+            say.append(f"The misfit after calibration (RMS {mis_a:.3g} in log10, "
+                       f"{mis_b:.3g} before) stays {mis_a / noise_sigma:.0f} times the test's "
+                       f"noise ({noise_sigma:.2g}).")  # fmt: skip
+        else:
+            say.append(f"The misfit after calibration is RMS {mis_a:.3g} in log10 ({mis_b:.3g} "
+                       "before); the test's noise is unknown (no identified model and no "
+                       "noise_sigma), so whether it is noise or model form cannot be told: "
+                       "read what follows as where the misfit is, not as what is "
+                       "missing.")  # fmt: skip
+        worst = np.argsort(out_a)[::-1][:3]
+        label = [names.get(outputs[o].label, outputs[o].label) for o in worst]
+        say.append("It is largest at " + ", ".join(
+            f"{lab} (RMS {out_a[o]:.3g})" for lab, o in zip(label, worst, strict=True))
+            + f"; the median channel's is {np.median(out_a):.3g}.")  # fmt: skip
+        ok = np.isfinite(band_a)
+        if ok.any():
+            b = int(np.nanargmax(band_a))
+            mode = (f"around the test mode at {np.sort(test_hz)[b]:.1f} Hz" if len(test_hz)
+                    else f"in {edges[b]:.0f}-{edges[b + 1]:.0f} Hz")  # fmt: skip
+            say.append(f"By frequency it is largest {mode} (RMS {band_a[b]:.3g}, "
+                       f"{band_b[b]:.3g} before calibration).")  # fmt: skip
+        useful = [c for c in candidates if c.fall >= 0.05]
+        if useful:
+            c = useful[0]
+            what = ("a support or a stiffer connection to the surroundings there (a mount, a "
+                    "clamp, a cross support)" if c.kind == "spring to ground"
+                    else "mass there (a component, a bracket, fluid)")  # fmt: skip
+            say.append(f"The model may lack {what}: {c.describe()} would remove about "
+                       f"{100 * c.fall:.0f} % of the remaining deviation (robustly "
+                       "weighed)."
+                       + ("" if len(useful) == 1 else " Others: " + "; ".join(
+                           f"{d.describe()} ({100 * d.fall:.0f} %)" for d in useful[1:3])
+                          + "."))  # fmt: skip
+        elif candidates:
+            say.append("No single spring to ground or point mass removes more than 5 % of the "
+                       "remaining deviation: what the model lacks is spread out (damping, a "
+                       "joint's flexibility along a line, the test's own errors).")  # fmt: skip
+    if bound_names:
+        say.append(f"{', '.join(bound_names)} ended on a bound: each stands for something "
+                   "beyond its range; widen the bound only if the physics allows it, else "
+                   "look for what it stands for.")  # fmt: skip
+    return ModelForm(noise_sigma, mis_b, mis_a, out_b, out_a, edges, band_b, band_a,
+                     _rms(before, (0, 1, 2)), _rms(after, (0, 1, 2)), candidates, warning,
+                     tuple(say))  # fmt: skip

@@ -1,0 +1,109 @@
+"""What the search minimises: each configuration's log-FRF metric on its surrogate (a
+:class:`Term`), weighed against the others, plus the prior's rows (:class:`Problem`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .metric import jacobian, residuals
+from .surrogate import Surrogate
+
+
+@dataclass(frozen=True)
+class Term:
+    """One configuration's part of the metric: its surrogate's FRFs against its test's at
+    ``freq`` (n_f,). ``index`` (n_p_c,) places the surrogate's parameters in the shared
+    vector; ``factor`` weighs its residuals against the other terms' (the likelihood's
+    reference scale over its own); ``correction`` (n_residuals, n_p_c), if given, is added
+    to the residuals as ``correction (p - p_c)`` about the surrogate's centre p_c (the
+    first-order correction of :mod:`femcal.calibrate.gradient`); ``rows`` (n_residuals,)
+    bool, if given, keeps only those residuals (a hold-out fold's training part)."""
+
+    surrogate: Surrogate
+    freq: np.ndarray
+    H_test: np.ndarray
+    metric: str
+    index: np.ndarray
+    factor: float = 1.0
+    correction: np.ndarray | None = None
+    rows: np.ndarray | None = None
+
+    def residuals(self, p: np.ndarray) -> np.ndarray:
+        """eps at the shared p (unweighted; ``rows`` only)."""
+        q = np.asarray(p, float)[self.index]
+        r = residuals(self.surrogate.frf(q, self.freq), self.H_test, self.metric)
+        if self.correction is not None:
+            r = r + self.correction @ (q - self.surrogate.p_center)
+        return r if self.rows is None else r[self.rows]
+
+    def jacobian(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(J (n_residuals, n_p_c), eps) at the shared p (unweighted; ``rows`` only), the
+        correction included (at the centre of a corrected term: the full model's)."""
+        q = np.asarray(p, float)[self.index]
+        H, dH = self.surrogate.frf_and_jacobian(q, self.freq)
+        J = jacobian(H, dH, self.metric, self.H_test)
+        r = residuals(H, self.H_test, self.metric)
+        if self.correction is not None:
+            J = J + self.correction
+            r = r + self.correction @ (q - self.surrogate.p_center)
+        return (J, r) if self.rows is None else (J[self.rows], r[self.rows])
+
+
+@dataclass(frozen=True)
+class Problem:
+    """What every start minimises: the terms' weighted residuals (every configuration's
+    metric) within the bounds, plus ``(weights p)^2`` (the prior's rows; None for none)."""
+
+    terms: tuple[Term, ...]
+    lower: np.ndarray
+    upper: np.ndarray
+    max_iter: int
+    weights: np.ndarray | None = None
+
+    @classmethod
+    def single(cls, surrogate: Surrogate, freq: np.ndarray, H_test: np.ndarray, metric: str,
+               lower: np.ndarray, upper: np.ndarray, max_iter: int,
+               weights: np.ndarray | None = None,
+               correction: np.ndarray | None = None) -> Problem:  # fmt: skip
+        """One configuration whose surrogate's parameters are all of them."""
+        term = Term(surrogate, freq, H_test, metric, np.arange(len(lower)),
+                    correction=correction)  # fmt: skip
+        return cls((term,), np.asarray(lower, float), np.asarray(upper, float), max_iter,
+                   weights)  # fmt: skip
+
+    def _data_residuals(self, p: np.ndarray) -> np.ndarray:
+        return np.concatenate([t.factor * t.residuals(p) for t in self.terms])
+
+    def data_jacobian(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(J (n_residuals, n_p), eps (n_residuals,)) of the data part at p, every term
+        weighed by its factor, the corrections included."""
+        Js, rs = [], []
+        for t in self.terms:
+            Jt, rt = t.jacobian(p)
+            J = np.zeros((len(rt), len(self.lower)))
+            J[:, t.index] = t.factor * Jt
+            Js.append(J)
+            rs.append(t.factor * rt)
+        return np.vstack(Js), np.concatenate(rs)
+
+    def fun(self, p: np.ndarray):
+        """Residuals and a callable for their Jacobian (computed for accepted points only)."""
+        r = self._data_residuals(p)
+        w = self.weights
+
+        def jac() -> np.ndarray:
+            J = self.data_jacobian(p)[0]
+            return J if w is None else np.vstack([J, np.diag(w)])
+
+        return (r if w is None else np.concatenate([r, w * p])), jac
+
+    def cost(self, p: np.ndarray) -> float:
+        """|r|^2 / 2 at p, the prior included."""
+        r = self.fun(p)[0]
+        return 0.5 * float(r @ r)
+
+    def deviation(self, p: np.ndarray) -> float:
+        """The data part alone, unweighted: the sum of every term's eps^T eps."""
+        return float(sum(float(r @ r) for r in (t.residuals(p) for t in self.terms)))

@@ -1,0 +1,87 @@
+"""Model-form diagnostics: a feature the model lacks is found where it is. The test FRFs come
+from the plate with a spring to ground (or a mass) the model does not have; the search over
+every DOF must name that place, component and size."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from femcal.calibrate.metric import residuals
+from femcal.calibrate.modelform import band_edges, diagnose, missing_elements, robust_weights
+from femcal.model import EigenRequest
+from femcal.model.build import load_model
+from femcal.response.frf import channel_matrix, modal_frf
+from femcal.solve.normal_modes import solve_normal_modes
+from femcal.testdata.data import Channel
+
+from .calib_decks import plate_deck
+
+OUTS = [Channel.parse(f"{g}:+Z") for g in (3, 5, 7, 10, 12, 14, 17, 19, 21, 24, 26, 28)]
+INS = [Channel.parse("28:+Z"), Channel.parse("11:+Z")]
+ZETA = 0.02
+
+
+@pytest.fixture()
+def frf(tmp_path):
+    def make(deck: str, f: np.ndarray):
+        path = tmp_path / f"deck{len(list(tmp_path.iterdir()))}.bdf"
+        path.write_text(deck)
+        return _frf(load_model(path), f)
+
+    return make
+
+
+def _frf(model, f: np.ndarray):
+    modes, _ = solve_normal_modes(model, request=EigenRequest(nd=30))
+    H = modal_frf(modes.shapes, modes.radians, channel_matrix(model, OUTS),
+                  channel_matrix(model, INS).T, f, ZETA, "accelerance")  # fmt: skip
+    return model, modes, H
+
+
+@pytest.mark.parametrize("extra, kind, grid, component, size", [
+    ("CELAS2,600,30.,19,3", "spring to ground", 19, 3, 30.0),
+    ("CONM2,601,10,,0.0005", "point mass", 10, 0, 0.0005),
+])  # fmt: skip
+def test_a_missing_spring_or_mass_is_found_where_it_is(frf, extra, kind, grid, component,
+                                                        size):  # fmt: skip
+    f = np.geomspace(10.0, 400.0, 300)
+    model, modes, H_model = frf(plate_deck(), f)
+    _, _, H_test = frf(plate_deck().replace("ENDDATA", extra + "\nENDDATA"), f)
+    eps = residuals(H_model, H_test, "complex-log")
+    found = missing_elements(model, modes, OUTS, INS, f, ZETA, eps, H_model, H_test,
+                             "complex-log")  # fmt: skip
+    best = found[0]
+    assert (best.kind, best.grid, best.component) == (kind, grid, component)
+    assert best.value == pytest.approx(size, rel=0.02)  # sized exactly on the modal model
+    assert best.fall > 0.99  # the one element explains the misfit
+    assert all(c.fall <= best.fall for c in found)
+
+
+def test_diagnose_says_where_and_what_and_stays_quiet_within_the_noise(frf):
+    f = np.geomspace(10.0, 400.0, 300)
+    model, modes, H_model = frf(plate_deck(), f)
+    _, _, H_test = frf(plate_deck().replace("ENDDATA", "CELAS2,600,30.,19,3\nENDDATA"), f)
+    eps = residuals(H_model, H_test, "complex-log")
+    test_hz = modes.frequencies_hz[(modes.frequencies_hz > 10) & (modes.frequencies_hz < 400)]
+    names = {"19:+Z": "S19 +Z"}
+    form = diagnose(model, modes, OUTS, INS, f, ZETA, (10.0, 400.0), test_hz, eps, eps,
+                    H_model, H_test, "complex-log", 1e-3, ["k_spring"], names)  # fmt: skip
+    assert form.warning and form.misfit_after > 3e-3
+    text = " ".join(form.suggestions)
+    assert "a spring to ground" in text and "GRID 19" in text and "k_spring" in text
+    assert len(form.band_edges_hz) == len(test_hz) + 1
+    assert form.output_rms_after.shape == (len(OUTS),)
+    quiet = diagnose(model, modes, OUTS, INS, f, ZETA, (10.0, 400.0), test_hz, eps, eps,
+                     H_model, H_test, "complex-log", 1.0)  # fmt: skip
+    assert not quiet.warning and quiet.candidates == ()
+    assert "no sign of a feature the model lacks" in quiet.suggestions[0]
+
+
+def test_bands_and_robust_weights():
+    np.testing.assert_allclose(band_edges(np.array([20.0, 80.0]), (10.0, 100.0)),
+                               [10.0, 40.0, 100.0])  # fmt: skip
+    assert len(band_edges(np.zeros(0), (10.0, 80.0))) == 4  # octaves
+    e = np.array([0.01, -0.01, 0.012, -0.009, 1.0])
+    w = robust_weights(e)
+    assert w[:4].tolist() == [1.0] * 4 and w[4] < 0.05
