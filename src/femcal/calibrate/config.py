@@ -29,6 +29,9 @@
     zeta0 = "median"                        # or a damping ratio
     samples_per_bandwidth = 3.0
     metric = "log-magnitude"                # or "complex-log"
+    loss = "huber"                          # or "squared" (least squares): Huber's loss,
+    huber_c = 2.0                           #  quadratic within huber_c robust standard
+                                            #  deviations (femcal.calibrate.robust)
     reduction_modes = 100                   # modes of the surrogate's basis
     surrogate = "exact"                     # or "first-order" (FEMCali's)
     enrich_hz = 0.0                         # static eigenvector-derivative vectors of the
@@ -160,6 +163,8 @@ class Config:
     configurations: tuple[Configuration, ...]
     samples_per_bandwidth: float = 3.0
     metric: str = "log-magnitude"
+    loss: str = "huber"
+    huber_c: float = 2.0
     reduction_modes: int = 100
     surrogate: str = "exact"
     enrich_hz: float = 0.0
@@ -218,7 +223,8 @@ KEYS = {
     "configuration": {"name", "deck", "parameters", "units", "frf", "model", "truth",
                       "identify", "band", "zeta0", "sensors", "inputs"},
     "calibration": {
-        "band", "zeta0", "samples_per_bandwidth", "metric", "reduction_modes", "surrogate",
+        "band", "zeta0", "samples_per_bandwidth", "metric", "loss", "huber_c",
+        "reduction_modes", "surrogate",
         "enrich_hz", "enrich_vectors", "residual", "modal_hz", "exact_gradient", "starts",
         "workers", "seed", "max_iterations", "max_cycles", "settle", "restarts",
         "restart_fall", "bounds_sigma", "noise_sigma", "hold_ratio", "identifiable_ratio",
@@ -412,6 +418,9 @@ def read_config(path: str | os.PathLike[str]) -> Config:
     if metric not in METRICS:
         raise ValueError(f"{path}: [calibration] metric = {metric!r}: expected one of "
                          f"{', '.join(METRICS)}")  # fmt: skip
+    loss = str(cal.get("loss", "huber"))
+    if loss not in ("huber", "squared"):
+        raise ValueError(f"{where} loss = {loss!r}: expected \"huber\" or \"squared\"")
     sigma = _number(cal, "noise_sigma", 0.0, float, where)
     if sigma < 0:
         raise ValueError(f"{where} noise_sigma = {sigma}: expected 0 (estimate it) or the "
@@ -460,7 +469,8 @@ def read_config(path: str | os.PathLike[str]) -> Config:
     return Config(
         path=path, configurations=configurations,
         samples_per_bandwidth=_number(cal, "samples_per_bandwidth", 3.0, float, where),
-        metric=metric, settle=_number(cal, "settle", 1e-3, float, where), surrogate=surrogate,
+        metric=metric, loss=loss, huber_c=_positive(cal, "huber_c", 2.0, where),
+        settle=_number(cal, "settle", 1e-3, float, where), surrogate=surrogate,
         enrich_hz=enrich_hz,
         bounds_sigma=_positive(cal, "bounds_sigma", 3.0, where),
         noise_sigma=float(sigma) if sigma else None,

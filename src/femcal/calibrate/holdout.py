@@ -11,13 +11,14 @@ The folds (``holdout`` in the configuration):
   has two or more, else sensors.
 
 Each fold is calibrated as the whole test was, from what remains: the likelihood is
-estimated again from the remaining residuals at the nominal model, the parameters the
-remaining data cannot inform are held, and Levenberg-Marquardt minimises misfit plus prior
-on the final surrogates (the full models at the calibrated point, corrected to first order),
-from the nominal point and from the full calibration's (the lower minimum wins). The
-held-out residuals are then evaluated on the full model at the fold's parameters and set
-against the nominal model's: a calibration whose parameters stand for the test's noise or
-for something the model lacks predicts the held-out data worse than the nominal values do.
+estimated again from the remaining residuals at the nominal model (under the same loss), the
+parameters the remaining data cannot inform are held, and Levenberg-Marquardt minimises
+misfit plus prior on the final surrogates (the full models at the calibrated point, corrected
+to first order), from the nominal point and from the full calibration's (the lower minimum
+wins). The held-out residuals are then evaluated on the full model at the fold's parameters
+(their deviation under the same loss) and set against the nominal model's: a calibration
+whose parameters stand for the test's noise or for something the model lacks predicts the
+held-out data worse than the nominal values do.
 """
 
 from __future__ import annotations
@@ -31,10 +32,10 @@ from .cases import Case, residual_rows
 from .config import HOLDOUT_KINDS
 from .identifiability import identifiability
 from .lm import levenberg_marquardt
-from .metric import deviation
 from .parameters import Parameter
 from .prior import Prior, likelihood_of
 from .problem import Problem, Term
+from .robust import huber_deviation
 
 
 @dataclass(frozen=True)
@@ -49,7 +50,8 @@ class Fold:
     p : (n_p,) the parameters calibrated without them. held : (n_p,) held at the nominal in
         that calibration.
     deviation_nominal, deviation_calibrated : the held-out residuals' deviation on the full
-        model at the nominal point and at ``p``.
+        model at the nominal point and at ``p``, under the search's loss (Huber's: the sum
+        of squares within its threshold, growing linearly beyond).
     """
 
     name: str
@@ -155,15 +157,20 @@ def validate(cases: Sequence[Case], terms: Sequence[Term], nominal_terms: Sequen
     say = progress or (lambda _m: None)
     kind, folds = plan
     zero = np.zeros(len(p_final))
-    r0 = [t.residuals(zero) for t in nominal_terms]
-    J0 = [t.jacobian(zero)[0] for t in nominal_terms]
+    r0, t0, J0 = [], [], []
+    for term in nominal_terms:  # the transformed residuals and Jacobian, as the search sees
+        J, e = term.jacobian(zero)
+        t, d = term.transformed(e)
+        r0.append(e)
+        t0.append(t)
+        J0.append(d[:, None] * J)
     out = []
     for n, (name, k, rows) in enumerate(folds, start=1):
         say(f"hold-out {n}/{len(folds)}: calibrating without {name}")
         keep = [np.ones(len(r), bool) for r in r0]
         keep[k] = ~rows
         used = [j for j in range(len(cases)) if keep[j].any()]
-        liks = {j: likelihood_of(r0[j][keep[j]], len(cases[j].freq), noise_sigma)
+        liks = {j: likelihood_of(t0[j][keep[j]], len(cases[j].freq), noise_sigma)
                 for j in used}  # fmt: skip
         ref = liks[used[0]]
         factors = {j: ref.scale / liks[j].scale for j in used}
@@ -183,9 +190,10 @@ def validate(cases: Sequence[Case], terms: Sequence[Term], nominal_terms: Sequen
             res = levenberg_marquardt(problem.fun, p0, lo, hi, max_iter=max_iter)
             if best is None or res.cost < best.cost:
                 best = res
-        r_nom = r0[k][rows]
+        c = nominal_terms[k].huber
         r_cal = full_residuals(k, best.p)[rows]
-        fold = Fold(name, k, rows, best.p, held, deviation(r_nom), deviation(r_cal))
+        fold = Fold(name, k, rows, best.p, held, huber_deviation(r0[k][rows], c),
+                    huber_deviation(r_cal, c))  # fmt: skip
         say(f"hold-out {n}/{len(folds)}: {name} predicted with deviation "
             f"{fold.deviation_calibrated:.5g} calibrated without it, {fold.deviation_nominal:.5g} "
             "nominal")  # fmt: skip

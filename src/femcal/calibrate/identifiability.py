@@ -64,7 +64,7 @@ def identifiability(J: np.ndarray, params: Sequence[Parameter], prior: Prior,
         if abs(post.correlation[i, j]) >= STRONG_CORRELATION)  # fmt: skip
     reasons = []
     for k in range(len(params)):
-        narrowed = f"the test narrows its prior to {100 * post.ratio[k]:.0f} %"
+        narrowed = f"at the nominal model the test narrows its prior to {100 * post.ratio[k]:.0f} %"
         if held[k]:
             reasons.append(f"held at the nominal: {narrowed} (at least {100 * hold_ratio:g} % "
                            "stays: the test cannot inform it)")  # fmt: skip

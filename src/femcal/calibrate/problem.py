@@ -1,5 +1,6 @@
 """What the search minimises: each configuration's log-FRF metric on its surrogate (a
-:class:`Term`), weighed against the others, plus the prior's rows (:class:`Problem`)."""
+:class:`Term`), under Huber's loss (:mod:`femcal.calibrate.robust`) and weighed against the
+others, plus the prior's rows (:class:`Problem`)."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .metric import jacobian, residuals
+from .robust import huber_transform
 from .surrogate import Surrogate
 
 
@@ -19,7 +21,8 @@ class Term:
     reference scale over its own); ``correction`` (n_residuals, n_p_c), if given, is added
     to the residuals as ``correction (p - p_c)`` about the surrogate's centre p_c (the
     first-order correction of :mod:`femcal.calibrate.gradient`); ``rows`` (n_residuals,)
-    bool, if given, keeps only those residuals (a hold-out fold's training part)."""
+    bool, if given, keeps only those residuals (a hold-out fold's training part); ``huber``,
+    if given, is the threshold of Huber's loss on the residuals (None: least squares)."""
 
     surrogate: Surrogate
     freq: np.ndarray
@@ -29,6 +32,7 @@ class Term:
     factor: float = 1.0
     correction: np.ndarray | None = None
     rows: np.ndarray | None = None
+    huber: float | None = None
 
     def residuals(self, p: np.ndarray) -> np.ndarray:
         """eps at the shared p (unweighted; ``rows`` only)."""
@@ -50,11 +54,18 @@ class Term:
             r = r + self.correction @ (q - self.surrogate.p_center)
         return (J, r) if self.rows is None else (J[self.rows], r[self.rows])
 
+    def transformed(self, eps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(t, dt/de) of residuals under the term's loss (t = eps under least squares)."""
+        if self.huber is None:
+            return eps, np.ones_like(eps)
+        return huber_transform(eps, self.huber)
+
 
 @dataclass(frozen=True)
 class Problem:
-    """What every start minimises: the terms' weighted residuals (every configuration's
-    metric) within the bounds, plus ``(weights p)^2`` (the prior's rows; None for none)."""
+    """What every start minimises: the terms' weighted, transformed residuals (every
+    configuration's metric under its loss) within the bounds, plus ``(weights p)^2`` (the
+    prior's rows; None for none)."""
 
     terms: tuple[Term, ...]
     lower: np.ndarray
@@ -74,16 +85,18 @@ class Problem:
                    weights)  # fmt: skip
 
     def _data_residuals(self, p: np.ndarray) -> np.ndarray:
-        return np.concatenate([t.factor * t.residuals(p) for t in self.terms])
+        return np.concatenate([t.factor * t.transformed(t.residuals(p))[0] for t in self.terms])
 
     def data_jacobian(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(J (n_residuals, n_p), eps (n_residuals,)) of the data part at p, every term
-        weighed by its factor, the corrections included."""
+        """(J (n_residuals, n_p), r (n_residuals,)) of the data part at p: every term's
+        transformed residuals and their Jacobian, weighed by its factor, the corrections
+        included."""
         Js, rs = [], []
         for t in self.terms:
-            Jt, rt = t.jacobian(p)
+            Jt, et = t.jacobian(p)
+            rt, dt = t.transformed(et)
             J = np.zeros((len(rt), len(self.lower)))
-            J[:, t.index] = t.factor * Jt
+            J[:, t.index] = t.factor * (dt[:, None] * Jt)
             Js.append(J)
             rs.append(t.factor * rt)
         return np.vstack(Js), np.concatenate(rs)
@@ -105,5 +118,6 @@ class Problem:
         return 0.5 * float(r @ r)
 
     def deviation(self, p: np.ndarray) -> float:
-        """The data part alone, unweighted: the sum of every term's eps^T eps."""
+        """The data part alone, unweighted and untransformed: the sum of every term's
+        eps^T eps."""
         return float(sum(float(r @ r) for r in (t.residuals(p) for t in self.terms)))

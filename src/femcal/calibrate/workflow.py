@@ -81,6 +81,7 @@ from .result import (
     ParameterResult,
     StartResult,
 )
+from .robust import robust_scale
 from .starts import run_starts
 from .surrogate import Surrogate
 
@@ -238,13 +239,26 @@ def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
         built = [surrogate_at(k, p) for k in range(len(cases))]
         return [b[0] for b in built], [b[1] for b in built]
 
+    corrections: dict[int, tuple[Surrogate, np.ndarray | None]] = {}
+
+    def correction_of(sur: Surrogate, case: Case) -> np.ndarray | None:
+        """The surrogate's first-order correction, computed once per surrogate (the last
+        few surrogates' are kept)."""
+        if id(sur) not in corrections:
+            while len(corrections) >= 2 * len(cases):
+                del corrections[next(iter(corrections))]
+            corrections[id(sur)] = (sur, first_order_correction(
+                sur, sur.exact, case.freq, case.H_test, cfg.metric)
+                if sur.exact is not None else None)  # fmt: skip
+        return corrections[id(sur)][1]
+
     def terms_on(surs: Sequence[Surrogate]) -> tuple[Term, ...]:
         factors = weighing.get("factors", [1.0] * len(cases))
+        thresholds = weighing.get("huber", [None] * len(cases))
         return tuple(
-            Term(sur, c.freq, c.H_test, cfg.metric, c.index, float(f),
-                 first_order_correction(sur, sur.exact, c.freq, c.H_test, cfg.metric)
-                 if sur.exact is not None else None)
-            for c, sur, f in zip(cases, surs, factors, strict=True))  # fmt: skip
+            Term(sur, c.freq, c.H_test, cfg.metric, c.index, float(f), correction_of(sur, c),
+                 huber=h)
+            for c, sur, f, h in zip(cases, surs, factors, thresholds, strict=True))  # fmt: skip
 
     def problem_on(surs: Sequence[Surrogate], lower: np.ndarray, upper: np.ndarray) -> Problem:
         return Problem(terms_on(surs), lower, upper, cfg.max_iterations,
@@ -275,10 +289,12 @@ def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
     surs0, modes0 = surs, modes_c
     # before the search: what the tests can inform, with the nominal models' residuals; each
     # configuration's residuals are weighed by its own likelihood, the first's as reference
-    terms0 = terms_on(surs)  # the full models at the nominal point
-    r0s = [t.residuals(center) for t in terms0]
-    likelihoods = [likelihood_of(r, len(c.freq), cfg.noise_sigma)
-                   for r, c in zip(r0s, cases, strict=True)]  # fmt: skip
+    r0s = [t.residuals(center) for t in terms_on(surs)]  # the full models at the nominal
+    if cfg.loss == "huber":  # its threshold from each test's noise or robust spread
+        weighing["huber"] = [cfg.huber_c * (cfg.noise_sigma or robust_scale(r)) for r in r0s]
+    terms0 = terms_on(surs)
+    likelihoods = [likelihood_of(t.transformed(r)[0], len(c.freq), cfg.noise_sigma)
+                   for t, r, c in zip(terms0, r0s, cases, strict=True)]  # fmt: skip
     reference = likelihoods[0]
     weighing["factors"] = [reference.scale / lk.scale for lk in likelihoods]
     J0 = problem_on(surs, lo, hi).data_jacobian(center)[0]

@@ -214,7 +214,8 @@ def report_dict(result: CalibrationResult) -> dict:
         params.append(row)
     post = result.posterior
     return {
-        "summary": summary_lines(result), "metric": cfg.metric,
+        "summary": summary_lines(result), "metric": cfg.metric, "loss": cfg.loss,
+        "huber_c": cfg.huber_c if cfg.loss == "huber" else None,
         "configurations": [_configuration(conf, case, cfg) for conf, case
                            in zip(cfg.configurations, result.cases, strict=True)],
         "parameters": params, "holdout": _holdout(result),
@@ -416,7 +417,8 @@ figure{{margin:1.5em 0}}figcaption{{color:#333;max-width:1100px;font-size:0.95em
 </style></head><body>
 <h1>femcal calibration</h1>
 <h2>Summary</h2><ul class="summary">{summary}</ul>
-<p>Metric {report['metric']}; {len(confs)} configuration{'s' if several else ''}
+<p>Metric {report['metric']}, {'Huber' if report.get('loss') == 'huber' else 'least-squares'}
+loss; {len(confs)} configuration{'s' if several else ''}
 ({html.escape(', '.join(c['name'] for c in confs))}); deviation before {dev['before']:.6g},
 after {dev['after']:.6g}{'' if report['settled'] else
 '; the parameters had not settled when the cycles ran out'}. Run time
@@ -425,7 +427,10 @@ after {dev['after']:.6g}{'' if report['settled'] else
 <p>The estimate is the posterior's maximum: the prior is each parameter's standard deviation
 (the bounds at {report['prior']['bounds_sigma']:g} standard deviations, or the parameter file's
 confidence), the likelihood weighs each test's residuals by their standard deviation and
-effective number of independent observations (see each configuration below). Identifiable:
+effective number of independent observations (see each configuration below){
+f", under Huber's loss (quadratic within {report['huber_c']:g} robust standard deviations, "
+"linear beyond, so antiresonance outliers do not set the parameters)"
+if report.get('loss') == 'huber' else ''}. Identifiable:
 the posterior standard deviation below {100 * report['posterior']['identifiable_below']:g} % of
 the prior's; held: the test cannot narrow the prior by more than
 {100 * (1 - report['posterior']['hold_ratio']):g} %.{

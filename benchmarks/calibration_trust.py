@@ -1,0 +1,204 @@
+"""Does the calibration carry over (issue 22)? The demo's calibration, run on the shipped
+synthetic hammer test and on other hidden hammer tests of the same frame (other hidden
+values, the cross support elsewhere or stiffer, or none), each checked the same way:
+
+* rig: the calibrated values put into models/truck_frame/rig_frame.bdf (same property and
+  material ids) against the rig frame built from the hidden values: the elastic modes below
+  100 Hz, paired by MAC; the mean and worst frequency error must be below the nominal
+  values' (a configuration the calibration never saw);
+* identifiable: at least 75 % of the parameters the report calls identifiable end closer to
+  their hidden values than the nominal ones;
+* bounds: no parameter on a bound without the report's warning;
+* test modes: every identified test mode in the band closer after calibration;
+* held out: the held-out deviation of the calibrated model below the nominal model's.
+
+    .venv/bin/python benchmarks/calibration_trust.py                  # all, ~30 min on 2 cores
+    .venv/bin/python benchmarks/calibration_trust.py --tests ship s7_x1150
+
+The hidden tests are made with femcal.jobs.synthetic_test (written once to
+benchmarks/_work/trust/); each calibration's output is in benchmarks/_work/trust/<name>/.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+FRAME = ROOT / "models" / "truck_frame"
+WORK = ROOT / "benchmarks" / "_work" / "trust"
+
+
+@dataclass(frozen=True)
+class Hidden:
+    """A hidden hammer test: the synthetic-test settings that make it (None: the shipped
+    one) and what it differs in."""
+
+    what: str
+    seed: int | None = None
+    support_x: float = 2475.0
+    support_stiffness: float = 2.0e8
+
+
+TESTS = {
+    "ship": Hidden("the shipped test (seed 2019, support at x = 2475 mm, 2e8 N mm/rad)"),
+    "s7_x1150": Hidden("seed 7, support at x = 1150 mm", 7, 1150.0),
+    "s11_x2825": Hidden("seed 11, support at x = 2825 mm, 1e8 N mm/rad", 11, 2825.0, 1e8),
+    "s23_x2475": Hidden("seed 23, support at x = 2475 mm", 23),
+    "s5_x600": Hidden("seed 5, support at x = 600 mm, 3e8 N mm/rad", 5, 600.0, 3e8),
+    "s31_none": Hidden("seed 31, no cross support", 31, 2475.0, 0.0),
+}
+
+
+def hidden_test(name: str) -> tuple[Path, Path]:
+    """(FRF file, truth file) of a hidden test, made once."""
+    h = TESTS[name]
+    if h.seed is None:
+        return FRAME / "hammer_test.uff", FRAME / "hammer_test.truth.toml"
+    from femcal.atomic import write_lines
+    from femcal.jobs.synthetic_test import SynthSettings, make_hammer_test, truth_toml
+    from femcal.testdata.formats.uff import write_uff
+
+    uff, truth = WORK / f"{name}.uff", WORK / f"{name}.truth.toml"
+    if not (uff.is_file() and truth.is_file()):
+        WORK.mkdir(parents=True, exist_ok=True)
+        s = SynthSettings(seed=h.seed, support_x=h.support_x,
+                          support_stiffness=h.support_stiffness)  # fmt: skip
+        t = make_hammer_test(FRAME / "hammer_frame.bdf", FRAME / "hammer_frame.params.toml",
+                             FRAME / "hammer_frame.sensors.csv",
+                             FRAME / "hammer_frame.inputs.csv", s)  # fmt: skip
+        write_uff(uff, t.data, binary=True)
+        write_lines(truth, truth_toml(t))
+    return uff, truth
+
+
+class Rig:
+    """The rig frame's elastic modes below 100 Hz for parameter values, and their errors
+    against the hidden values' (paired by MAC)."""
+
+    def __init__(self) -> None:
+        import femcal
+        from femcal.calibrate.parameters import read_parameters
+
+        self.femcal = femcal
+        self.model = femcal.load_model(FRAME / "rig_frame.bdf")
+        self.params = read_parameters(FRAME / "hammer_frame.params.toml", self.model)
+
+    def modes(self, values: np.ndarray, top: float):
+        from femcal.calibrate.parameters import with_values
+
+        m = with_values(self.model, self.params, values)
+        modes = self.femcal.solve_normal_modes(m, request=self.femcal.EigenRequest(
+            v1=1.0, v2=top, nd=None))[0]  # fmt: skip
+        return modes
+
+    def errors(self, values: np.ndarray, truth: np.ndarray) -> np.ndarray:
+        from femcal.correlate import mac
+
+        mt, m = self.modes(truth, 100.0), self.modes(values, 130.0)
+        j = mac(mt.shapes, m.shapes).argmax(axis=1)
+        return np.abs(100 * (m.frequencies_hz[j] / mt.frequencies_hz - 1))
+
+
+def check(name: str, rig: Rig) -> dict:
+    from femcal.calibrate.config import read_config
+    from femcal.calibrate.parameters import read_truth
+    from femcal.io.calibration import report_dict
+    from femcal.jobs.calibration import run
+
+    uff, truth_file = hidden_test(name)
+    text = (FRAME / "hammer_calibration.toml").read_text()
+    for key, value in (("deck", FRAME / "hammer_frame.bdf"),
+                       ("parameters", FRAME / "hammer_frame.params.toml"), ("frf", uff),
+                       ("truth", truth_file), ("sensors", FRAME / "hammer_frame.sensors.csv"),
+                       ("inputs", FRAME / "hammer_frame.inputs.csv")):  # fmt: skip
+        start = text.index(f"\n{key} = ")
+        end = text.index("\n", start + 1)
+        text = text[:start] + f'\n{key} = "{value}"' + text[end:]
+    WORK.mkdir(parents=True, exist_ok=True)
+    cfg_path = WORK / f"{name}.toml"
+    cfg_path.write_text(text)
+    t = time.perf_counter()
+    result = run(read_config(cfg_path), WORK / name, fresh=True,
+                 progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))  # fmt: skip
+    seconds = time.perf_counter() - t
+    rep = report_dict(result)
+    (WORK / name / "report.json").write_text(json.dumps(rep, indent=1))
+    truth = read_truth(truth_file, rig.params)
+    nominal = np.array([q.nominal for q in rig.params])
+    values = np.array([r.calibrated for r in result.parameters])
+    e_nom, e_cal = rig.errors(nominal, truth), rig.errors(values, truth)
+    p_true = truth / nominal - 1.0
+    p_cal = values / nominal - 1.0
+    closer = np.abs(p_cal - p_true) < np.abs(p_true)
+    ident = np.array([r.identifiable for r in result.parameters])
+    bound = [r.parameter.name for r in result.parameters if r.at_bound]
+    warned = all(any(n in line and "ended on a bound" in line for line in rep["summary"])
+                 for n in bound)  # fmt: skip
+    modes = result.cases[0].modes
+    modes_closer = [m.fe_after is not None and m.fe_before is not None
+                    and abs(m.frequency_error_after_pct) < abs(m.frequency_error_before_pct)
+                    for m in modes]  # fmt: skip
+    ho = result.holdout
+    return {
+        "name": name, "what": TESTS[name].what, "seconds": seconds,
+        "rig_nominal": (float(e_nom.mean()), float(e_nom.max())),
+        "rig_calibrated": (float(e_cal.mean()), float(e_cal.max())),
+        "rig_better": bool(e_cal.mean() < e_nom.mean() and e_cal.max() < e_nom.max()),
+        "identifiable": [r.parameter.name for r in result.parameters if r.identifiable],
+        "identifiable_closer": int(closer[ident].sum()), "n_identifiable": int(ident.sum()),
+        "calibrated_closer": int(closer[~np.array([r.held for r in result.parameters])].sum()),
+        "n_calibrated": int(sum(not r.held for r in result.parameters)),
+        "at_bound": bound, "bounds_warned": warned,
+        "modes_closer": int(sum(modes_closer)), "n_modes": len(modes),
+        "worse_modes": [f"{m.test_hz:.2f} Hz: {m.frequency_error_before_pct:+.3f} -> "
+                        f"{m.frequency_error_after_pct:+.3f} %"
+                        for m, ok in zip(modes, modes_closer, strict=True) if not ok],
+        "heldout": (ho.deviation_nominal, ho.deviation_calibrated) if ho else None,
+        "heldout_better": bool(ho.better) if ho else None,
+        "deviation": (result.deviation_before, result.deviation_after),
+        "settled": result.settled,
+        "summary": rep["summary"],
+    }  # fmt: skip
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--tests", nargs="*", default=list(TESTS), choices=list(TESTS))
+    args = ap.parse_args()
+    rig = Rig()
+    rows = []
+    for name in args.tests:
+        print(f"{name}: {TESTS[name].what}", file=sys.stderr, flush=True)
+        rows.append(check(name, rig))
+        (WORK / "trust.json").write_text(json.dumps(rows, indent=1))
+    print("| hidden test | rig mean / worst %, nominal | calibrated | identifiable closer "
+          "| calibrated closer | at a bound (warned) | test modes closer "
+          "| held-out deviation nominal / calibrated | settled | run |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        ho = r["heldout"]
+        print(f"| {r['name']}: {r['what']} | {r['rig_nominal'][0]:.3f} / {r['rig_nominal'][1]:.3f} "
+              f"| {r['rig_calibrated'][0]:.3f} / {r['rig_calibrated'][1]:.3f} "
+              f"{'(better)' if r['rig_better'] else '(NOT better)'} "
+              f"| {r['identifiable_closer']} of {r['n_identifiable']} "
+              f"({', '.join(r['identifiable']) or '-'}) "
+              f"| {r['calibrated_closer']} of {r['n_calibrated']} "
+              f"| {len(r['at_bound'])} ({'yes' if r['bounds_warned'] else 'NO'}) "
+              f"| {r['modes_closer']} of {r['n_modes']}"
+              f"{' (' + '; '.join(r['worse_modes']) + ')' if r['worse_modes'] else ''} "
+              f"| {ho[0]:.1f} / {ho[1]:.1f} | {r['settled']} | {r['seconds']:.0f} s |")
+    for r in rows:
+        print(f"\n{r['name']}:")
+        for line in r["summary"]:
+            print(f"  {line}")
+
+
+if __name__ == "__main__":
+    main()
