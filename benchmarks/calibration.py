@@ -144,6 +144,9 @@ def noise_free(max_cycles: int = 40, near: float | None = None, residual: bool =
     cfg = cfg.replace('parameters = "hammer_frame.params.toml"',
                       f'parameters = "{params_path}"')  # fmt: skip
     cfg = cfg.replace('frf = "hammer_test.uff"', 'frf = "noise_free_test.npz"')
+    for points in ("sensors", "inputs"):  # the frame's sensor and input files, named
+        cfg = cfg.replace(f'{points} = "hammer_frame.{points}.csv"',
+                          f'{points} = "{FRAME / f"hammer_frame.{points}.csv"}"')  # fmt: skip
     cfg = cfg.replace('truth = "hammer_test.truth.toml"',
                       f'truth = "{FRAME / "hammer_test.truth.toml"}"')  # the same hidden values
     head, _, tail = cfg.partition("[test.identify]")

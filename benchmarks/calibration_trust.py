@@ -15,6 +15,9 @@ values, the cross support elsewhere or stiffer, or none), each checked the same 
     .venv/bin/python benchmarks/calibration_trust.py                  # all, ~30 min on 2 cores
     .venv/bin/python benchmarks/calibration_trust.py --tests ship s7_x1150
 
+The table covers every test run so far (benchmarks/_work/trust/trust.json keeps the rows;
+a test run again replaces its row).
+
 The hidden tests are made with femcal.jobs.synthetic_test (written once to
 benchmarks/_work/trust/); each calibration's output is in benchmarks/_work/trust/<name>/.
 """
@@ -173,11 +176,13 @@ def main() -> None:
     ap.add_argument("--tests", nargs="*", default=list(TESTS), choices=list(TESTS))
     args = ap.parse_args()
     rig = Rig()
-    rows = []
+    store = WORK / "trust.json"
+    done = {r["name"]: r for r in json.loads(store.read_text())} if store.is_file() else {}
     for name in args.tests:
         print(f"{name}: {TESTS[name].what}", file=sys.stderr, flush=True)
-        rows.append(check(name, rig))
-        (WORK / "trust.json").write_text(json.dumps(rows, indent=1))
+        done[name] = check(name, rig)
+        store.write_text(json.dumps([done[n] for n in TESTS if n in done], indent=1))
+    rows = [done[n] for n in TESTS if n in done]
     print("| hidden test | rig mean / worst %, nominal | calibrated | identifiable closer "
           "| calibrated closer | at a bound (warned) | test modes closer "
           "| held-out deviation nominal / calibrated | settled | run |")

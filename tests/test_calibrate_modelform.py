@@ -4,16 +4,24 @@ every DOF must name that place, component and size."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from femcal.calibrate.metric import residuals
-from femcal.calibrate.modelform import band_edges, diagnose, missing_elements, robust_weights
+from femcal.calibrate.modelform import (
+    band_edges,
+    diagnose,
+    measured_scatter,
+    missing_elements,
+    robust_weights,
+)
 from femcal.model import EigenRequest
 from femcal.model.build import load_model
 from femcal.response.frf import channel_matrix, modal_frf
 from femcal.solve.normal_modes import solve_normal_modes
-from femcal.testdata.data import Channel
+from femcal.testdata.data import Channel, FRFData
 
 from .calib_decks import plate_deck
 
@@ -67,15 +75,68 @@ def test_diagnose_says_where_and_what_and_stays_quiet_within_the_noise(frf):
     names = {"19:+Z": "S19 +Z"}
     form = diagnose(model, modes, OUTS, INS, f, ZETA, (10.0, 400.0), test_hz, eps, eps,
                     H_model, H_test, "complex-log", 1e-3, ["k_spring"], names)  # fmt: skip
-    assert form.warning and form.misfit_after > 3e-3
+    assert form.warning and form.typical_after > 2e-3
     text = " ".join(form.suggestions)
     assert "a spring to ground" in text and "GRID 19" in text and "k_spring" in text
     assert len(form.band_edges_hz) == len(test_hz) + 1
     assert form.output_rms_after.shape == (len(OUTS),)
     quiet = diagnose(model, modes, OUTS, INS, f, ZETA, (10.0, 400.0), test_hz, eps, eps,
                      H_model, H_test, "complex-log", 1.0)  # fmt: skip
-    assert not quiet.warning and quiet.candidates == ()
+    assert not quiet.warning
     assert "no sign of a feature the model lacks" in quiet.suggestions[0]
+    # the search still says where it would look, as a conditional
+    assert "Were something missing" in quiet.suggestions[1] and "GRID 19" in quiet.suggestions[1]
+
+
+def test_the_warning_sets_typical_misfit_against_noise_not_the_heavy_tail(frf):
+    """A residual at the noise level everywhere but at a few antiresonance points, where it
+    is huge: its RMS is far above the noise, its typical size is not, and no warning."""
+    f = np.geomspace(10.0, 400.0, 300)
+    model, modes, H_model = frf(plate_deck(), f)
+    rng = np.random.default_rng(3)
+    eps = 0.004 * rng.standard_normal(2 * H_model.size)
+    eps[rng.choice(eps.size, eps.size // 20, replace=False)] += 1.0  # 5 % outliers
+    H_test = H_model * 10.0 ** (-eps[: H_model.size].reshape(H_model.shape))
+    test_hz = modes.frequencies_hz[(modes.frequencies_hz > 10) & (modes.frequencies_hz < 400)]
+    form = diagnose(model, modes, OUTS, INS, f, ZETA, (10.0, 400.0), test_hz, eps, eps,
+                    H_model, H_test, "complex-log", 0.004)  # fmt: skip
+    assert form.misfit_after > 20 * 0.004  # the RMS is the tail's
+    assert form.typical_after == pytest.approx(0.004 * 1.1, rel=0.15)
+    assert not form.warning
+
+
+class _Fitted:
+    """An identified model's face as measured_scatter sees it: its FRFs and channels."""
+
+    def __init__(self, data: FRFData) -> None:
+        self.data, self.outputs, self.inputs = data, data.outputs, data.inputs
+        self.fit_error = np.array([0.05])
+
+    def frf(self, freq_hz: np.ndarray) -> FRFData:
+        keep = np.isin(self.data.frequency_hz, freq_hz)
+        return replace(self.data, frequency_hz=self.data.frequency_hz[keep],
+                       H=self.data.H[:, :, keep])  # fmt: skip
+
+
+def test_measured_scatter_is_the_noise_in_the_metric(frf):
+    f = np.linspace(5.0, 400.0, 2000)
+    _, _, H = frf(plate_deck(), f)
+    clean = FRFData(f, H, tuple(OUTS), tuple(INS), "accelerance", "mm/s^2/N")
+    rng = np.random.default_rng(0)
+    s = 0.02  # relative complex noise, per real and imaginary part
+    noise = s * (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape))
+    measured = replace(clean, H=H * (1.0 + noise))
+    fitted = _Fitted(clean)
+    got = measured_scatter(measured, fitted, OUTS[:6], (10.0, 300.0), "complex-log")
+    assert got == pytest.approx(s / np.log(10.0), rel=0.05)
+    # the channels compared are the ones asked for, by label, in any order
+    reordered = replace(measured, H=measured.H[::-1], outputs=measured.outputs[::-1])
+    assert measured_scatter(reordered, fitted, OUTS[:6], (10.0, 300.0),
+                            "complex-log") == pytest.approx(got, rel=1e-12)  # fmt: skip
+    # without the measured FRFs: the identification's fit error; without a model: unknown
+    assert measured_scatter(None, fitted, OUTS, (10.0, 300.0), "complex-log") == pytest.approx(
+        0.05 / (np.sqrt(2.0) * np.log(10.0)))
+    assert measured_scatter(measured, None, OUTS, (10.0, 300.0), "complex-log") is None
 
 
 def test_bands_and_robust_weights():

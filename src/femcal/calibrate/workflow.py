@@ -67,7 +67,7 @@ from .holdout import fold_plan, validate
 from .identifiability import identifiability, identifiability_summary
 from .lm import latin_hypercube
 from .metric import deviation, residuals
-from .modelform import diagnose, noise_level
+from .modelform import diagnose, measured_scatter
 from .parameters import Parameter, share_parameters
 from .prior import Likelihood, likelihood_of, posterior, prior_of
 from .problem import Problem, Term
@@ -468,15 +468,16 @@ def _case_result(case: Case, sur0: Surrogate, sur: Surrogate, modes0, modes_afte
     """One configuration's outcome: the full model's FRFs (each surrogate at its centre: the
     modal sum over the reduction modes, with the residual flexibility if asked), deviations,
     MAC and mode pairings before and after, and the model-form diagnostics against the
-    given noise level (else the identification's)."""
+    given noise level (else the measured FRFs' scatter about the identified model)."""
     n_p_c = len(case.params)
+    noise = noise_sigma or measured_scatter(case.setup.data, case.setup.identified,
+                                            case.outputs, case.setup.band, metric)
     H_before = sur0.frf(np.zeros(n_p_c), case.freq)
     H_after = sur.frf(p_final[case.index], case.freq)
     eps_after = residuals(H_after, case.H_test, metric)
     form = diagnose(case.model, modes_after, case.outputs, case.inputs, case.freq, case.zeta0,
                     case.setup.band, case.test_hz, eps_before, eps_after, H_after, case.H_test,
-                    metric, noise_sigma or noise_level(case.setup.identified), at_bound,
-                    case.setup.channel_names)  # fmt: skip
+                    metric, noise, at_bound, case.setup.channel_names)  # fmt: skip
     Cg = channel_matrix(case.model, case.outputs)
     fe_before = np.asarray(Cg @ modes0.shapes)
     fe_after = np.asarray(Cg @ modes_after.shapes)

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..atomic import write_atomic, write_lines
 from ..calibrate.config import Config, Configuration
+from ..calibrate.modelform import NOISE_FACTOR
 from ..calibrate.parameters import Parameter
 from ..calibrate.result import CalibrationResult, CaseResult, Cycle
 
@@ -84,19 +85,23 @@ def summary_lines(result: CalibrationResult) -> list[str]:
         at = f"{case.name}: " if several else ""
         noise = form.noise_sigma
         if form.warning:
-            lines.append(f"{at}Model-form warning: the misfit after calibration (RMS "
-                         f"{form.misfit_after:.3g} in log10) is {form.misfit_after / noise:.0f} "
-                         f"times the test's noise ({noise:.2g}): the model lacks something "
-                         "the structure has, which the parameters cannot stand for without "
-                         "bias.")  # fmt: skip
+            lines.append(f"{at}Model-form warning: the typical misfit after calibration "
+                         f"(robust standard deviation {form.typical_after:.3g} in log10) is "
+                         f"{form.typical_after / noise:.2g} times the test's noise "
+                         f"({noise:.2g}): the model lacks something the structure has, which "
+                         "the parameters cannot stand for without bias.")  # fmt: skip
             useful = [c for c in form.candidates if c.fall >= 0.05]
             if useful:
                 lines.append(f"{at}Where: {useful[0].describe()} would remove about "
                              f"{100 * useful[0].fall:.0f} % of it (see the model-form "
                              "section).")  # fmt: skip
         elif noise is not None:
-            lines.append(f"{at}The misfit after calibration (RMS {form.misfit_after:.3g}) is "
-                         f"within 3 times the test's noise ({noise:.2g}).")  # fmt: skip
+            lines.append(f"{at}The typical misfit after calibration (robust standard deviation "
+                         f"{form.typical_after:.3g} in log10) is {form.typical_after / noise:.2g} "
+                         f"times the test's noise ({noise:.2g}): within {NOISE_FACTOR:g} times, "
+                         "no sign of a feature the model lacks (one the parameters can mimic "
+                         "does not show in the misfit; the held-out prediction tests for "
+                         "that).")  # fmt: skip
     ho = result.holdout
     if ho is not None:
         what = {"inputs": "each input's FRFs", "sensors": "each group of sensors",
@@ -136,7 +141,8 @@ def _model_form(case: CaseResult) -> dict | None:
     edges = form.band_edges_hz
     return {
         "noise_sigma": form.noise_sigma, "misfit_before": form.misfit_before,
-        "misfit_after": form.misfit_after, "warning": form.warning,
+        "misfit_after": form.misfit_after, "typical_misfit_before": form.typical_before,
+        "typical_misfit_after": form.typical_after, "warning": form.warning,
         "suggestions": list(form.suggestions),
         "outputs": [{"channel": ch.label, "name": case.channel_names.get(ch.label),
                      "rms_before": float(b), "rms_after": float(a)}
