@@ -10,7 +10,9 @@ values, the cross support elsewhere or stiffer, or none), each checked the same 
   their hidden values than the nominal ones;
 * bounds: no parameter on a bound without the report's warning;
 * test modes: every identified test mode in the band closer after calibration;
-* held out: the held-out deviation of the calibrated model below the nominal model's.
+* held out: the held-out deviation of the calibrated model below the nominal model's;
+* model form (reported, not a check): the misfit after calibration as RMS and as robust
+  standard deviation, the test's noise in the metric, and whether the report warns.
 
     .venv/bin/python benchmarks/calibration_trust.py                  # all, ~30 min on 2 cores
     .venv/bin/python benchmarks/calibration_trust.py --tests ship s7_x1150
@@ -149,6 +151,7 @@ def check(name: str, rig: Rig) -> dict:
                     and abs(m.frequency_error_after_pct) < abs(m.frequency_error_before_pct)
                     for m in modes]  # fmt: skip
     ho = result.holdout
+    form = result.cases[0].model_form
     return {
         "name": name, "what": TESTS[name].what, "seconds": seconds,
         "rig_nominal": (float(e_nom.mean()), float(e_nom.max())),
@@ -167,6 +170,8 @@ def check(name: str, rig: Rig) -> dict:
         "heldout_better": bool(ho.better) if ho else None,
         "deviation": (result.deviation_before, result.deviation_after),
         "settled": result.settled,
+        "misfit_rms": form.misfit_after, "typical_misfit": form.typical_after,
+        "noise": form.noise_sigma, "model_form_warning": form.warning,
         "summary": rep["summary"],
     }  # fmt: skip
 
@@ -183,10 +188,12 @@ def main() -> None:
         done[name] = check(name, rig)
         store.write_text(json.dumps([done[n] for n in TESTS if n in done], indent=1))
     rows = [done[n] for n in TESTS if n in done]
+    nan = float("nan")  # rows written by an older version of this script lack some figures
     print("| hidden test | rig mean / worst %, nominal | calibrated | identifiable closer "
           "| calibrated closer | at a bound (warned) | test modes closer "
-          "| held-out deviation nominal / calibrated | settled | run |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+          "| held-out deviation nominal / calibrated | misfit RMS / typical / noise (warned) "
+          "| settled | run |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         ho = r["heldout"]
         print(f"| {r['name']}: {r['what']} | {r['rig_nominal'][0]:.3f} / {r['rig_nominal'][1]:.3f} "
@@ -198,7 +205,10 @@ def main() -> None:
               f"| {len(r['at_bound'])} ({'yes' if r['bounds_warned'] else 'NO'}) "
               f"| {r['modes_closer']} of {r['n_modes']}"
               f"{' (' + '; '.join(r['worse_modes']) + ')' if r['worse_modes'] else ''} "
-              f"| {ho[0]:.1f} / {ho[1]:.1f} | {r['settled']} | {r['seconds']:.0f} s |")
+              f"| {ho[0]:.1f} / {ho[1]:.1f} "
+              f"| {r.get('misfit_rms', nan):.3f} / {r.get('typical_misfit', nan):.4f} / "
+              f"{r.get('noise') or nan:.4f} ({'yes' if r.get('model_form_warning') else 'no'}) "
+              f"| {r['settled']} | {r['seconds']:.0f} s |")
     for r in rows:
         print(f"\n{r['name']}:")
         for line in r["summary"]:

@@ -417,7 +417,7 @@ def diagnose(model: Model, modes: Modes, outputs: Sequence[Channel],
     levels = (f"The typical misfit after calibration (robust standard deviation {typ_a:.3g} "
               f"in log10, {typ_b:.3g} before)")  # fmt: skip
     if noise_sigma is not None and not warning:
-        say.append(f"{levels} is {typ_a / noise_sigma:.2g} times the test's noise "
+        say.append(f"{levels} is {typ_a / noise_sigma:.3g} times the test's noise "
                    f"({noise_sigma:.2g}, the measured FRFs' scatter about the identified "
                    f"model): within {NOISE_FACTOR:g} times, no sign of a feature the model "
                    "lacks. A difference the parameters can mimic does not show in the "
@@ -429,7 +429,7 @@ def diagnose(model: Model, modes: Modes, outputs: Sequence[Channel],
                        "(robustly weighed).")  # fmt: skip
     else:
         if noise_sigma is not None:
-            say.append(f"{levels} stays {typ_a / noise_sigma:.2g} times the test's noise "
+            say.append(f"{levels} stays {typ_a / noise_sigma:.3g} times the test's noise "
                        f"({noise_sigma:.2g}, the measured FRFs' scatter about the identified "
                        "model).")  # fmt: skip
         else:

@@ -87,7 +87,7 @@ def summary_lines(result: CalibrationResult) -> list[str]:
         if form.warning:
             lines.append(f"{at}Model-form warning: the typical misfit after calibration "
                          f"(robust standard deviation {form.typical_after:.3g} in log10) is "
-                         f"{form.typical_after / noise:.2g} times the test's noise "
+                         f"{form.typical_after / noise:.3g} times the test's noise "
                          f"({noise:.2g}): the model lacks something the structure has, which "
                          "the parameters cannot stand for without bias.")  # fmt: skip
             useful = [c for c in form.candidates if c.fall >= 0.05]
@@ -97,7 +97,7 @@ def summary_lines(result: CalibrationResult) -> list[str]:
                              "section).")  # fmt: skip
         elif noise is not None:
             lines.append(f"{at}The typical misfit after calibration (robust standard deviation "
-                         f"{form.typical_after:.3g} in log10) is {form.typical_after / noise:.2g} "
+                         f"{form.typical_after:.3g} in log10) is {form.typical_after / noise:.3g} "
                          f"times the test's noise ({noise:.2g}): within {NOISE_FACTOR:g} times, "
                          "no sign of a feature the model lacks (one the parameters can mimic "
                          "does not show in the misfit; the held-out prediction tests for "
