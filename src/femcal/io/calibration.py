@@ -359,7 +359,7 @@ Calibrated deck: <a href="{deck}">{deck}</a>.</p>
 <p>Deviation before {c['deviation']['before']:.6g}, after {c['deviation']['after']:.6g} (full
 model, log10 FRF residuals squared and summed). One residual's standard deviation: {lk['sigma']:.3g}
 at the nominal model, {lk['misfit_sigma_after']:.3g} after calibration{
-'' if noise is None else f"; the test's noise (from the identification's fit) {noise:.2g}"};
+'' if noise is None else f"; the test's noise (scatter about the identified model) {noise:.2g}"};
 the {lk['residuals']} residuals count as {lk['effective_observations']:.0f} independent
 observations.</p>
 <h3>Modes</h3>{_table(modes, ["test Hz", "FE before Hz", "FE after Hz", "error before %",

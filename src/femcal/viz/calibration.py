@@ -234,17 +234,19 @@ def model_form_plot(path: Path, outcome: CaseResult) -> Path | None:
     ax.set_box_aspect(np.maximum(span, 0.05 * span.max()))
     ax.set_title("residual by sensor; red stars: missing-element candidates", fontsize=9)
     ax2 = fig.add_subplot(1, 2, 2)
-    ax2.semilogy(outcome.freq, form.frequency_rms_before, color="tab:blue", lw=0.9, ls="--",
-                 label="before calibration")  # fmt: skip
-    ax2.semilogy(outcome.freq, form.frequency_rms_after, color="tab:red", lw=1.0,
-                 label="after calibration")  # fmt: skip
+    ax2.semilogy(outcome.freq, form.frequency_typical_before, color="tab:blue", lw=0.9,
+                 ls="--", label="typical, before calibration")  # fmt: skip
+    ax2.semilogy(outcome.freq, form.frequency_typical_after, color="tab:red", lw=1.2,
+                 label="typical, after calibration")  # fmt: skip
+    ax2.semilogy(outcome.freq, form.frequency_rms_after, color="tab:red", lw=0.7, alpha=0.45,
+                 label="RMS after (the antiresonances' tail)")  # fmt: skip
     if form.noise_sigma is not None:
         ax2.axhline(form.noise_sigma, color="k", lw=0.8, ls=":",
-                    label="the test's noise (identification)")  # fmt: skip
+                    label="the test's noise (measured scatter)")  # fmt: skip
     for n, f in enumerate(outcome.test_hz):
         ax2.axvline(f, color="0.6", lw=0.6, label="test modes" if n == 0 else None)
     ax2.set_xlabel("frequency (Hz)")
-    ax2.set_ylabel("residual RMS over the channels (log10)")
+    ax2.set_ylabel("residual over the channels (log10)")
     ax2.set_title("residual by frequency")
     ax2.grid(True, which="both", alpha=0.3)
     ax2.legend(fontsize=8)
@@ -297,11 +299,14 @@ def report_pictures(result: CalibrationResult, folder: Path) -> list[Figure]:
                 "Model form: where the calibrated model still misses the test", mf,
                 "Left: the frame (grey), each sensor position coloured by the RMS of its "
                 "residuals after calibration (the five worst named), and the missing-element "
-                "candidates of the table above numbered in red. Right: the residuals' RMS over "
-                "all channels at each frequency before (blue, dashed) and after (red) "
-                "calibration, the identified test modes (grey lines) and the test's noise "
-                "(dotted): what stays far above the noise after calibration is what the "
-                "model cannot represent.", case.name))  # fmt: skip
+                "candidates of the table above numbered in red. Right: the residuals' typical "
+                "size over all channels at each frequency (robust standard deviation) before "
+                "(blue, dashed) and after (red) calibration, their RMS after calibration "
+                "(faint red: dominated by the few residuals near antiresonances), the "
+                "identified test modes (grey lines) and the test's noise (dotted, the "
+                "measured FRFs' scatter about the identified model): what stays far above "
+                "the noise after calibration is what the model cannot represent.",
+                case.name))  # fmt: skip
         if len(case.test_hz):  # test modes to correlate (an identified test model)
             figures.append(Figure(
                 "MAC matrices", mac_matrices(folder / f"{pre}mac.png", case),
