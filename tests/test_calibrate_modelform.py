@@ -79,7 +79,11 @@ def test_diagnose_says_where_and_what_and_stays_quiet_within_the_noise(frf):
     text = " ".join(form.suggestions)
     assert "a spring to ground" in text and "GRID 19" in text and "k_spring" in text
     assert len(form.band_edges_hz) == len(test_hz) + 1
-    assert form.output_rms_after.shape == (len(OUTS),)
+    assert form.output_rms_after.shape == form.output_typical_after.shape == (len(OUTS),)
+    assert form.band_typical_after.shape == (len(test_hz),)
+    # where the typical misfit is largest, by the sensors' own names
+    worst = OUTS[int(np.argmax(form.output_typical_after))].label
+    assert f"Typically it is largest at {names.get(worst, worst)}" in text
     quiet = diagnose(model, modes, OUTS, INS, f, ZETA, (10.0, 400.0), test_hz, eps, eps,
                      H_model, H_test, "complex-log", 1.0)  # fmt: skip
     assert not quiet.warning

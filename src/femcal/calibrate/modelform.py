@@ -111,9 +111,11 @@ class ModelForm:
     typical_before, typical_after : the residual's robust standard deviation (log10) before
         and after calibration, what the warning sets against the noise.
     output_rms_before, output_rms_after : (n_out,) RMS residual of each output channel.
+    output_typical_before, output_typical_after : (n_out,) its robust standard deviation.
     band_edges_hz : (n_b + 1,) the bands' edges: one band around each test mode (edges at
         the geometric means of neighbouring modes), or octaves without test modes.
     band_rms_before, band_rms_after : (n_b,) RMS residual in each band.
+    band_typical_before, band_typical_after : (n_b,) its robust standard deviation.
     frequency_rms_before, frequency_rms_after : (n_f,) RMS over the channels at each of the
         metric's frequencies.
     frequency_typical_before, frequency_typical_after : (n_f,) the robust standard deviation
@@ -131,9 +133,13 @@ class ModelForm:
     typical_after: float
     output_rms_before: np.ndarray
     output_rms_after: np.ndarray
+    output_typical_before: np.ndarray
+    output_typical_after: np.ndarray
     band_edges_hz: np.ndarray
     band_rms_before: np.ndarray
     band_rms_after: np.ndarray
+    band_typical_before: np.ndarray
+    band_typical_after: np.ndarray
     frequency_rms_before: np.ndarray
     frequency_rms_after: np.ndarray
     frequency_typical_before: np.ndarray
@@ -412,11 +418,20 @@ def diagnose(model: Model, modes: Modes, outputs: Sequence[Channel],
     names = channel_names or {}
     edges = band_edges(test_hz, band)
     idx = np.clip(np.searchsorted(edges, freq, side="right") - 1, 0, len(edges) - 2)
-    band_b = np.array([_rms(before[..., idx == b], None) if (idx == b).any() else np.nan
-                       for b in range(len(edges) - 1)])  # fmt: skip
-    band_a = np.array([_rms(after[..., idx == b], None) if (idx == b).any() else np.nan
-                       for b in range(len(edges) - 1)])  # fmt: skip
+    n_b = len(edges) - 1
+
+    def by_band(x: np.ndarray, stat) -> np.ndarray:
+        return np.array([stat(x[..., idx == b]) if (idx == b).any() else np.nan
+                         for b in range(n_b)])  # fmt: skip
+
+    def rms(x: np.ndarray) -> float:
+        return float(_rms(x, None))
+
+    band_b, band_a = by_band(before, rms), by_band(after, rms)
+    tband_b, tband_a = by_band(before, robust_scale), by_band(after, robust_scale)
     out_b, out_a = _rms(before, (0, 2, 3)), _rms(after, (0, 2, 3))
+    tout_b = np.array([robust_scale(before[:, o]) for o in range(before.shape[1])])
+    tout_a = np.array([robust_scale(after[:, o]) for o in range(after.shape[1])])
     mis_b, mis_a = float(_rms(eps_before, None)), float(_rms(eps_after, None))
     typ_b, typ_a = robust_scale(eps_before), robust_scale(eps_after)
     warning = noise_sigma is not None and typ_a > NOISE_FACTOR * noise_sigma
@@ -447,18 +462,18 @@ def diagnose(model: Model, modes: Modes, outputs: Sequence[Channel],
                        "noise_sigma), so whether it is noise or model form cannot be told: "
                        "read what follows as where the misfit is, not as what is "
                        "missing.")  # fmt: skip
-        worst = np.argsort(out_a)[::-1][:3]
+        worst = np.argsort(tout_a)[::-1][:3]
         label = [names.get(outputs[o].label, outputs[o].label) for o in worst]
-        say.append("It is largest at " + ", ".join(
-            f"{lab} (RMS {out_a[o]:.3g})" for lab, o in zip(label, worst, strict=True))
-            + f"; the median channel's is {np.median(out_a):.3g}.")  # fmt: skip
-        ok = np.isfinite(band_a)
+        say.append("Typically it is largest at " + ", ".join(
+            f"{lab} ({tout_a[o]:.3g})" for lab, o in zip(label, worst, strict=True))
+            + f"; the median channel's is {np.median(tout_a):.3g}.")  # fmt: skip
+        ok = np.isfinite(tband_a)
         if ok.any():
-            b = int(np.nanargmax(band_a))
+            b = int(np.nanargmax(np.where(ok, tband_a, -np.inf)))
             mode = (f"around the test mode at {np.sort(test_hz)[b]:.1f} Hz" if len(test_hz)
                     else f"in {edges[b]:.0f}-{edges[b + 1]:.0f} Hz")  # fmt: skip
-            say.append(f"By frequency it is largest {mode} (RMS {band_a[b]:.3g}, "
-                       f"{band_b[b]:.3g} before calibration).")  # fmt: skip
+            say.append(f"By frequency it is largest {mode} ({tband_a[b]:.3g}, "
+                       f"{tband_b[b]:.3g} before calibration).")  # fmt: skip
         if useful:
             c = useful[0]
             what = ("a support or a stiffer connection to the surroundings there (a mount, a "
@@ -478,7 +493,8 @@ def diagnose(model: Model, modes: Modes, outputs: Sequence[Channel],
         say.append(f"{', '.join(bound_names)} ended on a bound: each stands for something "
                    "beyond its range; widen the bound only if the physics allows it, else "
                    "look for what it stands for.")  # fmt: skip
-    return ModelForm(noise_sigma, mis_b, mis_a, typ_b, typ_a, out_b, out_a, edges, band_b,
-                     band_a, _rms(before, (0, 1, 2)), _rms(after, (0, 1, 2)),
+    return ModelForm(noise_sigma, mis_b, mis_a, typ_b, typ_a, out_b, out_a, tout_b, tout_a,
+                     edges, band_b, band_a, tband_b, tband_a,
+                     _rms(before, (0, 1, 2)), _rms(after, (0, 1, 2)),
                      _typical(before), _typical(after), candidates, warning,
                      tuple(say))  # fmt: skip

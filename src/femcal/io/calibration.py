@@ -145,12 +145,16 @@ def _model_form(case: CaseResult) -> dict | None:
         "typical_misfit_after": form.typical_after, "warning": form.warning,
         "suggestions": list(form.suggestions),
         "outputs": [{"channel": ch.label, "name": case.channel_names.get(ch.label),
-                     "rms_before": float(b), "rms_after": float(a)}
-                    for ch, b, a in zip(case.outputs, form.output_rms_before,
-                                        form.output_rms_after, strict=True)],
+                     "rms_before": float(form.output_rms_before[o]),
+                     "rms_after": float(form.output_rms_after[o]),
+                     "typical_before": float(form.output_typical_before[o]),
+                     "typical_after": float(form.output_typical_after[o])}
+                    for o, ch in enumerate(case.outputs)],
         "bands": [{"band_hz": [float(edges[k]), float(edges[k + 1])],
                    "rms_before": _finite(form.band_rms_before[k]),
-                   "rms_after": _finite(form.band_rms_after[k])}
+                   "rms_after": _finite(form.band_rms_after[k]),
+                   "typical_before": _finite(form.band_typical_before[k]),
+                   "typical_after": _finite(form.band_typical_after[k])}
                   for k in range(len(edges) - 1)],
         "candidates": [{"kind": c.kind, "grid": c.grid, "component": c.component,
                         "xyz": [float(x) for x in c.xyz], "fall": c.fall, "value": c.value,
@@ -299,11 +303,12 @@ def _model_form_html(form: dict | None) -> str:
     if form is None:
         return ""
     says = "".join(f"<li>{html.escape(x)}</li>" for x in form["suggestions"])
-    bands = [[f"{b['band_hz'][0]:.1f}-{b['band_hz'][1]:.1f}", _f(b["rms_before"], ".3g"),
-              _f(b["rms_after"], ".3g")] for b in form["bands"]]  # fmt: skip
-    worst = sorted(form["outputs"], key=lambda o: -o["rms_after"])[:8]
-    outs = [[o["name"] or o["channel"], o["channel"], f"{o['rms_before']:.3g}",
-             f"{o['rms_after']:.3g}"] for o in worst]  # fmt: skip
+    bands = [[f"{b['band_hz'][0]:.1f}-{b['band_hz'][1]:.1f}", _f(b["typical_before"], ".3g"),
+              _f(b["typical_after"], ".3g"), _f(b["rms_after"], ".3g")]
+             for b in form["bands"]]  # fmt: skip
+    worst = sorted(form["outputs"], key=lambda o: -o["typical_after"])[:8]
+    outs = [[o["name"] or o["channel"], o["channel"], f"{o['typical_before']:.3g}",
+             f"{o['typical_after']:.3g}", f"{o['rms_after']:.3g}"] for o in worst]  # fmt: skip
     cands = [[c["kind"], c["grid"], c["component"] or "1-3",
               ", ".join(f"{x:.6g}" for x in c["xyz"]), f"{c['value']:.3g}",
               f"{100 * c['fall']:.1f}"] for c in form["candidates"]]  # fmt: skip
@@ -313,10 +318,12 @@ def _model_form_html(form: dict | None) -> str:
         + _table(cands, ["element", "grid", "component", "x, y, z", "size",
                          "misfit removed %"]))  # fmt: skip
     return f"""<h3>Model form</h3><ul>{says}</ul>
-<p>Residual RMS (log10) by band, before and after calibration:</p>
-{_table(bands, ["band Hz", "RMS before", "RMS after"])}
-<p>The channels that fit worst after calibration:</p>
-{_table(outs, ["sensor", "channel", "RMS before", "RMS after"])}
+<p>The residual (log10) by band: its typical size (robust standard deviation) before and
+after calibration, what the warning sets against the test's noise
+({_f(form["noise_sigma"], ".2g")}), and its RMS after (dominated by the antiresonances):</p>
+{_table(bands, ["band Hz", "typical before", "typical after", "RMS after"])}
+<p>The channels that fit worst after calibration (by the typical residual):</p>
+{_table(outs, ["sensor", "channel", "typical before", "typical after", "RMS after"])}
 {missing}"""
 
 

@@ -213,12 +213,12 @@ def model_form_plot(path: Path, outcome: CaseResult) -> Path | None:
     if positions:
         grids = np.array(list(positions))
         at = model.xyz[model.node_index(grids)]
-        rms = np.array([np.sqrt(np.mean(form.output_rms_after[v] ** 2))
+        rms = np.array([np.sqrt(np.mean(form.output_typical_after[v] ** 2))
                         for v in positions.values()])  # fmt: skip
         sc = ax.scatter(*at.T, c=rms, cmap="plasma", s=40, depthshade=False, edgecolors="k",
                         linewidths=0.4)  # fmt: skip
         fig.colorbar(sc, ax=ax, shrink=0.6, pad=0.08,
-                     label="residual RMS after calibration (log10)")  # fmt: skip
+                     label="typical residual after calibration (log10)")  # fmt: skip
         for g, p_, r in zip(grids, at, rms, strict=True):
             if r >= np.sort(rms)[-min(5, len(rms))]:  # the worst five by name
                 first = outcome.outputs[positions[int(g)][0]]
@@ -297,8 +297,9 @@ def report_pictures(result: CalibrationResult, folder: Path) -> list[Figure]:
         if mf is not None:
             figures.append(Figure(
                 "Model form: where the calibrated model still misses the test", mf,
-                "Left: the frame (grey), each sensor position coloured by the RMS of its "
-                "residuals after calibration (the five worst named), and the missing-element "
+                "Left: the frame (grey), each sensor position coloured by the typical size "
+                "(robust standard deviation, RMS over its directions) of its residuals after "
+                "calibration (the five worst named), and the missing-element "
                 "candidates of the table above numbered in red. Right: the residuals' typical "
                 "size over all channels at each frequency (robust standard deviation) before "
                 "(blue, dashed) and after (red) calibration, their RMS after calibration "
