@@ -53,7 +53,7 @@ from ..response.frf import channel_matrix
 from ..solve.normal_modes import Modes
 from ..testdata.data import Channel, FRFData
 from .metric import residuals
-from .robust import robust_scale
+from .robust import HUBER_C, robust_scale
 
 _LN10 = np.log(10.0)
 
@@ -62,9 +62,6 @@ _LN10 = np.log(10.0)
 #: frames that lack nothing end near 0.8 of the noise (the test side is the identified, smooth
 #: model), so twice the noise is a systematic misfit.
 NOISE_FACTOR = 2.0
-
-#: Huber's constant for the missing-element search, in robust standard deviations.
-HUBER_C = 2.0
 
 
 @dataclass(frozen=True)
@@ -196,7 +193,7 @@ def _split(eps: np.ndarray, shape: tuple[int, int, int]) -> np.ndarray:
 def robust_weights(eps: np.ndarray, c: float = HUBER_C) -> np.ndarray:
     """Huber's weights of the residuals: 1 within c robust standard deviations (1.4826 times
     the median absolute residual), c s / |e| beyond."""
-    s = 1.4826 * float(np.median(np.abs(eps)))
+    s = robust_scale(eps)
     if not s > 0:
         return np.ones_like(eps)
     return np.minimum(1.0, c * s / np.maximum(np.abs(eps), 1e-300))
@@ -218,7 +215,7 @@ def _rms(x: np.ndarray, axis) -> np.ndarray:
 
 def _typical(x: np.ndarray) -> np.ndarray:
     """(n_f,) the robust standard deviation over parts and channels at each frequency."""
-    return 1.4826 * np.median(np.abs(x.reshape(-1, x.shape[-1])), axis=0)
+    return robust_scale(x.reshape(-1, x.shape[-1]), axis=0)
 
 
 def _sample_grids(xyz: np.ndarray, target: int) -> np.ndarray:
@@ -430,8 +427,8 @@ def diagnose(model: Model, modes: Modes, outputs: Sequence[Channel],
     band_b, band_a = by_band(before, rms), by_band(after, rms)
     tband_b, tband_a = by_band(before, robust_scale), by_band(after, robust_scale)
     out_b, out_a = _rms(before, (0, 2, 3)), _rms(after, (0, 2, 3))
-    tout_b = np.array([robust_scale(before[:, o]) for o in range(before.shape[1])])
-    tout_a = np.array([robust_scale(after[:, o]) for o in range(after.shape[1])])
+    tout_b = robust_scale(np.moveaxis(before, 1, 0).reshape(shape[0], -1), axis=1)
+    tout_a = robust_scale(np.moveaxis(after, 1, 0).reshape(shape[0], -1), axis=1)
     mis_b, mis_a = float(_rms(eps_before, None)), float(_rms(eps_after, None))
     typ_b, typ_a = robust_scale(eps_before), robust_scale(eps_after)
     warning = noise_sigma is not None and typ_a > NOISE_FACTOR * noise_sigma

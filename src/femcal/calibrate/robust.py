@@ -27,10 +27,12 @@ import numpy as np
 HUBER_C = 2.0
 
 
-def robust_scale(eps: np.ndarray) -> float:
+def robust_scale(eps: np.ndarray, axis: int | None = None) -> float | np.ndarray:
     """A robust standard deviation of the residuals: 1.4826 times their median absolute
-    value (the standard deviation for Gaussian residuals, unmoved by a few outliers)."""
-    return 1.4826 * float(np.median(np.abs(eps)))
+    value (the standard deviation for Gaussian residuals, unmoved by a few outliers); of all
+    of them (a float), or along ``axis`` (an array)."""
+    s = 1.4826 * np.median(np.abs(eps), axis=axis)
+    return float(s) if axis is None else s
 
 
 def huber_transform(eps: np.ndarray, c: float) -> tuple[np.ndarray, np.ndarray]:
