@@ -154,6 +154,10 @@ def test_cli_and_configuration_errors(study, tmp_path, capsys):
     assert main(["calibrate", str(bad), "--out", str(tmp_path / "o")]) == 2
     assert "p.toml: parameter m_tip: id = 'tip': expected a whole number" in (
         capsys.readouterr().err)
+    bad.write_text(CONFIG.replace("[calibration]", '[calibration]\nloss = "abs"'))
+    assert main(["calibrate", str(bad), "--out", str(tmp_path / "o")]) == 2
+    assert capsys.readouterr().err.rstrip().endswith(  # the message whole, quotes and all
+        "loss = 'abs': expected \"huber\" or \"squared\"")
     bad.write_text(CONFIG.replace('frf = "test.npz"', 'frf = "nothere.npz"'))
     with pytest.raises(FileNotFoundError):
         read_config(bad)

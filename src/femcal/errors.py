@@ -14,6 +14,14 @@ class FemcalError(Exception):
     """Base class of every error femcal raises on purpose."""
 
 
+def message(error: Exception) -> str:
+    """An error's text for the user: a KeyError's own message (``str`` of a KeyError is
+    the repr of its argument, quotes included), any other error's ``str``."""
+    if isinstance(error, KeyError) and len(error.args) == 1:
+        return str(error.args[0])
+    return str(error)
+
+
 @dataclass(frozen=True)
 class DeckIssue:
     """One problem found while reading a deck.

@@ -9,6 +9,8 @@ import sys
 import time
 from pathlib import Path
 
+from ..errors import message
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("calibrate", help="calibrate a deck's parameters against test FRFs",
@@ -44,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
         result = calibrate(cfg, args.out, fresh=args.fresh, workers=args.workers,
                            starts=args.starts, progress=progress)  # fmt: skip
     except (KeyError, ValueError) as e:
-        print(f"femcal calibrate: {str(e).strip(chr(34))}", file=sys.stderr)
+        print(f"femcal calibrate: {message(e)}", file=sys.stderr)
         return 2
     if cfg.pictures and not args.no_pictures:
         from ..io.calibration import write_report

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import message
 from ..identify import Settings, identify
 from ..io.identified import write_model, write_summary
 from ..testdata.data import convert_units
@@ -70,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
         if args.units:
             data = convert_units(data, args.units)
     except (KeyError, ValueError) as e:
-        print(f"femcal identify: {str(e).strip(chr(34))}", file=sys.stderr)
+        print(f"femcal identify: {message(e)}", file=sys.stderr)
         return 2
     progress(f"read {args.frf}: {len(data.outputs)} outputs x {len(data.inputs)} inputs x "
              f"{len(data.frequency_hz)} frequencies ({data.quantity}, "
