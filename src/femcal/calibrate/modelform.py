@@ -58,9 +58,10 @@ from .robust import HUBER_C, robust_scale
 _LN10 = np.log(10.0)
 
 #: The typical misfit after calibration above this many times the test's noise (both robust
-#: standard deviations in the metric) is a model-form warning. Calibrated models of hidden
-#: frames that lack nothing end near 0.8 of the noise (the test side is the identified, smooth
-#: model), so twice the noise is a systematic misfit.
+#: standard deviations in the metric) is a model-form warning. A calibrated model of a hidden
+#: frame that lacks nothing ends near 0.8 of the noise (s31_none of
+#: benchmarks/calibration_trust.py; the test side is the identified, smooth model), so twice
+#: the noise is a systematic misfit.
 NOISE_FACTOR = 2.0
 
 
