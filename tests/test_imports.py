@@ -101,6 +101,7 @@ def test_no_module_imports_itself_back():
 #: The layers that may read a deck: the deck layer, the model builder from cards, and the
 #: edges (files in and out, command line, bundled generators, the lazy public API).
 DECK_READERS = ("femcal.deck", "femcal.model.build", "femcal.model.build_constraints",
+                "femcal.model.build_checks",
                 "femcal.model.build_analysis", "femcal.io", "femcal.jobs", "femcal.cli",
                 "femcal.examples", "femcal.__main__")  # fmt: skip
 
@@ -136,7 +137,7 @@ def test_the_calibrator_draws_no_pictures(name):
 #: The layers in pipeline order. A module may import its own layer and those before it, never
 #: one after it; the first group is the utilities every layer may use.
 LAYERS = (
-    ("femcal.errors", "femcal.markers", "femcal.atomic", "femcal.parallel"),
+    ("femcal.errors", "femcal.markers", "femcal.atomic", "femcal.resources", "femcal.parallel"),
     ("femcal.deck",),
     ("femcal.model",),
     ("femcal.properties", "femcal.elements"),

@@ -131,7 +131,7 @@ def test_case_control_selections_that_name_no_set_stop_the_solution_not_the_read
                  "GRID,1,,0.,0.,0.\nGRID,2,,1.,0.,0.\nCROD,1,1,1,2\nPROD,1,1,1.\n"
                  "MAT1,1,2.1e5,,0.3,7.85e-9\nENDDATA\n")  # fmt: skip
     m = build_model(read_deck(path))
-    assert m.constraints.problems == ("case control SPC = ONE: expected a set id",)
+    assert m.constraints.problems == (f"{path}:4: case control SPC = ONE: expected a set id",)
     assert main(["info", str(path)]) == 0
     with pytest.raises(ModelError, match="case control SPC = ONE: expected a set id"):
         solve_normal_modes(m)

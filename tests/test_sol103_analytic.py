@@ -16,7 +16,8 @@ HEAD = "SOL 103\nCEND\nMETHOD = 1\nSPC = 1\nBEGIN BULK\n"
 
 
 def modes_of(write, text):
-    deck = read_deck(write(HEAD + text + "ENDDATA\n"))
+    head = HEAD if "SPC" in text else HEAD.replace("SPC = 1\n", "")  # no set without cards
+    deck = read_deck(write(head + text + "ENDDATA\n"))
     modes, red = solve_normal_modes(build_model(deck))
     return modes, red
 

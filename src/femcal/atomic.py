@@ -8,13 +8,55 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 
 
+def _temporary_prefix(path: Path, pid: int) -> str:
+    return f".{path.name}.{pid}."
+
+
+def remove_stale_temporaries(path: Path) -> list[Path]:
+    """Remove the temporary files that writers of ``path`` killed before they finished
+    (SIGKILL, power loss) left beside it: those whose process no longer runs. Returns the
+    files removed."""
+    removed = []
+    head = f".{path.name}."
+    try:
+        candidates = [p for p in path.parent.iterdir() if p.name.startswith(head)]
+    except OSError:
+        return removed
+    for p in candidates:
+        pid_text = p.name[len(head):].split(".", 1)[0]
+        if not pid_text.isdigit() or _alive(int(pid_text)):
+            continue
+        try:
+            p.unlink()
+            removed.append(p)
+        except OSError:
+            pass
+    return removed
+
+
+def _alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError):
+        return True  # another user's process, or not a pid we can ask about: leave it
+    return True
+
+
 def write_atomic(path: str | os.PathLike[str], write: Callable[[str], None]) -> Path:
     """Call ``write(tmp)`` to write a temporary file beside ``path`` (same suffix, so writers
     that go by the suffix behave), give it the usual permissions and rename it to ``path``.
-    On any error the temporary file is removed and ``path`` is left as it was."""
+    On any error the temporary file is removed and ``path`` is left as it was. The temporary
+    file's name holds the writer's process id, so that the next writer of ``path`` removes
+    what a killed one left."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
+    remove_stale_temporaries(path)
+    fd, tmp = tempfile.mkstemp(prefix=_temporary_prefix(path, os.getpid()), suffix=path.suffix,
+                               dir=path.parent)  # fmt: skip
     os.close(fd)
     try:
         write(tmp)

@@ -14,6 +14,17 @@ class FemcalError(Exception):
     """Base class of every error femcal raises on purpose."""
 
 
+class FemcalWarning(UserWarning):
+    """Something the user should know that does not stop the work (a SOL femcal solves as
+    SOL 103, a request capped at what the model has). Issued with :func:`warnings.warn`; the
+    CLI prints each as one line."""
+
+
+class ResourceError(FemcalError):
+    """A request would need more memory (or another resource) than the machine has; raised
+    before allocating."""
+
+
 def message(error: Exception) -> str:
     """An error's text for the user: a KeyError's own message (``str`` of a KeyError is
     the repr of its argument, quotes included), any other error's ``str``."""
@@ -28,7 +39,7 @@ class DeckIssue:
 
     Attributes
     ----------
-    file, line : where the offending text is (1-based line number).
+    file, line : where the offending text is (1-based line number; 0 for the whole file).
     card : card name (``"GRID"``) or section (``"CASE CONTROL"``); ``""`` if unknown.
     field : NASTRAN field number on its line (2..9), or None for the whole card/line.
     name : the field's name in the Quick Reference Guide (``"X1"``), or None.
@@ -45,7 +56,7 @@ class DeckIssue:
     expected: str
 
     def __str__(self) -> str:
-        where = f"{self.file}:{self.line}"
+        where = f"{self.file}:{self.line}" if self.line > 0 else self.file
         what = self.card or "deck"
         if self.field is not None:
             what += f" field {self.field}"

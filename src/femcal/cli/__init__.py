@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import os
+import signal
 import sys
-from collections.abc import Sequence
+import warnings
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 
 from .. import __version__
 from ..errors import FemcalError
@@ -33,18 +37,82 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Exit statuses: 0 done, 1 a resource failed (memory, disk), 2 bad input, 70 a bug in femcal
+#: (sysexits' EX_SOFTWARE), 130 interrupted (128 + SIGINT, the shell's convention).
+EXIT_OK, EXIT_RESOURCE, EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 70, 130
+
+#: Set (to anything but 0) to see the traceback of an internal error.
+TRACEBACK_ENV = "FEMCAL_TRACEBACK"
+
+
+class _Terminated(BaseException):
+    """SIGTERM, raised in the main thread so that cleanups run as for Ctrl-C."""
+
+
+@contextmanager
+def _one_line_warnings(command: str) -> Iterator[None]:
+    """Every warning (femcal's and NumPy's) printed as one line ``femcal CMD: warning: ...``,
+    each text once, instead of Python's two lines with the source line that raised it."""
+    seen: set[str] = set()
+
+    def show(msg, category, filename, lineno, file=None, line=None) -> None:
+        text = str(msg)
+        if text not in seen:
+            seen.add(text)
+            print(f"femcal {command}: warning: {text}", file=sys.stderr, flush=True)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        warnings.showwarning = show
+        yield
+
+
+def _on_sigterm(signum: int, frame: object) -> None:
+    raise _Terminated
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the CLI; returns the exit status (0 ok, 1 failure, 2 bad input)."""
+    """Run the CLI; returns the exit status (see ``EXIT_*``). Nothing but femcal's own one-line
+    messages reaches the user: an unexpected exception is reported as an internal error (its
+    traceback with ``FEMCAL_TRACEBACK=1``), Ctrl-C and SIGTERM as an interruption."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    name = f"femcal {args.command}"
+    previous = signal.getsignal(signal.SIGTERM)
     try:
-        return int(_COMMANDS[args.command].run(args) or 0)
+        signal.signal(signal.SIGTERM, _on_sigterm)
+    except ValueError:  # not the main thread: leave SIGTERM alone
+        previous = None
+    try:
+        with _one_line_warnings(args.command):
+            return int(_COMMANDS[args.command].run(args) or 0)
     except FemcalError as e:
-        print(f"femcal {args.command}: {e}", file=sys.stderr)
-        return 2
-    except (FileNotFoundError, IsADirectoryError, PermissionError) as e:
-        print(f"femcal {args.command}: {e.strerror}: {e.filename}", file=sys.stderr)
-        return 2
+        print(f"{name}: {e}", file=sys.stderr)
+        return EXIT_INPUT
+    except (FileNotFoundError, IsADirectoryError, NotADirectoryError, FileExistsError,
+            PermissionError) as e:  # fmt: skip
+        print(f"{name}: {e.strerror}: {e.filename}", file=sys.stderr)
+        return EXIT_INPUT
+    except (KeyboardInterrupt, _Terminated):
+        print(f"{name}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except MemoryError:
+        print(f"{name}: out of memory", file=sys.stderr)
+        return EXIT_RESOURCE
+    except OSError as e:  # disk full, I/O error, ...
+        where = f": {e.filename}" if e.filename else ""
+        print(f"{name}: {e.strerror or e}{where}", file=sys.stderr)
+        return EXIT_RESOURCE
+    except Exception as e:
+        if os.environ.get(TRACEBACK_ENV, "0") not in ("", "0"):
+            raise
+        print(f"{name}: internal error ({type(e).__name__}: {e}); this is a bug in femcal: "
+              f"please report it with the input (set {TRACEBACK_ENV}=1 for the traceback)",
+              file=sys.stderr)  # fmt: skip
+        return EXIT_INTERNAL
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -14,6 +14,7 @@ from ..atomic import write_lines
 from ..io.modes import eigen_table, modes_json, write_json, write_npz, write_vtu
 from ..model.build import load_model
 from ..solve.normal_modes import solve_normal_modes
+from .paths import output_folder
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -32,6 +33,8 @@ def run(args: argparse.Namespace) -> int:
     def progress(msg: str) -> None:
         print(f"[{time.perf_counter() - t0:7.1f} s] {msg}", file=sys.stderr, flush=True)
 
+    output_folder(args.out, "--out")
+    output_folder(args.png, "--png")
     progress(f"reading {args.deck}")
     model = load_model(args.deck)
     progress(f"{model.n_grids} grids, {sum(len(b) for b in model.elements.values())} elements, "

@@ -18,7 +18,8 @@ SOL_NAMES: dict[str, int] = {
     "SEFLUTTR": 145, "SEFLUTTER": 145, "SENLTRAN": 129,
 }  # fmt: skip
 
-#: Case-control commands recognised by their first four or more letters.
+#: Case-control commands femcal reads or stores (recognised by their first four or more
+#: letters, as NASTRAN does).
 CASE_COMMANDS = (
     "METHOD", "SPC", "MPC", "TITLE", "SUBTITLE", "LABEL", "SUBCASE", "ECHO", "DISPLACEMENT",
     "VECTOR", "SUPORT1", "K2GG", "M2GG", "B2GG", "K2PP", "M2PP", "B2PP", "SDAMPING",
@@ -27,6 +28,57 @@ CASE_COMMANDS = (
     "PARAM", "RESVEC", "TSTEP", "GUST", "TRIM", "FLUTTER", "SUBSEQ", "SYMSEQ", "ANALYSIS",
     "AUTOSPC", "EXTSEOUT",
 )  # fmt: skip
+
+#: Every other case-control command of MSC and Simcenter Nastran (Quick Reference Guides):
+#: read and left alone, as they do not change the normal modes. A command in neither list
+#: is an error (a misspelt ``SCP = 1`` would otherwise drop the constraints without a word).
+OTHER_CASE_COMMANDS = (
+    "ACFPMRESULT", "ACINTENSITY", "ACORDCHK", "ACPOWER", "ACTIVAT", "ADACT", "ADAMSMNF",
+    "ADAPT", "ADMRECVR", "AECONFIG", "AEROF", "AESYMXY", "AESYMXZ", "AEUXREF", "ALOAD",
+    "APRESSURE", "APRES", "ASPCFRC", "AUXCASE", "AUXMODEL", "AXISYMMETRIC", "BC", "BCHANGE",
+    "BCMOVE", "BCONTACT", "BCRESULTS", "BCSET", "BEGIN", "BGRESULTS", "BGSET", "BOLTID",
+    "BOLTLD", "BOLTRESULTS", "BOUTPUT", "CAMPBELL", "CKGAP", "CLOAD", "CMETHOD",
+    "CMSENERGY", "CSMSET", "CSSCHD", "CYCLIC", "DATAREC", "DEACTEL", "DEFORM", "DESGLB",
+    "DESMOD", "DESOBJ", "DESSUB", "DESVAR", "DIVERG", "DMIGNAME", "DRSPAN", "DSAPRT",
+    "DSYM", "DTEMP", "EBDSET", "ECHOOFF", "ECHOON", "EDE", "EFLUX", "ELAR", "ELFORCE",
+    "ELSDCON", "ELSENS", "ELSTRESS", "ELSTRN", "ELSUM", "ENTHALPY", "EQUILIBRIUM", "ERP",
+    "ERPREF", "EXCLUDE", "FATIGUE", "FLSFSEL", "FLSPOUT", "FLSTCNT", "FLUX", "FMETHOD",
+    "FRF", "GCRSLT", "GKRESULTS", "GPKE", "GPRSORT", "GPSDCON", "GPSTRAIN", "GPSTRESS",
+    "GROUNDCHECK", "GSTRAIN", "GSTRESS", "HADAPART", "HARMONICS", "HDOT", "HOUTPUT",
+    "HTFLOW", "IC", "INCLUDE", "INTENSITY", "IRLOAD", "JINTEG", "K42GG", "KPR", "LINE",
+    "LOADSET", "MASSSET", "MASTER", "MAXLINES", "MAXMIN", "MCFRACTION", "MEFFMASS",
+    "MFLUID", "MODALKE", "MODALSE", "MODCON", "MODES", "MODSEL", "MODTRAK", "MONITOR",
+    "MONVAR", "MPRES", "NLARCL", "NLCNTL", "NLIC", "NLLOAD", "NLOPRM", "NLPARM", "NLSTRESS",
+    "NONLINEAR", "NOUTPUT", "NSM", "OFREQUENCY", "OLOAD", "OMODES", "OPRESSURE", "OSTNINI",
+    "OTEMP", "OTIME", "OUTRCV", "P2G", "PAGE", "PARTN", "PEAKOUT", "PFGRID", "PFMODE",
+    "PFPANEL", "PLOTID", "POST", "PRESSURE", "PRETENSION", "PSDF", "RANDOM", "RANDVAR",
+    "RCROSS", "REPCASE", "RGYRO", "RIGID", "RMAXMIN", "RMETHOD", "RSMETHOD", "RSVCOMP",
+    "SACCELERATION", "SDISPLACEMENT", "SEALL", "SEDR", "SEDV", "SEEXCLUDE", "SEFINAL",
+    "SEKREDUCE", "SELGENERATE", "SELREDUCE", "SEMGENERATE", "SEMREDUCE", "SEQDEP", "SERESP",
+    "SETMC", "SETMCNAME", "SETS", "SHELLTHK", "SKIP", "SKIPOFF", "SKIPON", "SMETHOD",
+    "SOLUTION", "STATSUB", "STRFIELD", "SUBCOM", "SUPER", "SVECTOR", "SVELOCITY", "SYM",
+    "SYMCOM", "TFL", "THERMAL", "TSTEPNL", "TSTRU", "VATV", "VOLUME", "VUGRID",
+    "WEIGHTCHECK", "XTITLE", "YTITLE",
+)  # fmt: skip
+
+
+def is_case_command(word: str) -> bool:
+    """Whether ``word`` names a case-control command: one of them in full, or the first four
+    or more letters of one (NASTRAN reads a command by its first four letters)."""
+    word = word.upper()
+    for full in (*CASE_COMMANDS, *OTHER_CASE_COMMANDS):
+        if word == full or (len(word) >= 4 and len(full) >= 4 and word[:4] == full[:4]):
+            return True
+    return False
+
+
+def nearest_case_command(word: str) -> str | None:
+    """The command a misspelt ``word`` most likely meant (difflib), or None."""
+    import difflib
+
+    got = difflib.get_close_matches(word.upper(), (*CASE_COMMANDS, *OTHER_CASE_COMMANDS),
+                                    n=1, cutoff=0.6)  # fmt: skip
+    return got[0] if got else None
 
 
 def canonical_case_key(key: str) -> str:
@@ -46,12 +98,14 @@ class CaseControl:
     """Case control: global commands, subcases, and the raw lines.
 
     ``global_`` and each ``subcases[id]`` map a command (full name, e.g. ``"METHOD"``) to
-    its value text as written (``"1"``, ``"Random Gust"``).
+    its value text as written (``"1"``, ``"Random Gust"``); ``where`` maps (subcase id or
+    None for the global part, command) to the (file index, line) it was read from.
     """
 
     lines: list[str] = field(default_factory=list)
     global_: dict[str, str] = field(default_factory=dict)
     subcases: dict[int, dict[str, str]] = field(default_factory=dict)
+    where: dict[tuple[int | None, str], tuple[int, int]] = field(default_factory=dict)
 
     def effective(self) -> list[tuple[int, dict[str, str]]]:
         """(subcase id, commands) for each subcase with the global ones inherited.
@@ -65,6 +119,14 @@ class CaseControl:
     def value(self, key: str) -> str | None:
         """The command's value in the first subcase (global if no subcase), or None."""
         return self.effective()[0][1].get(canonical_case_key(key))
+
+    def location(self, key: str) -> tuple[int, int] | None:
+        """(file index, line) of the command :meth:`value` returns, or None."""
+        key = canonical_case_key(key)
+        first = next(iter(self.subcases), None)
+        if first is not None and (first, key) in self.where:
+            return self.where[(first, key)]
+        return self.where.get((None, key))
 
 
 @dataclass

@@ -38,8 +38,21 @@ def is_int_text(s: str) -> bool:
 def parse_int(s: str) -> int:
     """Read an integer field. Raises BadField for anything else (including reals)."""
     if is_int_text(s):
-        return int(s)
+        v = int(s)
+        if -INT_LIMIT < v < INT_LIMIT:
+            return v
+        raise BadField(f"an integer of magnitude below 2^63 ({INT_LIMIT})")
     raise BadField("an integer")
+
+
+#: Integers are stored as int64: a larger one is an error, not an overflow.
+INT_LIMIT = 2**63
+
+
+def _finite(v: float) -> float:
+    if math.isinf(v):
+        raise BadField("a real within double precision (about 1.8E+308)")
+    return v
 
 
 def parse_real(s: str) -> float:
@@ -49,14 +62,14 @@ def parse_real(s: str) -> float:
     c = s[-1:]
     if (c.isdigit() or c == ".") and "_" not in s and ("." in s or "E" in s):
         try:
-            return float(s)
+            return _finite(float(s))
         except ValueError:
             pass
     m = _EXP_NO_E.match(s)
     if m:
-        return float(m.group(1) + "E" + m.group(2))
+        return _finite(float(m.group(1) + "E" + m.group(2)))
     if _REAL_D.match(s):
-        return float(s.replace("D", "E"))
+        return _finite(float(s.replace("D", "E")))
     if is_int_text(s):
         raise BadField("a real (with a decimal point, e.g. '7.' not '7')")
     raise BadField("a real")

@@ -16,13 +16,14 @@ import dataclasses
 import itertools
 import os
 import re
+import stat
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import TextIO
 
 from ..errors import DeckError, DeckIssue
 from .cards import CARDS, UNSUPPORTED_STRUCTURAL, CardDef
-from .deck import Deck, RecordList, canonical_case_key
+from .deck import Deck, RecordList, canonical_case_key, is_case_command, nearest_case_command
 from .fastlane import FastGroup, split_block
 from .records import RawCard
 from .spec import CHUNK, FAST_FAILURES, Layout, Table
@@ -32,14 +33,19 @@ _LARGE = tuple(range(8, 72, 16))
 _CEND = re.compile(r"^[ \t]*CEND[ \t]*(\$.*)?$", re.IGNORECASE | re.MULTILINE)
 _BEGIN_BULK = re.compile(r"^[ \t]*BEGIN[ \t]+(BULK|SUPER)", re.IGNORECASE | re.MULTILINE)
 _CASE_CMD = re.compile(r"^\s*([A-Za-z][A-Za-z0-9]*)\s*(\([^)]*\))?\s*=\s*(.*?)\s*$")
+_CASE_WORD = re.compile(r"^\s*([A-Za-z][A-Za-z0-9]*)")
 _SUBCASE = re.compile(r"^\s*SUBCASE\s+(\d+)\s*$", re.IGNORECASE)
 
 #: Stop collecting after this many problems (the count of the rest is still reported).
 MAX_ERRORS = 100
+#: The most bytes a deck may hold, its INCLUDEs with it (the largest decks in use are a few
+#: GB; a file past this is more likely a mistake than a model).
+MAX_DECK_BYTES = 16 * 1024**3
 
 
 def read_deck(
-    path: str | os.PathLike[str], *, max_errors: int = MAX_ERRORS, fast_lane: bool = True
+    path: str | os.PathLike[str], *, max_errors: int = MAX_ERRORS, fast_lane: bool = True,
+    max_bytes: int = MAX_DECK_BYTES,
 ) -> Deck:
     """Read a NASTRAN deck (or a bulk-data-only file) into a :class:`Deck`.
 
@@ -49,15 +55,37 @@ def read_deck(
     max_errors : how many problems to describe before only counting them.
     fast_lane : read one-line small-field cards with NumPy (:mod:`femcal.deck.fastlane`).
         The result is the same either way; False reads every card field by field.
+    max_bytes : the most bytes the main file and its INCLUDEs may hold together.
+
+    Only regular files are read (an INCLUDE of ``/dev/zero`` or a pipe would never end).
 
     Raises
     ------
     DeckError
-        With every problem found (file:line, card, field, text found, what was expected).
+        With every problem found (file:line, card, field, text found, what was expected),
+        a main file or INCLUDE that is not a regular file, or a deck past ``max_bytes``.
     FileNotFoundError
         If the main file does not exist.
     """
-    return _Reader(Path(path), max_errors, FAST_LAYOUTS if fast_lane else {}).run()
+    path = Path(path)
+    problem = _not_readable(path, max_bytes)
+    if problem:
+        raise DeckError([DeckIssue(str(path), 0, "", None, None, None, problem)])
+    reader = _Reader(path, max_errors, FAST_LAYOUTS if fast_lane else {})
+    reader.bytes_left = max_bytes - path.stat().st_size
+    return reader.run()
+
+
+def _not_readable(path: Path, max_bytes: int) -> str:
+    """Why ``path`` cannot be read as a deck file (not regular, or larger than ``max_bytes``),
+    ``""`` if it can. A missing file raises FileNotFoundError."""
+    st = path.stat()
+    if not stat.S_ISREG(st.st_mode):
+        return "a regular file (not a device, pipe or directory)"
+    if st.st_size > max_bytes:
+        return (f"a deck of at most {max_bytes} bytes with its INCLUDEs "
+                f"(this file has {st.st_size})")  # fmt: skip
+    return ""
 
 
 class _Reader:
@@ -88,6 +116,8 @@ class _Reader:
         self.subcase: int | None = None
         self.pending_case = ""
         self.pending_case_line = 0
+        self.pending_case_file = 0
+        self.bytes_left = MAX_DECK_BYTES  # what the INCLUDEs still may hold
 
     # ------------------------------------------------------------------ top level
     def run(self) -> Deck:
@@ -129,6 +159,16 @@ class _Reader:
             f, ln = include_at or (0, 0)
             self.error(f, ln, "INCLUDE", "no INCLUDE cycle", found=chain)
             return
+        if include_at is not None:
+            f, ln = include_at
+            try:
+                problem = _not_readable(path, self.bytes_left)
+            except OSError as e:
+                problem = f"a readable file ({e.strerror})"
+            if problem:
+                self.error(f, ln, "INCLUDE", problem, found=str(path))
+                return
+            self.bytes_left -= path.stat().st_size
         try:
             # latin-1 never fails; non-ASCII text in a data field is reported by its reader.
             fh = open(path, encoding="latin-1", newline=None)  # noqa: SIM115 - closed below
@@ -244,6 +284,7 @@ class _Reader:
             self.pending_case += " " + s.strip()
         else:
             self.pending_case, self.pending_case_line = s.strip(), line_no
+            self.pending_case_file = fidx
         if self.pending_case.endswith(","):
             return
         self._flush_case()
@@ -262,6 +303,14 @@ class _Reader:
             # OUTPUT(PLOT) / OUTPUT(XYPLOT) blocks: plotter commands until BEGIN BULK.
             self.in_output_block = "PLOT" in up
             return
+        word = _CASE_WORD.match(text)
+        if word and not is_case_command(word.group(1)):
+            near = nearest_case_command(word.group(1))
+            hint = f" (did you mean {near}?)" if near else ""
+            self.error(self.pending_case_file, self.pending_case_line, "CASE CONTROL",
+                       f"a case control command{hint}", found=word.group(1),
+                       name="command")  # fmt: skip
+            return
         m = _CASE_CMD.match(text)
         if not m:
             return  # commands without '=' (e.g. "ECHO", "OUTPUT") are kept as text only
@@ -275,6 +324,8 @@ class _Reader:
             else self.deck.case.subcases[self.subcase]
         )
         target[key] = value
+        self.deck.case.where[(self.subcase, key)] = (self.pending_case_file,
+                                                     self.pending_case_line)  # fmt: skip
 
     # ------------------------------------------------------------------ bulk
     def _bulk_lines(self, fidx: int, lines: _Lines) -> str | None:

@@ -7,6 +7,7 @@ are 0-based data-field positions: index k is NASTRAN field ``k % 8 + 2`` of line
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from ..markers import INT_BLANK, REAL_BLANK
@@ -815,6 +816,12 @@ class EigrlCard:
         norm = c.word(7, "MASS")
         if norm not in ("MASS", "MAX"):
             errors.append((7, norm, "MASS or MAX"))
+        if nd != INT_BLANK and nd < 1:
+            errors.append((3, f[3], "an integer > 0 (the number of roots) or blank"))
+        if not (math.isnan(v1) or math.isnan(v2)) and v1 >= v2:
+            errors.append((2, f[2], f"a frequency above V1 = {f[1].strip()}"))
+        if not (math.isnan(v2) or v2 >= 0):
+            errors.append((2, f[2], "a frequency >= 0"))
         opts = tuple(s for s in f[8:] if s)
         return cls(sid, v1, v2, nd, msglvl, maxset, shfscl, norm, opts)
 

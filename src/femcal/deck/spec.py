@@ -161,13 +161,14 @@ class Layout:
                 c = cols[0]
                 env[f"p{col}"] = _PARSERS[c.kind]
                 env[f"d{col}"] = c.default
-                # Integers: int() directly when the text is all digits (int() rejects the
-                # non-ASCII digits that isdigit() accepts, which sends them to the slow path).
+                # Integers: int() directly when the text is all digits and short enough for
+                # int64 (int() rejects the non-ASCII digits that isdigit() accepts, which
+                # sends them to the slow path, as it does longer ones).
                 # Reals: float() when the text has a point and no '_' (float() accepts '1_0.'
                 # and NASTRAN does not); '1.-3' and other forms make float() raise, and the
                 # card is then read by parse_checked.
                 if c.kind == "I":
-                    read = f"(int(s) if s.isdigit() else p{col}(s))"
+                    read = f"(int(s) if s.isdigit() and len(s) < 19 else p{col}(s))"
                 elif c.kind == "R":
                     read = f"(float(s) if '.' in s and '_' not in s else p{col}(s))"
                 else:

@@ -85,6 +85,7 @@ def read_reals(v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     rest = np.flatnonzero(candidate & ~pointed)
     for r, t in zip(rest.tolist(), texts(v[rest]), strict=True):
         ok[r] = _nastran_form(t, values, r)
+    ok &= ~np.isinf(values)  # beyond double precision: the field reader says so
     return values, ok, blank
 
 

@@ -35,10 +35,12 @@ class EigenSetup:
     sets : SID -> request (an EIGRL wins over an EIGR of the same SID, the first card of a
         SID over later ones).
     method : case control METHOD as written, None where there is none.
+    method_at : ``"file:line"`` of METHOD, ``""`` where unknown.
     """
 
     sets: dict[int, EigenRequest] = field(default_factory=dict)
     method: str | None = None
+    method_at: str = ""
 
     def request(self) -> EigenRequest:
         """The selected request.
@@ -52,13 +54,15 @@ class EigenSetup:
             raise ModelError("no eigenvalue request: case control has no METHOD (SOL 103 needs an "
                              "EIGRL or EIGR set; a model built in code takes "
                              "ModelBuilder.eigen)")  # fmt: skip
+        at = f"{self.method_at}: " if self.method_at else ""
         try:
             sid = int(self.method.split()[0])
         except (ValueError, IndexError):
-            raise ModelError(f"case control METHOD = {self.method}: expected a set id") from None
+            raise ModelError(f"{at}case control METHOD = {self.method}: expected a set "
+                             "id") from None  # fmt: skip
         if sid not in self.sets:
-            raise ModelError(f"METHOD = {sid}: no EIGRL or EIGR with SID {sid} in the bulk data",
-                             [sid])  # fmt: skip
+            raise ModelError(f"{at}case control METHOD = {sid}: no EIGRL or EIGR with SID "
+                             f"{sid} in the bulk data", [sid])  # fmt: skip
         return self.sets[sid]
 
 

@@ -18,6 +18,7 @@ from ..deck.spec import Table
 from ..errors import ModelError
 from ..markers import INT_BLANK
 from .build_analysis import eigen_of, params_of, unsupported_of
+from .build_checks import check_values
 from .build_constraints import constraints_of
 from .coords import BASIC, CoordSystem, axes_from_points, displacement_frames, to_basic
 from .element_types import ELEMENT_PROPERTIES
@@ -132,6 +133,7 @@ def build_model(deck: Deck) -> Model:
     for arr in (cp, cd, ps, seid):
         arr[arr == INT_BLANK] = 0
     _duplicates(p, "GRID", gid, grids)
+    check_values(deck, p.add)
     bad = np.nonzero(seid != 0)[0]
     for i in bad[:20]:
         p.add(
@@ -195,7 +197,8 @@ def build_model(deck: Deck) -> Model:
     return dataclasses.replace(
         model_stub, elements=elements, properties=properties, materials=materials,
         params=params_of(deck), constraints=constraints_of(deck, model_stub),
-        eigen=eigen_of(deck), unsupported=unsupported_of(deck),
+        eigen=eigen_of(deck), unsupported=unsupported_of(deck), solution=deck.sol_text,
+        solution_number=deck.sol,
     )  # fmt: skip
 
 
@@ -366,6 +369,8 @@ def _elements(deck: Deck, p: _Problems, model: Model) -> dict[str, ElementBlock]
             )
             p.add(msg, [int(ids[i]), *bad], [(t.file[i], t.line[i])])
         nodes = np.where(nodes < 0, -1, nodes)
+        if etype not in _SCALAR_COMPONENTS and etype not in _SCALAR_POINTS_ONLY:
+            _repeated_nodes(p, etype, ids, raw, nodes, t)
         components = None
         if etype in _SCALAR_COMPONENTS:
             comps = np.column_stack([c[n] for n in _SCALAR_COMPONENTS[etype]])
@@ -427,6 +432,21 @@ def _elements(deck: Deck, p: _Problems, model: Model) -> dict[str, ElementBlock]
         rigid_locs.extend(zip(t.file.tolist(), t.line.tolist(), strict=True))
     _duplicates(p, "rigid element", np.concatenate(rigid_ids), None, rigid_locs)
     return blocks
+
+
+def _repeated_nodes(p: _Problems, etype: str, ids: np.ndarray, raw: np.ndarray,
+                    nodes: np.ndarray, t) -> None:  # fmt: skip
+    """An element that names one grid twice (a CQUAD4 G3 = G4, a CBAR GA = GB) has no shape:
+    each is an error naming the element and the grid."""
+    if nodes.shape[1] < 2:
+        return
+    s = np.sort(np.where(nodes >= 0, nodes, -1 - np.arange(nodes.shape[1])), axis=1)
+    for i in np.nonzero((s[:, 1:] == s[:, :-1]).any(axis=1))[0][:20]:
+        present = raw[i][nodes[i] >= 0]
+        u, n = np.unique(present, return_counts=True)
+        p.add(f"{etype} {ids[i]} names GRID {u[n > 1].tolist()} more than once; expected "
+              "distinct grids", [int(ids[i]), *u[n > 1].tolist()],
+              [(t.file[i], t.line[i])])  # fmt: skip
 
 
 def _bar_pids(deck: Deck, etype: str, ids: np.ndarray, pids: np.ndarray) -> np.ndarray:

@@ -78,7 +78,8 @@ def eigen_of(deck: Deck) -> EigenSetup:
                 nd = 10**9  # all roots (Givens/Householder)
             sets.setdefault(int(c["sid"][i]),
                             EigenRequest(_hz(c["f1"][i]), f2, nd, str(c["norm"][i] or "MASS")))
-    return EigenSetup(sets, deck.case.value("METHOD"))
+    loc = deck.case.location("METHOD")
+    return EigenSetup(sets, deck.case.value("METHOD"), deck.where(*loc) if loc else "")
 
 
 def unsupported_of(deck: Deck) -> tuple[str, ...]:

@@ -9,10 +9,12 @@ independent DOF do not fix it) is decided where the transform is built
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from ..deck.deck import Deck
-from ..errors import ModelError
+from ..errors import FemcalWarning, ModelError
 from ..markers import INT_BLANK
 from .constraints import (
     Constraints,
@@ -31,16 +33,43 @@ def components(code: int) -> tuple[int, ...]:
     return () if code in (INT_BLANK, 0) else tuple(int(c) - 1 for c in str(code))
 
 
+#: The cards that define the sets case control SPC and MPC select.
+SET_CARDS = {"SPC": ("SPC", "SPC1", "SPCADD"), "MPC": ("MPC", "MPCADD")}
+
+
+def _defined_sets(deck: Deck, key: str) -> set[int]:
+    """Set ids that the deck's ``SET_CARDS[key]`` define."""
+    ids: set[int] = set()
+    for card in SET_CARDS[key]:
+        t = deck.tables.get(card)
+        if t is not None:
+            ids.update(int(x) for x in t.columns["sid"])
+        ids.update(int(r.sid) for r in deck.records_of(card))
+    return ids
+
+
 def selected_sets(deck: Deck, key: str, add_card: str) -> set[int]:
     """The set ids that case control ``key`` (SPC or MPC) selects, with the sets its
-    ``add_card`` (SPCADD or MPCADD) unions bring in; empty without the command."""
+    ``add_card`` (SPCADD or MPCADD) unions bring in; empty without the command.
+
+    A selected set that no card defines selects nothing, with a :class:`FemcalWarning`, as
+    NASTRAN does (MSC Nastran's user warning 2053, "undefined single-point constraint set",
+    and the solution goes on: reference deck ekm_cbar_suport).
+
+    Raises
+    ------
+    ModelError
+        For a value that is not a set id.
+    """
     value = deck.case.value(key)
     if value is None:
         return set()
+    loc = deck.case.location(key)
+    at = f"{deck.where(*loc)}: " if loc else ""
     try:
         sid = int(value.split()[0])
     except (ValueError, IndexError):
-        raise ModelError(f"case control {key} = {value}: expected a set id") from None
+        raise ModelError(f"{at}case control {key} = {value}: expected a set id") from None
     sets = {sid}
     grow = True
     while grow:
@@ -49,6 +78,14 @@ def selected_sets(deck: Deck, key: str, add_card: str) -> set[int]:
             if r.sid in sets and not set(r.sets) <= sets:
                 sets |= set(r.sets)
                 grow = True
+    missing = sorted(sets - _defined_sets(deck, key))
+    if missing:
+        *first, last = SET_CARDS[key]
+        via = "" if missing == [sid] else f" (through {add_card} {sid})"
+        warnings.warn(FemcalWarning(
+            f"{at}case control {key} = {sid}: no {', '.join(first)} or {last} card defines "
+            f"set {', '.join(map(str, missing))}{via}; the model is solved without it, as "
+            "NASTRAN does"), stacklevel=3)  # fmt: skip
     return sets
 
 

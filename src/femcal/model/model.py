@@ -77,6 +77,9 @@ class Model:
     unsupported : features of the deck that change the normal modes and that femcal does not
         model (a reduction to an a-set, component modes, direct matrix input); solving such
         a model is refused rather than answered differently.
+    solution : the deck's SOL as written (``"103"``, ``"SEMODES"``), ``""`` for a bulk-data
+        file or a model built in code.
+    solution_number : the SOL's number (``SEMODES`` -> 103), None where there is none.
     """
 
     node_ids: np.ndarray
@@ -97,6 +100,8 @@ class Model:
     constraints: Constraints = field(default_factory=Constraints)
     eigen: EigenSetup = field(default_factory=EigenSetup)
     unsupported: tuple[str, ...] = ()
+    solution: str = ""
+    solution_number: int | None = None
 
     @property
     def n_nodes(self) -> int:

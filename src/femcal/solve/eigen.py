@@ -2,15 +2,21 @@
 
 Shift-invert Lanczos on a factor of K - sigma M for large problems (block Lanczos,
 :mod:`femcal.solve.lanczos`, by default; ARPACK's eigsh with our own OPinv on request or when
-the block iteration does not converge), a dense solution for small ones. The shift is
-negative so free-free models give their rigid-body modes. EIGRL semantics: all roots in
-[V1, V2] (Hz), at most ND of them.
+the block iteration does not converge), a dense solution for small ones. EIGRL semantics: all
+roots in [V1, V2] (Hz), at most ND of them.
+
+The shift is negative, so that free-free models give their rigid-body modes, and follows the
+problem's scale (:func:`default_shift`): a model in any consistent unit system, or with a
+modulus of 1e-12, gives the same modes relative to its own scale. Too small a shift against
+K's scale leaves K - sigma M as singular as K for free-free models and drops stiff modes as
+"infinite"; too large a one crowds the lowest roots together in the shift-inverted spectrum.
 """
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.linalg as sl
@@ -18,15 +24,27 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from threadpoolctl import threadpool_limits
 
-from ..errors import SolverError
+from ..errors import FemcalWarning, SolverError
 from ..model.analysis import EigenRequest
+from ..resources import check_memory
 from .factor import NotPositiveDefinite, factorize
 from .lanczos import LanczosNotConverged, block_lanczos
 
 #: Below this a-set size the dense solver is used.
 DENSE_LIMIT = 600
-#: |sigma| of the default negative shift, sigma = -(2 pi DEFAULT_SHIFT_HZ)^2.
+#: |sigma| of the default negative shift, sigma = -(2 pi DEFAULT_SHIFT_HZ)^2, kept within
+#: SHIFT_RANGE of the problem's scale (see :func:`default_shift`).
 DEFAULT_SHIFT_HZ = 1.0
+#: |sigma| / scale bounds, scale the median K_ii / M_ii. The lower bound keeps the shift-
+#: inverted spectrum resolvable in double precision (the stiffest modes' 1 / (lam - sigma)
+#: stay 1e-10 of the largest, above the dense solver's cut for massless directions, 1e-12);
+#: the upper one keeps it below the lowest modes of slender and thin structures, whose
+#: lowest eigenvalues are 1e-7 to 1e-10 of the scale (the reference decks and the truck
+#: frame lie in this window, so their shift is the 1 Hz one).
+SHIFT_RANGE = (1e-10, 1e-6)
+#: Above this share of the DOF wanted as roots, a model up to DENSE_ALL_LIMIT DOF is solved
+#: dense: a Lanczos basis of nearly every vector costs more than the dense solution.
+DENSE_SHARE, DENSE_ALL_LIMIT = 0.5, 8000
 
 
 @dataclass(frozen=True)
@@ -60,12 +78,32 @@ def _to_lambda(f_hz: float) -> float:
     return (2.0 * np.pi * f_hz) ** 2
 
 
+def problem_scale(K: sp.spmatrix, M: sp.spmatrix) -> float:
+    """The eigenproblem's scale (rad^2/s^2): the median of K_ii / M_ii over the DOF with both
+    positive, else the ratio of the traces. Scaling K or M (another unit system) scales it as
+    it scales every eigenvalue."""
+    k, m = np.asarray(K.diagonal()), np.asarray(M.diagonal())
+    both = (k > 0) & (m > 0)
+    if both.any():
+        return float(np.median(k[both] / m[both]))
+    km, mm = float(np.abs(k).sum()), float(np.abs(m).sum())
+    return km / mm if km > 0 and mm > 0 else 1.0
+
+
+def default_shift(K: sp.spmatrix, M: sp.spmatrix) -> float:
+    """The negative shift: -(2 pi DEFAULT_SHIFT_HZ)^2 kept within SHIFT_RANGE times the
+    problem's scale (:func:`problem_scale`)."""
+    scale = problem_scale(K, M)
+    lo, hi = SHIFT_RANGE
+    return -float(np.clip(_to_lambda(DEFAULT_SHIFT_HZ), lo * scale, hi * scale))
+
+
 def solve_modes(
     K: sp.spmatrix,
     M: sp.spmatrix,
     request: EigenRequest,
     *,
-    shift_hz: float = DEFAULT_SHIFT_HZ,
+    shift_hz: float | None = None,
     backend: str = "auto",
     method: str = "block",
     progress: Callable[[str], None] | None = None,
@@ -77,7 +115,8 @@ def solve_modes(
     ----------
     K, M : (n, n) symmetric; K positive semi-definite, M positive semi-definite (massless DOF
         give infinite eigenvalues, which are never returned).
-    shift_hz : |sigma| of the negative shift, sigma = -(2 pi shift_hz)^2.
+    shift_hz : |sigma| of the negative shift, sigma = -(2 pi shift_hz)^2; None: scaled to
+        the problem (:func:`default_shift`).
     backend : factorisation for the sparse path ("auto", "cholmod", "superlu").
     method : the sparse path's Lanczos: "block" (:mod:`femcal.solve.lanczos`, one solve per
         block of 8 vectors; ARPACK if it does not converge) or "arpack" (scipy's eigsh with
@@ -87,24 +126,39 @@ def solve_modes(
         K - sigma M (``solve(b)`` for b (n,) or (n, k)), for callers that solve with the
         same matrix afterwards (not called on the dense path).
 
+    An ND above the number of DOF is capped at it, with a :class:`FemcalWarning`.
+
     Raises
     ------
     SolverError
-        When K - sigma M cannot be factorised (a mechanism: a DOF with neither stiffness nor
-        mass that no constraint removes), or the iteration does not converge (the converged
-        pairs are in ``partial``).
+        When the model has no mass, when K - sigma M cannot be factorised (a mechanism: a
+        DOF with neither stiffness nor mass that no constraint removes), or the iteration
+        does not converge (the converged pairs are in ``partial``).
+    ResourceError
+        When the roots asked for would not fit in memory.
     """
     n = K.shape[0]
     if n == 0:
         raise SolverError("the model has no free DOF after constraints")
-    sigma = -_to_lambda(shift_hz)  # below the spectrum; V1 filters the roots afterwards
+    if not np.any(M.diagonal() != 0):
+        raise SolverError("the model has no mass on its free DOF, so it has no normal modes: "
+                          "expected a density (MAT1 RHO ...), a non-structural mass or mass "
+                          "elements (CONM2, CMASS)")  # fmt: skip
+    if request.nd is not None and request.nd > n:
+        warnings.warn(FemcalWarning(f"ND = {request.nd} roots asked for, the model has {n} "
+                                    f"free DOF: {n} roots at most"), stacklevel=2)  # fmt: skip
+        request = replace(request, nd=n)
+    # below the spectrum; V1 filters the roots afterwards
+    sigma = default_shift(K, M) if shift_hz is None else -_to_lambda(shift_hz)
     lam_lo = -np.inf if request.v1 is None else _to_lambda(request.v1) * (1 - 1e-9)
     lam_hi = np.inf if request.v2 is None else _to_lambda(request.v2) * (1 + 1e-9)
     if request.nd is None and request.v2 is None:
         raise SolverError("EIGRL needs ND or V2 (how many roots, or up to which frequency)")
     if method not in ("block", "arpack"):
         raise ValueError(f"method {method!r}: expected 'block' or 'arpack'")
-    if n <= DENSE_LIMIT:
+    many = request.nd is not None and request.nd >= DENSE_SHARE * n and n <= DENSE_ALL_LIMIT
+    if n <= DENSE_LIMIT or many:
+        check_memory(8.0 * n * n * 6, f"the dense eigensolution of {n} DOF")
         lam, vec, name = _dense(K, M, sigma)
     else:
         lam, vec, name = _lanczos(K, M, sigma, request, lam_lo, lam_hi, backend, progress,
@@ -138,6 +192,8 @@ def _arpack(K, M, sigma, solve, k):
             f"Lanczos did not converge for {k} roots ({len(e.eigenvalues)} converged)",
             partial=(e.eigenvalues, e.eigenvectors),
         ) from None
+    except spla.ArpackError as e:
+        raise SolverError(f"Lanczos (ARPACK) failed for {k} roots of {n} DOF: {e}") from None
 
 
 def _shifted_factor(K, M, sigma, backend):
@@ -200,6 +256,8 @@ def _lanczos(K, M, sigma, request, lam_lo, lam_hi, backend, progress, on_factor=
         return False
 
     while True:
+        # the basis: the block iteration keeps about twice the roots in vectors of n
+        check_memory(8.0 * n * (2 * k + 16) * 2, f"{k} roots of {n} DOF")
         if progress:
             progress(f"Lanczos: {k} roots of {n} DOF ({name}, {method})")
         # One BLAS thread per pool during the iteration: the Lanczos' and CHOLMOD's OpenBLAS

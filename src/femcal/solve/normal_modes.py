@@ -3,6 +3,7 @@ AUTOSPC, the eigensolution and the shapes on the g-set."""
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -10,10 +11,14 @@ import numpy as np
 
 from ..assembly import Matrices, Options, assemble
 from ..assembly.constraints import Reduction, autospc, build_reduction
-from ..errors import ModelError
+from ..errors import FemcalWarning, ModelError
 from ..model.analysis import EigenRequest
 from ..model.model import Model
 from .eigen import EigenResult, solve_modes
+
+#: The SOL numbers of a normal modes solution (SOL 3 is its rigid-format number); None for a
+#: bulk-data file or a model built in code.
+MODES_SOLUTIONS = (103, 3, None)
 
 
 @dataclass(frozen=True)
@@ -80,6 +85,10 @@ def solve_normal_modes(
         For a mechanism, or an iteration that does not converge.
     """
     say = progress or (lambda s: None)
+    if model.solution_number not in MODES_SOLUTIONS:
+        warnings.warn(FemcalWarning(
+            f"the deck asks for SOL {model.solution}, which femcal does not run: it is solved "
+            "as SOL 103 (normal modes)"), stacklevel=2)  # fmt: skip
     if model.unsupported:
         raise ModelError("the deck uses features that change the SOL 103 answer and are not "
                          f"supported: {'; '.join(model.unsupported)} (femcal solves the full "

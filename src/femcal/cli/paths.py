@@ -1,0 +1,24 @@
+"""Checks of the paths a command is asked to write, made before any work starts."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..errors import FemcalError
+
+
+class UsageError(FemcalError):
+    """A command-line argument that cannot be used (exit status 2)."""
+
+
+def output_folder(path: Path | None, option: str) -> Path | None:
+    """``path`` if it is a folder or can become one; a :class:`UsageError` naming ``option``
+    if it is an existing file (or under one)."""
+    if path is None:
+        return None
+    for p in (path, *path.parents):
+        if p.exists():
+            if not p.is_dir():
+                raise UsageError(f"{option} {path}: expected a folder, but {p} is a file")
+            return path
+    return path
