@@ -307,3 +307,41 @@ def test_ctrl_c_ends_a_command_with_one_line_and_status_130(tmp_path):
     assert proc.wait(timeout=60) == EXIT_INTERRUPTED, err
     assert [ln for ln in err if not ln.startswith("[")] == ["femcal solve: interrupted"]
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+
+
+# ----------------------------------------------------------------- cases the fuzzer found
+
+
+def test_an_id_list_with_an_id_beyond_64_bits_is_an_error(write):
+    # fuzz seed 178: SPC1 G6 = 2^63 overflowed in the grid lookup
+    path = write(plate(head="SPC = 1", bulk="SPC1,1,123456,1,,,,,9223372036854775808"))
+    with pytest.raises(DeckError, match=r"SPC1 field 9: found '9223372036854775808'; expected an "
+                       "integer of magnitude below 2\\^63"):  # fmt: skip
+        read_deck(path)
+
+
+def test_a_thru_range_of_a_hundred_million_ids_is_an_error_not_a_memory_grab(write):
+    path = write(plate(head="SPC = 1", bulk="SPC1,1,123456,1,THRU,99999999"))
+    with pytest.raises(DeckError, match="SPC1 field 6: found '99999999'; expected a THRU range "
+                       "that, with the card's other ids, lists at most 10000000"):  # fmt: skip
+        read_deck(path)
+
+
+def test_latin1_letters_survive_reading_and_writing_back(write, tmp_path):
+    # fuzz seed 1292: 'ÿ'.upper() is 'Ÿ', which latin-1 (the writer's encoding) cannot hold
+    from femcal.deck.writer import write_deck
+
+    path = tmp_path / "latin1.bdf"
+    path.write_bytes(plate(bulk="PLOTEL,9001,1,2\nVM,ÿé").encode("latin-1"))
+    back = write_deck(read_deck(path), tmp_path / "back.bdf")
+    assert "ÿé" in back.read_text(encoding="latin-1")
+
+
+def test_quadratic_solids_without_density_are_massless_not_nan(write):
+    # fuzz seed 1477: HRZ lumping of a CTETRA with RHO = 0 divided 0 by 0
+    from femcal.elements.solid import solid_matrices
+
+    xyz = np.array([[[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [.5, 0, 0], [.5, .5, 0],
+                     [0, .5, 0], [0, 0, .5], [.5, 0, .5], [0, .5, .5]]], float)  # fmt: skip
+    _, M = solid_matrices("TETRA10", xyz, np.eye(6)[None] * 1e3, np.zeros(1))
+    assert np.all(M == 0)

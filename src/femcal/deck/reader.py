@@ -33,6 +33,7 @@ _LARGE = tuple(range(8, 72, 16))
 _CEND = re.compile(r"^[ \t]*CEND[ \t]*(\$.*)?$", re.IGNORECASE | re.MULTILINE)
 _BEGIN_BULK = re.compile(r"^[ \t]*BEGIN[ \t]+(BULK|SUPER)", re.IGNORECASE | re.MULTILINE)
 _CASE_CMD = re.compile(r"^\s*([A-Za-z][A-Za-z0-9]*)\s*(\([^)]*\))?\s*=\s*(.*?)\s*$")
+_ASCII_UPPER = str.maketrans("abcdefghijklmnopqrstuvwxyz", "ABCDEFGHIJKLMNOPQRSTUVWXYZ")
 _CASE_WORD = re.compile(r"^\s*([A-Za-z][A-Za-z0-9]*)")
 _SUBCASE = re.compile(r"^\s*SUBCASE\s+(\d+)\s*$", re.IGNORECASE)
 
@@ -391,7 +392,9 @@ class _Reader:
             if "\t" in s:
                 s = s.expandtabs(8)
                 c0 = s[0]
-            s = s.upper()
+            # ASCII letters only: str.upper() maps latin-1 text outside latin-1 ('ÿ' -> 'Ÿ'),
+            # which the deck writer could not write back
+            s = s.upper() if s.isascii() else s.translate(_ASCII_UPPER)
             if "," in s:
                 parts = s.split(",")
                 head = parts[0].strip()

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 from ..markers import INT_BLANK, REAL_BLANK
 from .fields import (
+    INT_LIMIT,
     BadField,
     is_int_text,
     parse_components,
@@ -22,6 +23,9 @@ from .fields import (
 )
 
 ErrorList = list[tuple[int, str, str]]
+
+#: The most ids one card's THRU ranges may list (``1 THRU 99999999`` would be a list of 1e8).
+MAX_LISTED_IDS = 10_000_000
 
 
 class Cursor:
@@ -71,7 +75,8 @@ class Cursor:
         """Integers from field k on, with ``A THRU B`` ranges and blanks skipped.
 
         Stops at ``stop`` or at the first field that is not an integer or THRU; returns
-        (index where it stopped, ids).
+        (index where it stopped, ids). An integer beyond 64 bits, or ranges of more than
+        MAX_LISTED_IDS ids on one card, are errors.
         """
         end = self.n if stop is None else min(stop, self.n)
         out: list[int] = []
@@ -88,12 +93,20 @@ class Cursor:
                 if b < a:
                     self.errors.append((k + 1, self.f[k + 1], f"an id >= {a} after THRU"))
                     return end, out
+                if len(out) + (b - a) > MAX_LISTED_IDS:
+                    self.errors.append((k + 1, self.f[k + 1], f"a THRU range that, with the "
+                                        f"card's other ids, lists at most {MAX_LISTED_IDS}"))
+                    return end, out
                 out.extend(range(a + 1, b + 1))
                 k += 2
                 continue
             if not is_int_text(s):
                 return k, out
-            out.append(int(s))
+            v = int(s)
+            if not -INT_LIMIT < v < INT_LIMIT:
+                self.errors.append((k, s, f"an integer of magnitude below 2^63 ({INT_LIMIT})"))
+                return end, out
+            out.append(v)
             k += 1
         return k, out
 

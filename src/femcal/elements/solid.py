@@ -537,7 +537,10 @@ def solid_matrices(
         return K, M
     if kind in _QUADRATIC:  # HRZ
         diag = np.einsum("eaa->ea", Ms)
-        m = diag * (Ms.sum(axis=(1, 2)) / diag.sum(axis=1))[:, None]
+        total = diag.sum(axis=1)
+        scale = np.divide(Ms.sum(axis=(1, 2)), total, out=np.zeros_like(total),
+                          where=total != 0)  # massless elements (rho = 0) stay massless
+        m = diag * scale[:, None]
     else:
         m = Ms.sum(axis=2)
     M = np.zeros((n, nd, nd))

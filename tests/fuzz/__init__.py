@@ -1,0 +1,1 @@
+"""Fuzz harnesses: seeded mutations of decks, FRF files and calibration configs."""
