@@ -28,7 +28,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..examples.truck_frame import write_frame
+    from .paths import output_folder
 
+    output_folder(Path(args.out), "--out")
     paths = write_frame(args.variant, args.out)
     for path in paths:
         print(f"wrote {path}")

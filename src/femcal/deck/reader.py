@@ -301,8 +301,8 @@ class _Reader:
             return
         up = text.upper()
         if up.startswith("OUTPUT") and "(" in up and "=" not in up:
-            # OUTPUT(PLOT) / OUTPUT(XYPLOT) blocks: plotter commands until BEGIN BULK.
-            self.in_output_block = "PLOT" in up
+            # OUTPUT(PLOT), (XYPLOT) and (XYOUT) blocks: plotter commands until BEGIN BULK.
+            self.in_output_block = "PLOT" in up or "XYOUT" in up
             return
         word = _CASE_WORD.match(text)
         if word and not is_case_command(word.group(1)):
