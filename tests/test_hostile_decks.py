@@ -345,3 +345,8 @@ def test_quadratic_solids_without_density_are_massless_not_nan(write):
                      [0, .5, 0], [0, 0, .5], [.5, 0, .5], [0, .5, .5]]], float)  # fmt: skip
     _, M = solid_matrices("TETRA10", xyz, np.eye(6)[None] * 1e3, np.zeros(1))
     assert np.all(M == 0)
+
+
+def test_xy_output_blocks_are_read_past(write):
+    deck = read_deck(write(plate(head="OUTPUT(XYOUT)\nXYPLOT DISP /1(T3)\nXTITLE = x")))
+    assert deck.case.value("METHOD") == "1"
