@@ -350,3 +350,25 @@ def test_quadratic_solids_without_density_are_massless_not_nan(write):
 def test_xy_output_blocks_are_read_past(write):
     deck = read_deck(write(plate(head="OUTPUT(XYOUT)\nXYPLOT DISP /1(T3)\nXTITLE = x")))
     assert deck.case.value("METHOD") == "1"
+
+
+def test_mat1_whose_e_and_g_give_no_poisson_ratio_is_an_error(write):
+    # fuzz seed 104066: E = 210000, G = -0., NU blank -> NU = E / (2 G) - 1 = -inf, NaN in K
+    path = write(plate().replace("MAT1,1,7.+4,,.33,2.7-9", "MAT1,1,7.+4,-0.,,2.7-9"))
+    with pytest.raises(ModelError, match=r"MAT1 1: E = 70000 and G = -0 without NU give NU = E / "
+                       r"\(2 G\) - 1 = -inf; expected a Poisson's ratio in \(-1, 0.5\]"):  # fmt: skip
+        load_model(path)
+
+
+def test_bars_of_a_material_without_shear_modulus_are_an_error_naming_them(write):
+    # fuzz seed 104066: MAT1 G = -0. with E and NU given: the bar's section compliance
+    # divided by G and the AUTOSPC eigen solution met NaN
+    text = (HEAD_BAR + "MAT1,1,2.1+5,-0.,.3,7.85-9\nENDDATA\n")
+    with pytest.raises(ModelError, match=r"CBAR: bars/beams need materials with E > 0 and G > 0 "
+                       r"\(element ids \[1, 2\]\)"):  # fmt: skip
+        solve_normal_modes(load_model(write(text)))
+
+
+HEAD_BAR = ("SOL 103\nCEND\nMETHOD = 1\nBEGIN BULK\nEIGRL,1,,,3\nGRID,1,,0.,0.,0.\n"
+            "GRID,2,,100.,0.,0.\nGRID,3,,200.,0.,0.\nCBAR,1,1,1,2,0.,0.,1.\nCBAR,2,1,2,3,0.,0.,1.\n"
+            "PBAR,1,1,10.,20.,30.,40.\n")  # fmt: skip

@@ -191,6 +191,10 @@ def beam_stiffness_local(
     bad = np.flatnonzero(((A <= 0) | (J <= 0) | (I1 <= 0) | (I2 <= 0)).any(axis=1))
     if len(bad):
         raise ValueError(f"bars/beams need A, I1, I2, J > 0 (positions {bad[:20].tolist()})")
+    bad = np.flatnonzero(~((E > 0) & (G > 0)))  # the section compliance divides by both
+    if len(bad):
+        raise ValueError("bars/beams need materials with E > 0 and G > 0 (positions "
+                         f"{bad[:20].tolist()})")  # fmt: skip
     det = I1 * I2 - I12**2
     if (det <= 0).any():
         raise ValueError("bars/beams need I1*I2 > I12^2")

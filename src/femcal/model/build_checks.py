@@ -94,11 +94,28 @@ def check_values(deck: Deck, add: Callable[[str, list[int], list[tuple[int, int]
             continue
         v = t.columns[rc.field]
         _report(rc.card, t, rc.field, ~rc.ok(v), rc.expected, add, limit)
+    t = deck.tables.get("MAT1")
+    if t is not None:
+        _check_derived_poisson(t, add, limit)
     t = deck.tables.get("EIGR")
     if t is not None:
         f1, f2 = t.columns["f1"], t.columns["f2"]
         bad = ~np.isnan(f1) & ~np.isnan(f2) & (f1 >= f2)
         _report("EIGR", t, "f2", bad, "F2 above F1", add, limit)
+
+
+def _check_derived_poisson(t: Table, add, limit: int) -> None:
+    """MAT1 with E and G and no NU: NU = E / (2 G) - 1 must be a Poisson's ratio too (G = 0
+    would give an infinite one, and NaN stiffness)."""
+    E, G, nu = t.columns["e"], t.columns["g"], t.columns["nu"]
+    both = ~np.isnan(E) & ~np.isnan(G) & np.isnan(nu)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        derived = np.where(both, E / (2.0 * G) - 1.0, 0.0)
+    rows = np.flatnonzero(both & ~((derived > -1.0) & (derived <= 0.5)))
+    for i in rows[:limit]:
+        add(f"MAT1 {int(t.columns['mid'][i])}: E = {E[i]:g} and G = {G[i]:g} without NU give "
+            f"NU = E / (2 G) - 1 = {derived[i]:g}; expected a Poisson's ratio in (-1, 0.5]",
+            [int(t.columns["mid"][i])], [(int(t.file[i]), int(t.line[i]))])  # fmt: skip
 
 
 def _check_ids(name: str, t: Table, add, limit: int) -> None:
