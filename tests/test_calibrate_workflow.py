@@ -5,6 +5,13 @@ configuration errors."""
 from __future__ import annotations
 
 import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,6 +29,7 @@ from femcal.testdata.data import Channel, FRFData
 from femcal.testdata.formats.npz import write_npz
 
 from .calib_decks import PARAMS_TOML, plate_deck, write_plate
+from .processes import alive, children
 
 TRUE_P = np.array([0.08, -0.05, 0.06, 0.1, -0.1, 0.12, 0.2, -0.15, 0.1])
 OUTS = [*(f"{g}:+Z" for g in (3, 5, 7, 10, 12, 14, 17, 19, 21, 24, 26, 28)), "28:+X", "14:+Y"]
@@ -336,8 +344,8 @@ def test_a_misspelt_key_is_an_error(study, tmp_path):
 
 
 def test_finished_starts_are_kept_under_what_decides_them(study, tmp_path):
-    """A start is resumed only by a run whose model, parameters, settings and test are the
-    same: the fingerprint changes with any of them, not with file names or worker counts."""
+    """A start is resumed only by a run whose model, parameters, settings, test and files are
+    the same: the fingerprint changes with any of them, not with file names or worker counts."""
     from dataclasses import replace
 
     from femcal.calibrate.workflow import fingerprint
@@ -351,9 +359,14 @@ def test_finished_starts_are_kept_under_what_decides_them(study, tmp_path):
         return fingerprint([(model, params, f, H, zeta0)], cfg, n)
 
     key = key_of()
-    moved = replace(model, files=["/elsewhere/plate.bdf"])
+    (tmp_path / "elsewhere").mkdir()
+    copy = tmp_path / "elsewhere" / "plate.bdf"
+    copy.write_bytes((d / "plate.bdf").read_bytes())
+    moved = replace(model, files=[str(copy)])
     conf = replace(cfg.configurations[0], deck=tmp_path / "x.bdf")
     assert key_of(moved, cfg=replace(cfg, workers=1, configurations=(conf,))) == key
+    copy.write_text(copy.read_text() + "$ a comment\n")  # the same arrays, another file
+    assert key_of(moved) != key
     changed = with_values(model, params[:1], [params[0].nominal * 1.01])
     assert key_of(changed) != key
     assert key_of(params=params[1:]) != key
@@ -529,3 +542,387 @@ def replace_inputs(case, n: int):
     from dataclasses import replace
 
     return replace(case, inputs=case.inputs[:n], H_test=case.H_test[:, :n])
+
+
+# ----------------------------------------------------------------------------------------
+# Reliability (issue 23): the calibration's inputs are checked whole, one cycle calibrates,
+# a resumed run never reuses starts of other files, and Ctrl-C leaves nothing half-done.
+
+TINY = """
+[model]
+deck = "main.bdf"
+parameters = "p.toml"
+
+[test]
+frf = "test.npz"
+
+[calibration]
+band = [10.0, 350.0]
+zeta0 = 0.02
+reduction_modes = 40
+starts = 2
+workers = 1
+seed = 1
+max_cycles = 1
+noise_sigma = 0.01
+identifiable_ratio = 0.1
+holdout = "none"
+
+[output]
+pictures = false
+"""
+
+_PROPERTY_CARDS = ("MAT1", "PSHELL", "PBAR", "PROD", "PBUSH", "PELAS")
+
+
+def _deck_with_includes() -> dict[str, str]:
+    """The plate deck as three files: main.bdf INCLUDEs props.bdf, which INCLUDEs mats.bdf
+    (the materials)."""
+    lines = plate_deck().splitlines()
+    props = [x for x in lines if x.startswith(_PROPERTY_CARDS[1:])]
+    mats = [x for x in lines if x.startswith("MAT1")]
+    rest = [x for x in lines if not x.startswith(_PROPERTY_CARDS)]
+    k = rest.index("BEGIN BULK") + 1
+    return {"main.bdf": "\n".join([*rest[:k], "INCLUDE 'props.bdf'", *rest[k:]]) + "\n",
+            "props.bdf": "\n".join(["INCLUDE 'mats.bdf'", *props]) + "\n",
+            "mats.bdf": "\n".join(mats) + "\n"}  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory):
+    """A folder with the plate deck split by INCLUDEs, its nine parameters, a noise-free test
+    of TRUE_P and a configuration of one start per worker and one cycle (about a second)."""
+    d = tmp_path_factory.mktemp("tiny")
+    model, params = write_plate(d)
+    for name, text in _deck_with_includes().items():
+        (d / name).write_text(text)
+    truth = with_values(model, params, [p.value(x) for p, x in zip(params, TRUE_P, strict=True)])
+    modes, _ = solve_normal_modes(truth, request=EigenRequest(nd=40))
+    outs = [Channel.parse(s) for s in OUTS]
+    ins = [Channel.parse(s) for s in INS]
+    f = np.arange(2.0, 750.0, 0.25)
+    H = modal_frf(modes.shapes, modes.radians, channel_matrix(truth, outs),
+                  channel_matrix(truth, ins).T, f, 0.02, "accelerance")  # fmt: skip
+    write_npz(d / "test.npz", FRFData(f, H, tuple(outs), tuple(ins), "accelerance", "mm/s^2/N"))
+    (d / "cal.toml").write_text(TINY)
+    return d
+
+
+def _tiny_copy(tiny, tmp_path, config: str = TINY):
+    """The tiny study's files copied to tmp_path, with ``config`` as cal.toml; its path."""
+    for f in tiny.iterdir():
+        if f.is_file():
+            (tmp_path / f.name).write_bytes(f.read_bytes())
+    (tmp_path / "cal.toml").write_text(config)
+    return tmp_path / "cal.toml"
+
+
+def test_one_cycle_gives_a_calibrated_result(tiny, tmp_path):
+    """max_cycles = 1: cycle 1's search on the nominal surrogate, then a cycle that checks its
+    candidate on the full model (the nominal was reported as the calibration before)."""
+    out = run(read_config(_tiny_copy(tiny, tmp_path)), tmp_path / "out")
+    assert [c.cycle for c in out.cycles] == [1, 2] and out.cycles[1].accepted
+    assert out.deviation_after < 1e-3 * out.deviation_before  # measured 1.8e-5
+    np.testing.assert_allclose(out.p_final, TRUE_P, atol=0.01)
+    rep = json.loads((tmp_path / "out" / "report.json").read_text())
+    assert all(row["calibrated"] != row["nominal"] for row in rep["parameters"])
+
+
+def test_settings_made_in_code_are_checked_before_any_work(tiny, tmp_path):
+    from dataclasses import replace
+
+    from femcal.calibrate.config import ConfigError
+    from femcal.calibrate.workflow import calibrate
+    from femcal.model.build import load_model
+
+    cfg = read_config(_tiny_copy(tiny, tmp_path))
+    model = load_model(tmp_path / "main.bdf")
+    with pytest.raises(ConfigError, match=r"cal.toml: \[calibration\] max_cycles = 0: expected "
+                                          r"a whole number of at least 1"):  # fmt: skip
+        calibrate(model, [], replace(cfg, max_cycles=0))
+    with pytest.raises(ConfigError, match=r"\[calibration\] hold_ratio = 1.5: expected a "
+                                          r"fraction in \(0, 1\]"):  # fmt: skip
+        calibrate(model, [], replace(cfg, hold_ratio=1.5))
+
+
+def test_a_change_to_an_included_file_starts_afresh(tiny, tmp_path):
+    """The resume fingerprint covers every file the run reads, the deck's INCLUDEs (here two
+    levels deep) among them: a changed file runs the starts again, even a change that leaves
+    the model as it was (a comment); an unchanged run resumes."""
+    cfg = _tiny_copy(tiny, tmp_path)
+
+    def finished_earlier() -> int:
+        lines: list[str] = []
+        run(read_config(cfg), tmp_path / "out", progress=lines.append)
+        return sum("finished earlier" in line for line in lines)
+
+    assert finished_earlier() == 0
+    assert finished_earlier() == 2  # both starts of cycle 1 resumed
+    with open(tmp_path / "mats.bdf", "a") as fh:
+        fh.write("$ checked again\n")
+    assert finished_earlier() == 0
+    with open(tmp_path / "p.toml", "a") as fh:
+        fh.write("# bounds reviewed\n")
+    assert finished_earlier() == 0
+
+
+def test_the_channels_compared_enter_the_fingerprint(tiny):
+    """The same FRFs read as other sensors (or another quantity) are another test."""
+    from femcal.calibrate.parameters import read_parameters
+    from femcal.calibrate.workflow import fingerprint
+    from femcal.model.build import load_model
+
+    model = load_model(tiny / "main.bdf")
+    params = read_parameters(tiny / "p.toml", model)
+    cfg = read_config(tiny / "cal.toml")
+    f, H = np.array([10.0, 20.0]), np.ones((1, 1, 2), complex)
+
+    def key(*channels):
+        return fingerprint([(model, params, f, H, 0.02)], cfg, 2, channels=[channels])
+
+    a, b = Channel.parse("3:+Z"), Channel.parse("4:+Z")
+    assert key((a,), (b,), "accelerance") == key((a,), (b,), "accelerance")
+    assert key((a,), (b,), "accelerance") != key((b,), (b,), "accelerance")
+    assert key((a,), (b,), "accelerance") != key((a,), (b,), "mobility")
+
+
+ONE_PARAMETER = """
+[[parameter]]
+name = "t"
+card = "PSHELL"
+id = 1
+field = "T"
+"""
+
+
+@pytest.mark.parametrize("bounds, error", [
+    ("lower = 6.0\nupper = 4.0", r"parameter t: lower = 6.0 is above upper = 4.0: expected "
+                                 r"lower < upper \(bounds are not swapped for you\)"),
+    ("lower_rel = 0.2\nupper_rel = -0.2", r"parameter t: lower_rel = 0.2 \(6.0\) is above "
+                                          r"upper_rel = -0.2 \(4.0\)"),
+    ("lower = 5.0\nupper = 5.0", r"parameter t: lower = 5.0 equals upper = 5.0: nothing to "
+                                 r"calibrate"),
+    ("lower = 4.0\nlower_rel = -0.2\nupper = 6.0", r"parameter t: both lower and lower_rel are "
+                                                   r"given; give one"),
+    ("lower = 4.0\nupper = 6.0\nupper_rel = 0.2", r"parameter t: both upper and upper_rel are "
+                                                   r"given"),
+    ("upper = 6.0", r"parameter t: missing lower \(or lower_rel\)"),
+    ("lower = 4.0\nuper = 6.0", r"parameter t: unknown key 'uper' \(expected one of "
+                                r"card, confidence, .*\); did you mean 'upper'\?"),
+    ("lower = 5.5\nupper = 6.0", r"parameter t: bounds \[5.5, 6.0\] must hold the nominal 5.0 "
+                                 r"\(the deck's PSHELL 1 T\)"),
+    ("lower_rel = -1.0\nupper_rel = 0.2", r"parameter t: lower_rel = -1.0 \(0.0\): expected a "
+                                          r"positive lower bound"),
+    ("nominal = 6.0\nlower = 4.0\nupper = 7.0", r"parameter t: nominal 6.0 but the deck has "
+                                                 r"5.0"),
+    ('lower = "4"\nupper = 6.0', r"parameter t: lower = '4': expected a number"),
+    ("lower = nan\nupper = 6.0", r"parameter t: lower = nan: expected a number"),
+    ("lower = 4.0\nupper = inf", r"parameter t: upper = inf: expected a number"),
+    ("lower = 4.0\nupper = 6.0\nconfidence = true", r"parameter t: confidence = True: "
+                                                    r"expected a number"),
+    # found by the fuzzer (tests/fuzz/configs.py): a relative bound that overflows
+    ("lower = 4.0\nupper_rel = 1e308", r"parameter t: upper_rel = 1e\+308: expected a "
+                                       r"fraction of the nominal \(5.0\) that keeps the bound "
+                                       r"finite"),
+])  # fmt: skip
+def test_parameter_file_errors_name_the_file_parameter_and_keys(tiny, tmp_path, bounds, error):
+    from femcal.calibrate.config import ConfigError
+    from femcal.calibrate.parameters import read_parameters
+    from femcal.model.build import load_model
+
+    (tmp_path / "p.toml").write_text(ONE_PARAMETER + bounds + "\n")
+    with pytest.raises(ConfigError, match=r"p\.toml: " + error):
+        read_parameters(tmp_path / "p.toml", load_model(tiny / "main.bdf"))
+
+
+@pytest.mark.parametrize("text, error", [
+    ("[[parameters]]\nname = \"t\"\n", r"the top level: unknown key 'parameters' \(expected one "
+                                       r"of parameter\); did you mean 'parameter'\?"),
+    ("parameter = [1, 2]\n", r"parameter #1 = 1: expected a \[\[parameter\]\] table"),
+    (ONE_PARAMETER.replace('"t"', "5"), r"parameter #1: name = 5: expected a name"),
+    (ONE_PARAMETER.replace("id = 1", "id = true") + "lower = 4.0\nupper = 6.0\n",
+     r"parameter t: id = True: expected a whole number"),
+    ("\xff\xfe garbage", r"not valid TOML"),
+])  # fmt: skip
+def test_malformed_parameter_files(tiny, tmp_path, text, error):
+    from femcal.calibrate.config import ConfigError
+    from femcal.calibrate.parameters import read_parameters
+    from femcal.model.build import load_model
+
+    (tmp_path / "p.toml").write_text(text)
+    with pytest.raises(ConfigError, match=r"p\.toml: " + error):
+        read_parameters(tmp_path / "p.toml", load_model(tiny / "main.bdf"))
+
+
+def test_a_small_nominal_must_match_the_decks_too(tiny, tmp_path):
+    """Found by the fuzzer (tests/fuzz/configs.py): a density's nominal of 1e-12 against the
+    deck's 7.85e-9 passed as equal (an absolute tolerance of 1e-8)."""
+    from femcal.calibrate.config import ConfigError
+    from femcal.calibrate.parameters import read_parameters
+    from femcal.model.build import load_model
+
+    (tmp_path / "p.toml").write_text('[[parameter]]\nname = "rho"\ncard = "MAT1"\nid = 1\n'
+                                     'field = "RHO"\nnominal = 1e-12\nlower_rel = -0.2\n'
+                                     "upper_rel = 0.2\n")  # fmt: skip
+    with pytest.raises(ConfigError, match=r"parameter rho: nominal 1e-12 but the deck has "
+                                          r"7.85e-09"):  # fmt: skip
+        read_parameters(tmp_path / "p.toml", load_model(tiny / "main.bdf"))
+
+
+def test_bounds_may_mix_absolute_and_relative_sides(tiny, tmp_path):
+    from femcal.calibrate.parameters import read_parameters
+    from femcal.model.build import load_model
+
+    (tmp_path / "p.toml").write_text(ONE_PARAMETER + "lower = 4.0\nupper_rel = 0.3\n")
+    (par,) = read_parameters(tmp_path / "p.toml", load_model(tiny / "main.bdf"))
+    assert (par.lower, par.upper) == (4.0, 6.5)
+    assert par.p_lower == pytest.approx(-0.2) and par.p_upper == pytest.approx(0.3)
+
+
+@pytest.mark.parametrize("table, key, near", [
+    ("[model]", "dekc", "deck"),
+    ("[test]", "fr", "frf"),
+    ("[test.identify]", "bnad", "band"),
+    ("[calibration]", "max_cylces", "max_cycles"),
+    ("[output]", "picture", "pictures"),
+])  # fmt: skip
+def test_an_unknown_key_in_any_table_is_named_with_the_nearest(tiny, tmp_path, table, key,
+                                                              near):  # fmt: skip
+    text = TINY.replace("\n[calibration]", "\n[test.identify]\nband = [10.0, 500.0]\n\n"
+                        "[calibration]") if table == "[test.identify]" else TINY  # fmt: skip
+    cfg = _tiny_copy(tiny, tmp_path, text.replace(table + "\n", f"{table}\n{key} = 1\n", 1))
+    with pytest.raises(ValueError, match=rf"cal\.toml: {re.escape(table)}: unknown key {key!r} "
+                                         rf"\(expected one of .*\); did you mean {near!r}\?"):
+        read_config(cfg)
+
+
+def test_an_unknown_key_of_a_listed_configuration_is_named(tiny, tmp_path):
+    text = ('[[configuration]]\ndeck = "main.bdf"\nparameters = "p.toml"\nfrf = "test.npz"\n'
+            "zeta = 0.02\n\n[calibration]" + TINY.split("[calibration]")[1])
+    with pytest.raises(ValueError, match=r"\[\[configuration\]\] 1: unknown key 'zeta' .*did "
+                                         r"you mean 'zeta0'\?"):  # fmt: skip
+        read_config(_tiny_copy(tiny, tmp_path, text))
+
+
+@pytest.mark.parametrize("line, error", [
+    ("max_cycles = 0", r"max_cycles = 0: expected a whole number of at least 1"),
+    ("starts = 0", r"starts = 0: expected a whole number from 1 to 10000"),
+    ("starts = 20000", r"starts = 20000: expected a whole number from 1 to 10000 \(each start "
+                       r"is a Levenberg-Marquardt run\)"),
+    ("workers = -2", r"workers = -2: expected a whole number from 1 to 256"),
+    ("zeta0 = 1e-9", r"zeta0 = 1e-09 with band 10-350 Hz and samples_per_bandwidth = 3.0 "
+                     r"needs more than 100000 frequencies"),
+    ("starts = true", r"starts = True: expected a whole number"),
+    ("starts = 2.5", r"starts = 2.5: expected a whole number"),
+    ("seed = -1", r"seed = -1: expected a whole number, 0 or more"),
+    ("max_iterations = 0", r"max_iterations = 0: expected a whole number of at least 1"),
+    ("huber_c = 0", r"huber_c = 0.0: expected a positive number"),
+    ("noise_sigma = -0.1", r"noise_sigma = -0.1: expected 0 \(estimate it\)"),
+    ("noise_sigma = nan", r"noise_sigma = nan: expected a number"),
+    ("hold_ratio = 1.5", r"hold_ratio = 1.5: expected a fraction in \(0, 1\]"),
+    ("identifiable_ratio = 0", r"identifiable_ratio = 0.0: expected a fraction in \(0, 1\]"),
+    ("hold_ratio = 0.05", r"identifiable_ratio = 0.1: expected at most hold_ratio \(0.05\)"),
+    ("samples_per_bandwidth = 0", r"samples_per_bandwidth = 0.0: expected a number in \(0, 100\]"),
+    ("settle = 0", r"settle = 0.0: expected a positive change of p below 1"),
+    ("modal_hz = inf", r"modal_hz = inf: expected a number"),
+    ("crlb_bands = 5", r"crlb_bands = 5: expected a list of bands"),
+    ("crlb_bands = [[40.0, 10.0]]", r"crlb_bands: expected 0 < f_lo < f_hi"),
+    ('metric = 5', r"metric = 5: expected \"log-magnitude\" or \"complex-log\""),
+])  # fmt: skip
+def test_every_calibration_number_is_checked_for_its_range(tiny, tmp_path, line, error):
+    key = line.split(" = ")[0]
+    text = re.sub(rf"^{key} = .*\n", "", TINY, flags=re.MULTILINE)  # the tiny study's own
+    cfg = _tiny_copy(tiny, tmp_path, text.replace("[calibration]\n", f"[calibration]\n{line}\n"))
+    with pytest.raises(ValueError, match=r"cal\.toml: (\[calibration\]|configuration main:) "
+                                         + error):  # fmt: skip
+        read_config(cfg)
+
+
+@pytest.mark.parametrize("old, new, error", [
+    ("band = [10.0, 350.0]", "band = [350.0, 10.0]", r"\[calibration\] band: expected 0 < f_lo"),
+    ("band = [10.0, 350.0]", "band = [-1.0, 350.0]", r"\[calibration\] band: expected 0 < f_lo"),
+    ("band = [10.0, 350.0]", 'band = "12"', r"\[calibration\] band: expected \[f_lo, f_hi\]"),
+    ("zeta0 = 0.02", "zeta0 = 1.5", r"zeta0 = 1.5: expected 0 < zeta0 < 1"),
+    ("zeta0 = 0.02", 'zeta0 = "0.02"', r"zeta0 = '0.02': expected \"median\" or a damping"),
+    ('deck = "main.bdf"', "deck = 3", r"\[model\] deck = 3: expected a file name"),
+    ('deck = "main.bdf"', 'deck = "main.bdf"\nunits = 5', r"\[model\] units = 5: expected a "
+                                                           r"string"),
+    ("[calibration]", "[test.identify]\nband = [10.0, 500.0]\nsplits = [600.0]\n\n"
+     "[calibration]", r"splits = \[600.0\]: expected increasing frequencies inside the band"),
+    ("[calibration]", "[test.identify]\nband = [10.0, 500.0]\nsplits = [100.0]\n"
+     "orders = [10]\n\n[calibration]", r"orders = \[10\]: expected one order per part, 2"),
+    ("[calibration]", "[test.identify]\nband = [10.0, 500.0]\ngamma = 1.0\n\n[calibration]",
+     r"gamma = 1.0: expected a number above 1"),
+    ("[calibration]", "[test.identify]\nband = [10.0, 500.0]\nbeta = 1.2\n\n[calibration]",
+     r"beta = 1.2: expected a number above gamma"),
+    ("[calibration]", "[test.identify]\nsplits = [100.0]\n\n[calibration]",
+     r"\[test.identify\] needs band"),
+])  # fmt: skip
+def test_bands_damping_files_and_identification_are_checked(tiny, tmp_path, old, new, error):
+    cfg = _tiny_copy(tiny, tmp_path, TINY.replace(old, new, 1))
+    with pytest.raises(ValueError, match=r"cal\.toml: .*" + error):
+        read_config(cfg)
+
+
+def test_a_missing_or_folder_file_is_named_with_its_key(tiny, tmp_path):
+    cfg = _tiny_copy(tiny, tmp_path, TINY.replace('frf = "test.npz"', 'frf = "gone.npz"'))
+    with pytest.raises(FileNotFoundError, match=r"cal\.toml: \[test\] frf: no such file"):
+        read_config(cfg)
+    (tmp_path / "folder").mkdir()
+    cfg.write_text(TINY.replace('frf = "test.npz"', 'frf = "folder"'))
+    with pytest.raises(IsADirectoryError, match=r"cal\.toml: \[test\] frf: a folder"):
+        read_config(cfg)
+
+
+def test_the_command_line_prints_one_line_for_inverted_bounds(tiny, tmp_path, capsys):
+    cfg = _tiny_copy(tiny, tmp_path)
+    (tmp_path / "p.toml").write_text(ONE_PARAMETER + "lower = 6.0\nupper = 4.0\n")
+    assert main(["calibrate", str(cfg), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("femcal calibrate: ")
+    assert "p.toml: parameter t: lower = 6.0 is above upper = 4.0" in err
+    assert not (tmp_path / "out" / "starts").exists()
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
+def test_ctrl_c_ends_the_workers_and_leaves_no_partial_file(tiny, tmp_path):
+    """SIGINT to the command's process group (Ctrl-C in a terminal) while the starts run in
+    two worker processes: the command ends at once, without tracebacks from the workers and
+    without leaving them behind; every file in --out is whole, and the next run resumes from
+    the starts that finished."""
+    cfg = _tiny_copy(tiny, tmp_path, TINY.replace("starts = 2", "starts = 120")
+                     .replace("workers = 1", "workers = 2"))  # fmt: skip
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "femcal", "calibrate", str(cfg), "--out",
+                             str(out)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True)  # fmt: skip
+    try:
+        seen = []
+        for line in proc.stderr:  # the starts run in the workers once they report
+            seen.append(line)
+            if " iteration " in line:
+                break
+        workers = children(proc.pid)
+        os.killpg(proc.pid, signal.SIGINT)
+        err = "".join(seen) + proc.stderr.read()
+        assert proc.wait(timeout=20) != 0
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert workers  # the pool was running
+    assert "Process ForkProcess" not in err and "Process SpawnProcess" not in err
+    assert err.count("Traceback") <= 1  # the workers print none (the parent's is the CLI's)
+    deadline = time.monotonic() + 5
+    while any(alive(p) for p in workers) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not [p for p in workers if alive(p)]
+    files = [f for f in out.rglob("*") if f.is_file()]
+    assert not [f for f in files if f.name.startswith(".")]  # no temporary file left
+    saved = [f for f in files if f.name.startswith("start_")]
+    for f in files:
+        if f.suffix == ".json":
+            json.loads(f.read_text())  # whole
+    lines: list[str] = []
+    run(read_config(cfg), out, progress=lines.append)
+    assert sum("finished earlier" in line for line in lines) >= len(saved)

@@ -2,12 +2,20 @@
 
 from __future__ import annotations
 
+import multiprocessing
+import os
+import signal
+import subprocess
+import sys
 import threading
 import time
+from pathlib import Path
 
 import pytest
 
 from femcal.parallel import SerialExecutor, executor, message_queue, ordered
+
+from .processes import alive, children
 
 
 def _square(x: int) -> int:
@@ -75,3 +83,99 @@ def test_bad_requests_are_named():
         executor("gpu", 2)
     with pytest.raises(ValueError, match="workers = 0: expected at least 1"):
         executor("threads", 0)
+
+
+def _wait_gone(pids: list[int], seconds: float) -> list[int]:
+    """The processes of ``pids`` still alive after waiting up to ``seconds`` for them."""
+    deadline = time.monotonic() + seconds
+    while any(alive(p) for p in pids) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    return [p for p in pids if alive(p)]
+
+
+#: A calibration-like pool (two worker processes, a progress queue, an initializer) whose
+#: tasks sleep; it prints "ready" once they run.
+POOL_SCRIPT = """
+import sys, time
+from femcal.parallel import executor, message_queue
+
+_QUEUE = None
+
+def init(q):
+    global _QUEUE
+    _QUEUE = q
+
+def nap(k):
+    _QUEUE.put(k)
+    time.sleep(60)
+
+if __name__ == "__main__":
+    if sys.argv[1:] == ["watchdog"]:  # as where the kernel cannot be asked
+        import femcal.parallel.executors as executors
+        executors._kernel_kills_orphan = lambda: False
+    q = message_queue("processes")
+    with executor("processes", 2, initializer=init, initargs=(q,)) as pool:
+        futures = [pool.submit(nap, k) for k in range(4)]
+        q.get(), q.get()
+        print("ready", flush=True)
+        time.sleep(60)
+"""
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
+@pytest.mark.parametrize("how", ["kernel", "watchdog"])
+def test_workers_die_with_their_parent_when_it_is_killed(tmp_path, how):
+    """SIGKILL gives the parent no chance to end its pool: the workers end by themselves,
+    killed by the kernel (Linux) or by their own watchdog thread (other POSIX systems)."""
+    script = tmp_path / "pool.py"
+    script.write_text(POOL_SCRIPT)
+    proc = subprocess.Popen([sys.executable, str(script), how], stdout=subprocess.PIPE,
+                            text=True)  # fmt: skip
+    try:
+        assert proc.stdout.readline().strip() == "ready"
+        workers = children(proc.pid)
+        assert len(workers) == 2
+        proc.kill()
+        proc.wait(timeout=10)
+        assert _wait_gone(workers, 5.0) == []
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        for p in children(proc.pid):
+            os.kill(p, signal.SIGKILL)
+
+
+def test_leaving_the_block_by_an_exception_ends_the_workers_at_once():
+    """Ctrl-C (KeyboardInterrupt) in the parent, or any error, does not wait for the running
+    and waiting tasks: they are cancelled and the workers ended."""
+    t0 = time.perf_counter()
+    with pytest.raises(KeyboardInterrupt), executor("processes", 2) as pool:
+        futures = [pool.submit(time.sleep, 30) for _ in range(4)]
+        time.sleep(0.2)
+        workers = [p.pid for p in multiprocessing.active_children()]
+        raise KeyboardInterrupt
+    assert time.perf_counter() - t0 < 10
+    assert all(f.done() for f in futures)
+    assert any(f.cancelled() for f in futures)
+    if Path("/proc/self/stat").exists():
+        assert _wait_gone(workers, 5.0) == []
+
+
+def test_workers_ignore_ctrl_c_and_take_sigterm_as_it_comes():
+    """Ctrl-C reaches every process of the terminal's group: the workers leave it to the
+    parent (no KeyboardInterrupt traceback from each); SIGTERM ends them (no handler of the
+    parent's inherited)."""
+    with executor("processes", 2) as pool:
+        assert pool.submit(signal.getsignal, signal.SIGINT).result() == signal.SIG_IGN
+        assert pool.submit(signal.getsignal, signal.SIGTERM).result() == signal.SIG_DFL
+
+
+def test_a_process_whose_parent_is_gone_ends_at_once():
+    """die_with_parent in a process whose parent is not the one named: it ends (exit 1) rather
+    than running on as an orphan."""
+    code = ("from femcal.parallel import die_with_parent; die_with_parent(1 << 30); "
+            "print('ran on')")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    if os.name == "posix":
+        assert done.returncode == 1 and "ran on" not in done.stdout

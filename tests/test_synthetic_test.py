@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import re
 import tomllib
 
 import numpy as np
@@ -91,6 +92,63 @@ def test_bad_sensor_and_parameter_files_are_named(tmp_path):
         read_points(bad)
     toml = tmp_path / "p.toml"
     toml.write_text('[[parameter]]\nname = "p1"\ncard = "PSHELL"\n')
-    with pytest.raises(ValueError, match=r"p\.toml: parameter 1 needs name, card, id"):
+    with pytest.raises(ValueError, match=r"p\.toml: parameter p1: missing id, field"):
         make_hammer_test(FRAME / "hammer_frame.bdf", toml, FRAME / "hammer_frame.sensors.csv",
                          FRAME / "hammer_frame.inputs.csv")  # fmt: skip
+
+
+def _plate(tmp_path, params_text: str):
+    """The calibration tests' plate deck and a parameter file beside it; their paths."""
+    from .calib_decks import plate_deck
+
+    (tmp_path / "plate.bdf").write_text(plate_deck())
+    (tmp_path / "p.toml").write_text(params_text)
+    return tmp_path / "plate.bdf", tmp_path / "p.toml"
+
+
+def test_hidden_values_lie_within_the_bounds(tmp_path):
+    """Every hidden value is drawn within its bounds, relative bounds and every parameter
+    field (PBUSH, PELAS, CONM2 ...) included, even at the widest spread."""
+    from femcal.calibrate.parameters import read_parameters
+    from femcal.jobs.synthetic_test import SynthSettings, hidden_frame
+    from femcal.model.build import load_model
+
+    from .calib_decks import PARAMS_TOML
+
+    deck, toml = _plate(tmp_path, PARAMS_TOML)
+    params = read_parameters(toml, load_model(deck))
+    for seed in range(3):
+        model, _, truth = hidden_frame(deck, toml, SynthSettings(spread=1.0, modes_to=300.0),
+                                       np.random.default_rng(seed))  # fmt: skip
+        for par, t in zip(params, truth, strict=True):
+            assert t["name"] == par.name and par.lower <= t["true"] <= par.upper
+            assert t["true"] == pytest.approx(par.nominal * (1 + t["p"]), rel=1e-14)
+        from femcal.calibrate.parameters import current_value
+
+        assert [current_value(model, p.card, p.id, p.field) for p in params] == [
+            t["true"] for t in truth]  # the hidden frame carries them
+    with pytest.raises(ValueError, match=r"spread = 1.5: expected a fraction in \[0, 1\]"):
+        SynthSettings(spread=1.5)
+
+
+@pytest.mark.parametrize("bounds, error", [
+    ("nominal = 6.0\nlower = 4.0\nupper = 7.0", r"nominal 6.0 but the deck has 5.0"),
+    ("lower = 5.5\nupper = 6.0", r"bounds \[5.5, 6.0\] must hold the nominal 5.0"),
+    ("lower = 6.0\nupper = 4.0", r"lower = 6.0 is above upper = 4.0"),
+])  # fmt: skip
+def test_a_parameter_file_a_calibration_refuses_makes_no_test(tmp_path, capsys, bounds, error):
+    """A nominal other than the deck's, or bounds that do not hold it, once made a truth
+    outside the bounds: now the command stops with one line naming the file and parameter."""
+    from femcal.cli import main
+
+    deck, toml = _plate(tmp_path, '[[parameter]]\nname = "t"\ncard = "PSHELL"\nid = 1\n'
+                                  f'field = "T"\n{bounds}\n')  # fmt: skip
+    (tmp_path / "s.csv").write_text("label,grid,directions\nA,7,123\n")
+    (tmp_path / "i.csv").write_text("label,grid,direction\nH,28,3\n")
+    code = main(["synth-test", str(deck), "--params", str(toml), "--sensors",
+                 str(tmp_path / "s.csv"), "--inputs", str(tmp_path / "i.csv"), "--out",
+                 str(tmp_path / "out")])  # fmt: skip
+    err = capsys.readouterr().err
+    assert code == 2 and not (tmp_path / "out").exists()
+    assert re.search(r"femcal synth-test: .*p\.toml: parameter t: " + error, err), err
+    assert err.count("\n") == 2  # the progress line, then the error

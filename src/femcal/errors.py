@@ -20,6 +20,12 @@ class FemcalWarning(UserWarning):
     CLI prints each as one line."""
 
 
+class ConfigError(FemcalError, ValueError):
+    """A calibration configuration or parameter file that cannot be used: the message names
+    the file, the table and key (or the parameter), what was found and what was expected.
+    A :class:`ValueError` too, so that callers catching ValueError keep working."""
+
+
 class ResourceError(FemcalError):
     """A request would need more memory (or another resource) than the machine has; raised
     before allocating."""

@@ -18,19 +18,21 @@
 
     [test.identify]                         # identify the test FRFs first (optional;
     band = [10.0, 120.0]                    #  without it and without test.model the raw
-    splits = [50.0, 80.0]                   #  FRFs are compared, and zeta0 must be given)
-    orders = "auto"                         # or a number, or a list per part
-    max_order = 24
-    gamma = 1.43
-    beta = 100.0
+    splits = [50.0, 80.0]                   #  FRFs are compared, and zeta0 must be given;
+                                            #  splits increasing, inside the band)
+    orders = "auto"                         # or a number >= 1, or a list, one per part
+    max_order = 24                          # >= 1
+    gamma = 1.43                            # > 1: residual poles at gamma and beta times
+    beta = 100.0                            #  each part's top (beta > gamma)
 
     [calibration]
-    band = [10.0, 100.0]                    # Hz
-    zeta0 = "median"                        # or a damping ratio
-    samples_per_bandwidth = 3.0
+    band = [10.0, 100.0]                    # Hz, 0 < f_lo < f_hi
+    zeta0 = "median"                        # or a damping ratio, 0 < zeta0 < 1
+    samples_per_bandwidth = 3.0             # in (0, 100]; with the band and zeta0 at most
+                                            #  MAX_FREQUENCIES (100 000) frequencies
     metric = "log-magnitude"                # or "complex-log"
     loss = "huber"                          # or "squared" (least squares): Huber's loss,
-    huber_c = 2.0                           #  quadratic within huber_c robust standard
+    huber_c = 2.0                           #  quadratic within huber_c (> 0) robust standard
                                             #  deviations (femcal.calibrate.robust)
     reduction_modes = 100                   # modes of the surrogate's basis
     surrogate = "exact"                     # or "first-order" (FEMCali's)
@@ -47,18 +49,24 @@
     exact_gradient = true                   # the full model's exact FRF Jacobian at each
                                             #  surrogate centre corrects the surrogate to
                                             #  first order there
-    starts = 8                              # Latin hypercube starts (the nominal is one)
-    workers = 2                             # parallel processes for the starts
-    seed = 1
+    starts = 8                              # Latin hypercube starts (the nominal is one;
+                                            #  1 to 10000)
+    workers = 2                             # parallel processes for the starts (1 to 256)
+    seed = 1                                # >= 0
     max_iterations = 30                     # per start and cycle
-    max_cycles = 5                          # surrogate rebuilds
+    max_cycles = 5                          # surrogates built (the first at the nominal);
+                                            #  each later one checks the candidate before
+                                            #  it on the full model, the last only checks;
+                                            #  1 searches once and checks that candidate
+                                            #  as 2 does (femcal.calibrate.workflow)
     settle = 1e-3                           # stop when no informed p moves more than this
+                                            #  (0 < settle < 1)
     restarts = 2                            # the multi-start search runs again on the
-    restart_fall = 0.01                     #  current surrogate (at most this many times)
-                                            #  when a kept step lowers the full model's
-                                            #  cost by less than this fraction, or when the
-                                            #  cycles settle; its best start is the next
-                                            #  candidate
+    restart_fall = 0.01                     #  current surrogate (at most restarts >= 0
+                                            #  times) when a kept step lowers the full
+                                            #  model's cost by less than restart_fall (a
+                                            #  fraction in [0, 1)), or when the cycles
+                                            #  settle; its best start is the next candidate
     bounds_sigma = 3.0                      # the prior: the bounds lie this many standard
                                             #  deviations from the nominal (a parameter's
                                             #  confidence in the parameter file wins)
@@ -67,21 +75,30 @@
                                             #  0: sigma and the residuals' effective number
                                             #  of independent observations come from the
                                             #  nominal model's residual
-    hold_ratio = 0.99                       # parameters whose posterior standard deviation
+    hold_ratio = 0.99                       # in (0, 1]: parameters whose posterior std
                                             #  at the nominal stays at this fraction of the
                                             #  prior's or more are held at the nominal
     identifiable_ratio = 0.5                # posterior below this fraction of the prior:
-                                            #  identifiable
+                                            #  identifiable (in (0, hold_ratio])
     crlb_bands = [[10.0, 40.0], [40.0, 100.0]]  # the posterior from each band alone
                                             #  (optional)
     holdout = "auto"                        # validation on data the fit did not see:
                                             #  "inputs", "sensors", "configurations",
                                             #  "auto" or "none" (femcal.calibrate.holdout)
     holdout_folds = 4                       # groups of sensor positions for "sensors"
+                                            #  (>= 2)
     exclude_suspect_channels = true
 
     [output]
     pictures = true                         # PNG pictures and mode renderings
+
+Every table is checked whole: a key a table does not know is an error that names it, the
+table, the keys it knows and the nearest of them; every value must be of its kind (a TOML
+number, not a string; whole numbers where counts are asked; finite) and in the range the
+comments give (counts at least 1 unless said; ``reduction_modes``, ``enrich_vectors``,
+``max_iterations``; bounds_sigma > 0; noise_sigma, enrich_hz, modal_hz >= 0), and every file
+named must exist. The errors (:class:`ConfigError`) name the file, the table and key, what
+was found and what was expected.
 
 Several configurations of the structure (the hammer frame on its bellows and the same frame
 on the rig, say) are calibrated at once by listing them instead of ``[model]`` and
@@ -109,11 +126,16 @@ that names it (its nominal value, bounds and confidence must agree)::
 
 from __future__ import annotations
 
+import difflib
+import errno
+import math
 import os
 import tomllib
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..errors import ConfigError
 from .metric import METRICS
 
 #: The hold-out validation's kinds (femcal.calibrate.holdout).
@@ -152,6 +174,15 @@ class Configuration:
     test_truth: Path | None = None
     sensors: Path | None = None
     inputs: Path | None = None
+
+    @property
+    def sources(self) -> tuple[Path, ...]:
+        """The files besides the deck whose content decides a calibration's starts: the
+        parameter, test, sensor and input files (the deck and its INCLUDEs are the model's
+        own list, :attr:`femcal.model.model.Model.files`; the truth only annotates the
+        report)."""
+        return tuple(f for f in (self.parameters, self.test_frf, self.test_model,
+                                 self.sensors, self.inputs) if f is not None)  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -192,26 +223,117 @@ class Config:
     raw: dict = field(default_factory=dict)
 
 
-def _band(v, where: str) -> tuple[float, float]:
-    try:
-        lo, hi = (float(x) for x in v)
-    except (TypeError, ValueError):
-        raise ValueError(f"{where}: expected [f_lo, f_hi] in Hz, found {v!r}") from None
-    if not 0 < lo < hi:
-        raise ValueError(f"{where}: expected 0 < f_lo < f_hi, found {v!r}")
-    return lo, hi
+@dataclass(frozen=True)
+class Setting:
+    """A numeric ``[calibration]`` key: its kind (int or float), its default, the values it
+    accepts and how the error message says so."""
+
+    kind: type
+    default: float
+    accepts: Callable[[float], bool]
+    expected: str
+
+
+def _count(default: int, most: int | None = None, why: str = "") -> Setting:
+    """A count: a whole number of at least 1 (and at most ``most``, for ``why``)."""
+    if most is None:
+        return Setting(int, default, lambda v: v >= 1, "a whole number of at least 1")
+    return Setting(int, default, lambda v: 1 <= v <= most,
+                   f"a whole number from 1 to {most} ({why})")
+
+
+#: The numeric ``[calibration]`` keys, their defaults and ranges (``enrich_hz`` and
+#: ``enrich_vectors`` default to values that depend on other keys: see read_config).
+SETTINGS: dict[str, Setting] = {
+    "samples_per_bandwidth": Setting(float, 3.0, lambda v: 0 < v <= 100,
+                                     "a number in (0, 100]: frequencies per half-power "
+                                     "bandwidth"),
+    "huber_c": Setting(float, 2.0, lambda v: v > 0, "a positive number"),
+    "reduction_modes": _count(100),
+    "enrich_hz": Setting(float, 0.0, lambda v: v >= 0,
+                         "a frequency in Hz, or 0 for no enrichment"),
+    "enrich_vectors": _count(100),
+    "modal_hz": Setting(float, 0.0, lambda v: v >= 0,
+                        "a frequency in Hz, or 0 for all reduction modes"),
+    "starts": _count(8, 10_000, "each start is a Levenberg-Marquardt run"),
+    "workers": _count(2, 256, "each worker is a process"),
+    "seed": Setting(int, 1, lambda v: v >= 0, "a whole number, 0 or more"),
+    "max_iterations": _count(30),
+    "max_cycles": _count(5),
+    "settle": Setting(float, 1e-3, lambda v: 0 < v < 1,
+                      "a positive change of p below 1, e.g. 1e-3"),
+    "restarts": Setting(int, 2, lambda v: v >= 0, "0 or more"),
+    "restart_fall": Setting(float, 0.01, lambda v: 0 <= v < 1, "a fraction in [0, 1)"),
+    "bounds_sigma": Setting(float, 3.0, lambda v: v > 0, "a positive number"),
+    "noise_sigma": Setting(float, 0.0, lambda v: v >= 0,
+                           "0 (estimate it) or the noise's standard deviation in log10 units"),
+    "hold_ratio": Setting(float, 0.99, lambda v: 0 < v <= 1, "a fraction in (0, 1]"),
+    "identifiable_ratio": Setting(float, 0.5, lambda v: 0 < v <= 1, "a fraction in (0, 1]"),
+    "holdout_folds": Setting(int, 4, lambda v: v >= 2, "2 or more"),
+}  # fmt: skip
+
+#: The most frequencies a configuration's metric may have (the residuals, and the Jacobian
+#: of each, grow with them): a band, a damping ratio zeta0 and samples_per_bandwidth that
+#: ask for more are refused rather than left to exhaust the memory.
+MAX_FREQUENCIES = 100_000
+
+
+def n_frequencies(band: tuple[float, float], zeta0: float, per_bandwidth: float) -> float:
+    """How many frequencies :func:`femcal.calibrate.metric.log_frequencies` places over
+    ``band``: equal logarithmic steps of ratio 1 + 2 zeta0 / per_bandwidth (inf where that
+    ratio rounds to 1)."""
+    step = math.log1p(2.0 * zeta0 / per_bandwidth)
+    return math.log(band[1] / band[0]) / step + 1 if step > 0 else math.inf
+
+
+#: The choices of the ``[calibration]`` keys that take a word.
+CHOICES: dict[str, tuple[str, ...]] = {
+    "metric": tuple(METRICS),
+    "loss": ("huber", "squared"),
+    "surrogate": ("exact", "first-order"),
+    "holdout": HOLDOUT_KINDS,
+}
+
+#: The ``[calibration]`` keys that take true or false, and their defaults.
+FLAGS = {"residual": False, "exact_gradient": True, "exclude_suspect_channels": True}
+
+
+def _is_number(value: object) -> bool:
+    """A TOML integer or float (a boolean is neither)."""
+    return isinstance(value, int | float) and not isinstance(value, bool)
 
 
 def _number(section: dict, key: str, default, kind, where: str):
-    """section[key] (or default) as int or float; ValueError naming the key otherwise."""
+    """section[key] (or default) as a finite int or float; ConfigError naming the key
+    otherwise (a string or boolean is not a number; a float is a whole number only if it
+    has no fraction)."""
     value = section.get(key, default)
+    what = "a whole number" if kind is int else "a number"
+    if not _is_number(value) or not math.isfinite(value):
+        raise ConfigError(f"{where} {key} = {value!r}: expected {what}")
     if kind is int and isinstance(value, float) and not value.is_integer():
-        raise ValueError(f"{where} {key} = {value!r}: expected a whole number")
-    try:
-        return kind(value)
-    except (TypeError, ValueError):
-        what = "a whole number" if kind is int else "a number"
-        raise ValueError(f"{where} {key} = {value!r}: expected {what}") from None
+        raise ConfigError(f"{where} {key} = {value!r}: expected {what}")
+    return kind(value)
+
+
+def _setting(section: dict, key: str, where: str, default=None):
+    """A numeric ``[calibration]`` key of :data:`SETTINGS`, its kind and range checked."""
+    s = SETTINGS[key]
+    value = _number(section, key, s.default if default is None else default, s.kind, where)
+    if not s.accepts(value):
+        raise ConfigError(f"{where} {key} = {value!r}: expected {s.expected}")
+    return value
+
+
+def _band(v, where: str) -> tuple[float, float]:
+    """A frequency band [f_lo, f_hi] in Hz, 0 < f_lo < f_hi, both finite."""
+    if (not isinstance(v, list) or len(v) != 2 or not all(_is_number(x) for x in v)
+            or not all(math.isfinite(x) for x in v)):  # fmt: skip
+        raise ConfigError(f"{where}: expected [f_lo, f_hi] in Hz, found {v!r}")
+    lo, hi = float(v[0]), float(v[1])
+    if not 0 < lo < hi:
+        raise ConfigError(f"{where}: expected 0 < f_lo < f_hi, found {v!r}")
+    return lo, hi
 
 
 #: Every key a configuration may hold, by section (a misspelt key is an error, not a default).
@@ -222,15 +344,7 @@ KEYS = {
     "test.identify": {"band", "splits", "orders", "max_order", "gamma", "beta"},
     "configuration": {"name", "deck", "parameters", "units", "frf", "model", "truth",
                       "identify", "band", "zeta0", "sensors", "inputs"},
-    "calibration": {
-        "band", "zeta0", "samples_per_bandwidth", "metric", "loss", "huber_c",
-        "reduction_modes", "surrogate",
-        "enrich_hz", "enrich_vectors", "residual", "modal_hz", "exact_gradient", "starts",
-        "workers", "seed", "max_iterations", "max_cycles", "settle", "restarts",
-        "restart_fall", "bounds_sigma", "noise_sigma", "hold_ratio", "identifiable_ratio",
-        "crlb_bands", "holdout", "holdout_folds",
-        "exclude_suspect_channels",
-    },
+    "calibration": {"band", "zeta0", "crlb_bands", *SETTINGS, *CHOICES, *FLAGS},
     "output": {"pictures"},
 }  # fmt: skip
 
@@ -244,61 +358,98 @@ _REPLACED = {
 }  # fmt: skip
 
 
+def unknown_key_message(key: str, known: set[str] | tuple[str, ...]) -> str:
+    """``unknown key 'x' (expected one of ...)``, with the nearest known key (difflib) when
+    one is close: ``; did you mean 'y'?``."""
+    near = difflib.get_close_matches(key, sorted(known), n=1, cutoff=0.6)
+    hint = f"; did you mean {near[0]!r}?" if near else ""
+    return f"unknown key {key!r} (expected one of {', '.join(sorted(known))}){hint}"
+
+
 def _section(doc: dict, name: str, path: Path, where: str | None = None) -> dict:
-    """doc[name] as a table (empty if absent); ValueError if it is something else."""
+    """doc[name] as a table (empty if absent); ConfigError if it is something else."""
     value = doc.get(name, {})
     if not isinstance(value, dict):
-        raise ValueError(f"{path}: {name} must be a [{where or name}] section")
+        raise ConfigError(f"{path}: {name} = {value!r}: expected a [{where or name}] table")
     return value
 
 
 def _known_keys(section: dict, kind: str, where: str, path: Path) -> None:
-    """ValueError naming the first key of ``section`` that a ``kind`` section does not know."""
+    """ConfigError naming the first key of ``section`` that a ``kind`` section does not know,
+    the keys it does know and the nearest of them."""
     if kind == "calibration":
         for old, new in _REPLACED.items():
             if old in section:
-                raise ValueError(f"{path}: [calibration] {old} is replaced by {new}")
+                raise ConfigError(f"{path}: [calibration] {old} is replaced by {new}")
     unknown = sorted(set(section) - KEYS[kind])
     if unknown:
-        raise ValueError(f"{path}: {where}: unknown key {unknown[0]!r} (expected one of "
-                         f"{', '.join(sorted(KEYS[kind]))})")  # fmt: skip
-
-
-def _positive(section: dict, key: str, default: float, where: str) -> float:
-    """section[key] (or default) as a positive number; ValueError naming the key otherwise."""
-    value = _number(section, key, default, float, where)
-    if not value > 0:
-        raise ValueError(f"{where} {key} = {value}: expected a positive number")
-    return value
+        raise ConfigError(f"{path}: {where}: {unknown_key_message(unknown[0], KEYS[kind])}")
 
 
 def _flag(section: dict, key: str, default: bool, where: str) -> bool:
-    """section[key] (or default) as a TOML boolean; ValueError naming the key otherwise."""
+    """section[key] (or default) as a TOML boolean; ConfigError naming the key otherwise."""
     value = section.get(key, default)
     if not isinstance(value, bool):
-        raise ValueError(f"{where} {key} = {value!r}: expected true or false")
+        raise ConfigError(f"{where} {key} = {value!r}: expected true or false")
     return value
 
 
+def _word(section: dict, key: str, default: str, where: str) -> str:
+    """section[key] (or default), one of :data:`CHOICES`; ConfigError naming them otherwise."""
+    value = section.get(key, default)
+    if value not in CHOICES[key]:
+        raise ConfigError(f"{where} {key} = {value!r}: expected {_choices(CHOICES[key])}")
+    return value
+
+
+def _choices(choices: tuple[str, ...]) -> str:
+    """``"a" or "b"``, or ``one of 'a', 'b', 'c'``."""
+    if len(choices) == 2:
+        return f"\"{choices[0]}\" or \"{choices[1]}\""
+    return "one of " + ", ".join(repr(c) for c in choices)
+
+
+def _positive_whole(value: object, key: str, at: str) -> int:
+    """A model order: a whole number of at least 1."""
+    n = _number({key: value}, key, None, int, at)
+    if n < 1:
+        raise ConfigError(f"{at} {key} = {n}: expected a whole number of at least 1")
+    return n
+
+
 def _identify(t: dict, at: str) -> IdentifySettings:
-    """A [test.identify] (or [configuration.identify]) table."""
+    """A [test.identify] (or [configuration.identify]) table: band, splits strictly inside
+    it and increasing, orders ("auto", a number, or one per part), max_order >= 1, residual
+    poles at gamma > 1 and beta > gamma times the top of each part."""
+    if "band" not in t:
+        raise ConfigError(f"{at} needs band = [f_lo, f_hi] (Hz)")
+    band = _band(t["band"], f"{at} band")
+    splits = t.get("splits", [])
+    if not isinstance(splits, list):
+        raise ConfigError(f"{at} splits = {splits!r}: expected a list of frequencies")
+    splits = [_number({"splits": x}, "splits", None, float, at) for x in splits]
+    if any(not band[0] < x < band[1] for x in splits) or splits != sorted(set(splits)):
+        raise ConfigError(f"{at} splits = {splits!r}: expected increasing frequencies inside "
+                          f"the band {band[0]:g}-{band[1]:g} Hz")  # fmt: skip
     orders = t.get("orders", "auto")
     if orders == "auto":
         orders = None
     elif isinstance(orders, list):
-        orders = [None if o == "auto" else _number({"orders": o}, "orders", None, int, at)
-                  for o in orders]  # fmt: skip
+        if len(orders) != len(splits) + 1:
+            raise ConfigError(f"{at} orders = {orders!r}: expected one order per part, "
+                              f"{len(splits) + 1} (the splits make {len(splits) + 1} parts)")
+        orders = [None if o == "auto" else _positive_whole(o, "orders", at) for o in orders]
     else:
-        orders = _number(t, "orders", None, int, at)
-    splits = t.get("splits", [])
-    if not isinstance(splits, list):
-        raise ValueError(f"{at} splits = {splits!r}: expected a list of frequencies")
-    return IdentifySettings(_band(t.get("band"), f"{at} band"),
-                            tuple(_number({"splits": x}, "splits", None, float, at)
-                                  for x in splits), orders,
-                            _number(t, "max_order", 24, int, at),
-                            _number(t, "gamma", 1.43, float, at),
-                            _number(t, "beta", 100.0, float, at))  # fmt: skip
+        orders = _positive_whole(orders, "orders", at)
+    max_order = _positive_whole(t.get("max_order", 24), "max_order", at)
+    gamma = _number(t, "gamma", 1.43, float, at)
+    if not gamma > 1:
+        raise ConfigError(f"{at} gamma = {gamma!r}: expected a number above 1 (the residual "
+                          "pole lies at gamma times the top of each part)")  # fmt: skip
+    beta = _number(t, "beta", 100.0, float, at)
+    if not beta > gamma:
+        raise ConfigError(f"{at} beta = {beta!r}: expected a number above gamma ({gamma:g})")
+    return IdentifySettings(band, tuple(splits), orders, max_order, gamma, beta)
 
 
 def _zeta0(section: dict, default, at: str, identified: bool) -> float | None:
@@ -306,13 +457,24 @@ def _zeta0(section: dict, default, at: str, identified: bool) -> float | None:
     zeta0 = section.get("zeta0", default)
     if zeta0 == "median":
         if not identified:
-            raise ValueError(f"{at} zeta0 = \"median\" needs an identified test model "
-                             "([test.identify] or [test] model); give a number")  # fmt: skip
+            raise ConfigError(f"{at} zeta0 = \"median\" needs an identified test model "
+                              "([test.identify] or [test] model); give a number")  # fmt: skip
         return None
+    if not _is_number(zeta0):
+        raise ConfigError(f"{at} zeta0 = {zeta0!r}: expected \"median\" or a damping ratio "
+                          "0 < zeta0 < 1")  # fmt: skip
     zeta0 = _number({"zeta0": zeta0}, "zeta0", None, float, at)
     if not 0 < zeta0 < 1:
-        raise ValueError(f"{at} zeta0 = {zeta0}: expected 0 < zeta0 < 1")
+        raise ConfigError(f"{at} zeta0 = {zeta0}: expected 0 < zeta0 < 1")
     return zeta0
+
+
+def _text(section: dict, key: str, default: str | None, where: str) -> str | None:
+    """section[key] (or default) as a string; ConfigError naming the key otherwise."""
+    value = section.get(key, default)
+    if value is not None and not isinstance(value, str):
+        raise ConfigError(f"{where} {key} = {value!r}: expected a string")
+    return value
 
 
 def _configurations(doc: dict, cal: dict, path: Path) -> tuple[Configuration, ...]:
@@ -322,22 +484,28 @@ def _configurations(doc: dict, cal: dict, path: Path) -> tuple[Configuration, ..
     def file(section: dict, key: str, where: str, required: bool = True) -> Path | None:
         if key not in section:
             if required:
-                raise ValueError(f"{path}: {where} needs {key}")
+                raise ConfigError(f"{path}: {where} needs {key}")
             return None
-        p = (base / str(section[key])).resolve()
+        name = section[key]
+        if not isinstance(name, str) or not name.strip() or "\0" in name:
+            raise ConfigError(f"{path}: {where} {key} = {name!r}: expected a file name")
+        p = (base / name).resolve()
+        if p.is_dir():
+            raise IsADirectoryError(errno.EISDIR, f"{path}: {where} {key}: a folder, not a "
+                                    "file", str(p))  # fmt: skip
         if not p.is_file():
-            raise FileNotFoundError(2, f"{where} {key}: no such file", str(p))
+            raise FileNotFoundError(errno.ENOENT, f"{path}: {where} {key}: no such file", str(p))
         return p
 
     if "configuration" in doc:
         if "model" in doc or "test" in doc:
-            raise ValueError(f"{path}: give [model] and [test], or [[configuration]] entries, "
-                             "not both")  # fmt: skip
+            raise ConfigError(f"{path}: give [model] and [test], or [[configuration]] entries, "
+                              "not both")  # fmt: skip
         entries = doc["configuration"]
         if not isinstance(entries, list) or not entries or not all(
                 isinstance(e, dict) for e in entries):
-            raise ValueError(f"{path}: configuration must be a list of [[configuration]] "
-                             "tables")  # fmt: skip
+            raise ConfigError(f"{path}: configuration must be a list of [[configuration]] "
+                              "tables")  # fmt: skip
         tables = []
         for k, e in enumerate(entries):
             where = f"[[configuration]] {k + 1}"
@@ -364,13 +532,13 @@ def _configurations(doc: dict, cal: dict, path: Path) -> tuple[Configuration, ..
         sensors = file(test, "sensors", at_test, required=False)
         inputs = file(test, "inputs", at_test, required=False)
         if test_frf is None and test_model is None:
-            raise ValueError(f"{path}: {at_test} needs frf (an FRF file) or model (an "
-                             "identified model)")  # fmt: skip
+            raise ConfigError(f"{path}: {at_test} needs frf (an FRF file) or model (an "
+                              "identified model)")  # fmt: skip
         settings = None
         if ident is not None:
             at = f"{path}: {where + ' [identify]' if where else '[test.identify]'}"
             if test_frf is None:
-                raise ValueError(f"{at} needs the test's frf")
+                raise ConfigError(f"{at} needs the test's frf")
             settings = _identify(ident, at)
         at_cal = f"{path}: {where or '[calibration]'}"
         if "band" in own:
@@ -378,35 +546,42 @@ def _configurations(doc: dict, cal: dict, path: Path) -> tuple[Configuration, ..
         elif "band" in cal:
             band = _band(cal["band"], f"{path}: [calibration] band")
         else:
-            raise ValueError(f"{path}: [calibration] needs band = [f_lo, f_hi]")
+            raise ConfigError(f"{path}: [calibration] needs band = [f_lo, f_hi]")
         identified = settings is not None or test_model is not None
         zeta0 = (_zeta0(own, "median", at_cal, identified) if "zeta0" in own
                  else _zeta0(cal, "median", f"{path}: [calibration]", identified))  # fmt: skip
-        name = str(model.get("name", deck.stem))
+        name = _text(model, "name", deck.stem, f"{path}: {at_model}")
+        if not name:
+            raise ConfigError(f"{path}: {at_model} name = '': expected a name")
         if name in {c.name for c in out}:
-            raise ValueError(f"{path}: {where}: a configuration named {name!r} is already "
-                             "given; every configuration needs its own name")  # fmt: skip
+            raise ConfigError(f"{path}: {where}: a configuration named {name!r} is already "
+                              "given; every configuration needs its own name")  # fmt: skip
+        units = _text(model, "units", "mm/s^2/N", f"{path}: {at_model}")
         out.append(Configuration(name, deck, params, test_frf, test_model, settings, band,
-                                 zeta0, model.get("units", "mm/s^2/N"), test_truth, sensors,
-                                 inputs))  # fmt: skip
+                                 zeta0, units, test_truth, sensors, inputs))  # fmt: skip
     return tuple(out)
 
 
 def read_config(path: str | os.PathLike[str]) -> Config:
-    """Read and check a configuration file.
+    """Read and check a configuration file: every table's keys, every value's type and
+    range (see the module docstring).
 
     Raises
     ------
-    ValueError
-        Naming the file and key of anything missing or malformed.
-    FileNotFoundError
-        For the configuration file or a file it names that does not exist.
+    ConfigError
+        Naming the file, the table and key of anything missing, unknown or malformed, and
+        what was expected (a ValueError too).
+    FileNotFoundError, IsADirectoryError
+        For the configuration file or a file it names that does not exist, or is a folder.
     """
     path = Path(path)
+    text = path.read_bytes()
     try:
-        doc = tomllib.loads(path.read_text())
+        doc = tomllib.loads(text.decode("utf-8"))
+    except UnicodeDecodeError as e:
+        raise ConfigError(f"{path}: not a text file in UTF-8 (byte {e.start})") from None
     except tomllib.TOMLDecodeError as e:
-        raise ValueError(f"{path}: not valid TOML ({e})") from None
+        raise ConfigError(f"{path}: not valid TOML ({e})") from None
     _known_keys(doc, "", "the top level", path)
     cal = _section(doc, "calibration", path)
     out = _section(doc, "output", path)
@@ -414,73 +589,69 @@ def read_config(path: str | os.PathLike[str]) -> Config:
     _known_keys(out, "output", "[output]", path)
     where = f"{path}: [calibration]"
     configurations = _configurations(doc, cal, path)
-    metric = str(cal.get("metric", "log-magnitude"))
-    if metric not in METRICS:
-        raise ValueError(f"{path}: [calibration] metric = {metric!r}: expected one of "
-                         f"{', '.join(METRICS)}")  # fmt: skip
-    loss = str(cal.get("loss", "huber"))
-    if loss not in ("huber", "squared"):
-        raise ValueError(f"{where} loss = {loss!r}: expected \"huber\" or \"squared\"")
-    sigma = _number(cal, "noise_sigma", 0.0, float, where)
-    if sigma < 0:
-        raise ValueError(f"{where} noise_sigma = {sigma}: expected 0 (estimate it) or the "
-                         "noise's standard deviation in log10 units")  # fmt: skip
-    surrogate = str(cal.get("surrogate", "exact"))
-    if surrogate not in ("exact", "first-order"):
-        raise ValueError(f"{path}: [calibration] surrogate = {surrogate!r}: expected \"exact\" "
-                         "or \"first-order\"")  # fmt: skip
-    defaults = (("reduction_modes", 100), ("starts", 8), ("workers", 2), ("seed", 1),
-                ("max_iterations", 30), ("max_cycles", 5))
-    ints = {k: _number(cal, k, d, int, where) for k, d in defaults}
-    ints["enrich_vectors"] = _number(cal, "enrich_vectors", ints["reduction_modes"], int, where)
-    for k in ("reduction_modes", "starts", "workers", "max_iterations", "max_cycles",
-              "enrich_vectors"):
-        if ints[k] < 1:
-            raise ValueError(f"{path}: [calibration] {k} must be at least 1")
-    exact_gradient = _flag(cal, "exact_gradient", True, where)
+    words = {k: _word(cal, k, getattr(Config, k), where) for k in CHOICES}
+    flags = {k: _flag(cal, k, d, where) for k, d in FLAGS.items()}
+    numbers = {k: _setting(cal, k, where) for k in SETTINGS
+               if k not in ("enrich_hz", "enrich_vectors")}  # fmt: skip
+    numbers["enrich_vectors"] = _setting(cal, "enrich_vectors", where,
+                                         numbers["reduction_modes"])  # fmt: skip
     # with the exact-gradient correction the derivative vectors are not needed (and, compressed,
     # they spoil the surrogate away from its centre: benchmarks/RESULTS.md)
     top = max(c.band[1] for c in configurations)
-    enrich_hz = _number(cal, "enrich_hz", 0.0 if exact_gradient else 1.5 * top, float, where)
-    if enrich_hz < 0:
-        raise ValueError(f"{path}: [calibration] enrich_hz = {enrich_hz}: expected a frequency "
-                         "in Hz, or 0 for no enrichment")  # fmt: skip
-    restarts = _number(cal, "restarts", 2, int, where)
-    if restarts < 0:
-        raise ValueError(f"{path}: [calibration] restarts = {restarts}: expected 0 or more")
-    restart_fall = _number(cal, "restart_fall", 0.01, float, where)
-    if not 0 <= restart_fall < 1:
-        raise ValueError(f"{path}: [calibration] restart_fall = {restart_fall}: expected a "
-                         "fraction in [0, 1)")  # fmt: skip
-    holdout = str(cal.get("holdout", "auto"))
-    if holdout not in HOLDOUT_KINDS:
-        raise ValueError(f"{where} holdout = {holdout!r}: expected one of "
-                         f"{', '.join(repr(k) for k in HOLDOUT_KINDS)}")  # fmt: skip
-    holdout_folds = _number(cal, "holdout_folds", 4, int, where)
-    if holdout_folds < 2:
-        raise ValueError(f"{where} holdout_folds = {holdout_folds}: expected 2 or more")
-    if holdout == "configurations" and len(configurations) < 2:
-        raise ValueError(f"{where} holdout = \"configurations\" needs two configurations or "
-                         "more")  # fmt: skip
-    modal_hz = _number(cal, "modal_hz", 0.0, float, where)
-    if modal_hz < 0:
-        raise ValueError(f"{path}: [calibration] modal_hz = {modal_hz}: expected a frequency "
-                         "in Hz, or 0 for all reduction modes")  # fmt: skip
-    return Config(
-        path=path, configurations=configurations,
-        samples_per_bandwidth=_number(cal, "samples_per_bandwidth", 3.0, float, where),
-        metric=metric, loss=loss, huber_c=_positive(cal, "huber_c", 2.0, where),
-        settle=_number(cal, "settle", 1e-3, float, where), surrogate=surrogate,
-        enrich_hz=enrich_hz,
-        bounds_sigma=_positive(cal, "bounds_sigma", 3.0, where),
-        noise_sigma=float(sigma) if sigma else None,
-        hold_ratio=_positive(cal, "hold_ratio", 0.99, where),
-        identifiable_ratio=_positive(cal, "identifiable_ratio", 0.5, where),
-        crlb_bands=tuple(_band(b, f"{path}: [calibration] crlb_bands")
-                         for b in cal.get("crlb_bands", [])),
-        holdout=holdout, holdout_folds=holdout_folds,
-        exclude_suspect_channels=_flag(cal, "exclude_suspect_channels", True, where),
-        residual=_flag(cal, "residual", False, where), modal_hz=modal_hz,
-        exact_gradient=exact_gradient, restarts=restarts, restart_fall=restart_fall,
-        pictures=_flag(out, "pictures", True, f"{path}: [output]"), raw=doc, **ints,
-    )  # fmt: skip
+    numbers["enrich_hz"] = _setting(cal, "enrich_hz", where,
+                                    0.0 if flags["exact_gradient"] else 1.5 * top)  # fmt: skip
+    bands = cal.get("crlb_bands", [])
+    if not isinstance(bands, list):
+        raise ConfigError(f"{where} crlb_bands = {bands!r}: expected a list of bands, e.g. "
+                          "[[10.0, 40.0], [40.0, 100.0]]")  # fmt: skip
+    sigma = numbers.pop("noise_sigma")
+    cfg = Config(path=path, configurations=configurations, **words, **flags, **numbers,
+                 noise_sigma=float(sigma) if sigma else None,
+                 crlb_bands=tuple(_band(b, f"{where} crlb_bands") for b in bands),
+                 pictures=_flag(out, "pictures", True, f"{path}: [output]"), raw=doc)
+    check_config(cfg)
+    return cfg
+
+
+def check_config(cfg: Config) -> None:
+    """Check the settings of a :class:`Config` however it was made (read, or built and
+    changed in code): every number in its range (:data:`SETTINGS`), every word one of its
+    choices, at least one configuration, and what the settings need of each other.
+
+    Raises
+    ------
+    ConfigError
+        Naming the configuration file and key (``[calibration] max_cycles = 0: expected a
+        whole number of at least 1``).
+    """
+    where = f"{cfg.path}: [calibration]"
+    if not cfg.configurations:
+        raise ConfigError(f"{cfg.path}: no configuration to calibrate ([model] and [test], or "
+                          "[[configuration]] entries)")  # fmt: skip
+    for key, s in SETTINGS.items():
+        value = getattr(cfg, key)
+        if key == "noise_sigma" and value is None:
+            continue
+        if (not _is_number(value) or not math.isfinite(value)
+                or (s.kind is int and not float(value).is_integer()) or not s.accepts(value)):
+            raise ConfigError(f"{where} {key} = {value!r}: expected {s.expected}")
+    for key, choices in CHOICES.items():
+        if getattr(cfg, key) not in choices:
+            raise ConfigError(f"{where} {key} = {getattr(cfg, key)!r}: expected "
+                              f"{_choices(choices)}")  # fmt: skip
+    if cfg.identifiable_ratio > cfg.hold_ratio:
+        raise ConfigError(f"{where} identifiable_ratio = {cfg.identifiable_ratio!r}: expected "
+                          f"at most hold_ratio ({cfg.hold_ratio!r}): a parameter the test "
+                          "informs that little is held, not identifiable")  # fmt: skip
+    for conf in cfg.configurations:
+        if conf.zeta0 is not None and n_frequencies(conf.band, conf.zeta0,
+                                                    cfg.samples_per_bandwidth) > MAX_FREQUENCIES:
+            raise ConfigError(f"{cfg.path}: configuration {conf.name}: zeta0 = {conf.zeta0!r} "
+                              f"with band {conf.band[0]:g}-{conf.band[1]:g} Hz and "
+                              f"samples_per_bandwidth = {cfg.samples_per_bandwidth!r} needs "
+                              f"more than {MAX_FREQUENCIES} frequencies: expected a larger "
+                              "zeta0 (a structure's damping ratio, e.g. 0.01), fewer samples "
+                              "or a narrower band")  # fmt: skip
+    if cfg.holdout == "configurations" and len(cfg.configurations) < 2:
+        raise ConfigError(f"{where} holdout = \"configurations\" needs two configurations or "
+                          "more")  # fmt: skip

@@ -16,7 +16,8 @@ The parameter file is TOML with one ``[[parameter]]`` table per parameter::
     nominal = 8.0               # optional; if given it must equal the model's value
     lower = 6.4                 # absolute bounds ...
     upper = 9.6
-    # ... or relative ones: lower_rel = -0.2, upper_rel = 0.2  (fractions of P0)
+    # ... or relative ones: lower_rel = -0.2, upper_rel = 0.2  (fractions of P0); each
+    # side once, either way; 0 < lower < upper, the nominal (positive) between them
     confidence = 0.05           # optional: the engineer's standard deviation of the value,
                                 #  as a fraction of the nominal (the prior's; default: the
                                 #  bounds read as bounds_sigma standard deviations)
@@ -37,6 +38,7 @@ import numpy as np
 
 from ..model.element_types import ELEMENT_PROPERTIES
 from ..model.model import ElementBlock, Model
+from .config import ConfigError, unknown_key_message
 
 
 @dataclass(frozen=True)
@@ -171,84 +173,153 @@ def current_value(model: Model, card: str, ident: int, field: str) -> float:
     return float(box[spec.column][row])
 
 
+#: The keys of a ``[[parameter]]`` table (the file's only top-level key is ``parameter``).
+PARAMETER_KEYS = ("name", "description", "card", "id", "field", "nominal", "lower", "upper",
+                  "lower_rel", "upper_rel", "confidence")
+
+
 def _value(item: dict, key: str, kind, where: str):
-    """item[key] as int or float; ValueError naming the parameter and key otherwise."""
+    """item[key] as a finite int or float; ConfigError naming the parameter and key otherwise
+    (a string or boolean is not a number, a float not an id)."""
+    value = item[key]
+    what = "a whole number" if kind is int else "a number"
+    if (isinstance(value, bool) or not isinstance(value, int | float)
+            or (kind is int and isinstance(value, float)) or not np.isfinite(value)):  # fmt: skip
+        raise ConfigError(f"{where}: {key} = {value!r}: expected {what}")
+    return kind(value)
+
+
+def _read_toml(path: Path) -> dict:
+    """A TOML file's tables; ConfigError naming the file if it is not UTF-8 TOML."""
+    text = path.read_bytes()
     try:
-        if kind is int and isinstance(item[key], float):
-            raise ValueError
-        return kind(item[key])
-    except (TypeError, ValueError):
-        what = "a whole number" if kind is int else "a number"
-        raise ValueError(f"{where}: {key} = {item[key]!r}: expected {what}") from None
+        return tomllib.loads(text.decode("utf-8"))
+    except UnicodeDecodeError as e:
+        raise ConfigError(f"{path}: not a text file in UTF-8 (byte {e.start})") from None
+    except tomllib.TOMLDecodeError as e:
+        raise ConfigError(f"{path}: not valid TOML ({e})") from None
+
+
+def _tables(doc: dict, path: Path) -> list[dict]:
+    """The file's ``[[parameter]]`` tables; ConfigError for anything else in the file."""
+    for key in doc:
+        if key != "parameter":
+            raise ConfigError(f"{path}: the top level: {unknown_key_message(key, ('parameter',))}")
+    items = doc.get("parameter")
+    if not isinstance(items, list) or not items:
+        raise ConfigError(f"{path}: no [[parameter]] tables")
+    for n, item in enumerate(items, start=1):
+        if not isinstance(item, dict):
+            raise ConfigError(f"{path}: parameter #{n} = {item!r}: expected a [[parameter]] "
+                              "table")  # fmt: skip
+    return items
+
+
+def _bound(item: dict, side: str, nominal: float, where: str) -> tuple[float, str]:
+    """One side's bound (``side`` is ``lower`` or ``upper``) as a value of P, from the
+    absolute key or the relative one (a fraction of the nominal), and how the file gave it
+    (``lower = 6.4``, ``lower_rel = -0.2``, for messages)."""
+    rel = f"{side}_rel"
+    if side in item and rel in item:
+        raise ConfigError(f"{where}: both {side} and {rel} are given; give one ({side} the "
+                          f"value, {rel} a fraction of the nominal)")  # fmt: skip
+    if side in item:
+        v = _value(item, side, float, where)
+        return v, f"{side} = {v!r}"
+    if rel in item:
+        r = _value(item, rel, float, where)
+        value = nominal * (1.0 + r)
+        if not np.isfinite(value):
+            raise ConfigError(f"{where}: {rel} = {r!r}: expected a fraction of the nominal "
+                              f"({nominal!r}) that keeps the bound finite")  # fmt: skip
+        return value, f"{rel} = {r!r} ({value!r})"
+    raise ConfigError(f"{where}: missing {side} (or {rel}): give bounds as lower and upper "
+                      "(values) or lower_rel and upper_rel (fractions of the nominal), either "
+                      "way for each side")  # fmt: skip
 
 
 def read_parameters(path: str | os.PathLike[str], model: Model) -> list[Parameter]:
     """Parameters of a TOML file (see the module docstring), nominal values from the model.
 
+    Each bound is given once, as a value (``lower``, ``upper``) or as a fraction of the
+    nominal (``lower_rel``, ``upper_rel``); the two sides may be given either way. The
+    nominal must be positive and lie within the bounds, and the bounds must keep the value
+    positive, with ``lower < upper`` strictly: bounds given the wrong way round are an
+    error, not swapped, and equal bounds (nothing to calibrate) are an error too: to keep a
+    value, leave the parameter out.
+
     Raises
     ------
-    ValueError
-        Naming the file and the parameter: a missing key, an unknown card/field, a card not
-        in the model, a nominal that differs from the model's, bounds that do not hold the
-        nominal, a repeated name or field.
+    ConfigError
+        Naming the file and the parameter: not TOML, an unknown or missing key, a value of
+        the wrong kind, an unknown card/field, a card not in the model, a nominal that
+        differs from the model's, a bound given both ways, bounds inverted, equal, not
+        positive or not holding the nominal, a repeated name or field.
     """
     path = Path(path)
-    try:
-        doc = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as e:
-        raise ValueError(f"{path}: not valid TOML ({e})") from None
-    items = doc.get("parameter")
-    if not isinstance(items, list) or not items:
-        raise ValueError(f"{path}: no [[parameter]] tables")
+    items = _tables(_read_toml(path), path)
     out: list[Parameter] = []
     seen: dict[str, str] = {}
     for n, item in enumerate(items, start=1):
-        name = str(item.get("name", f"#{n}"))
-        where = f"{path}: parameter {name}"
+        name = item.get("name")
+        where = f"{path}: parameter {name if isinstance(name, str) and name else f'#{n}'}"
+        for key in item:
+            if key not in PARAMETER_KEYS:
+                raise ConfigError(f"{where}: {unknown_key_message(key, PARAMETER_KEYS)}")
         missing = [k for k in ("name", "card", "id", "field") if k not in item]
         if missing:
-            raise ValueError(f"{where}: missing {', '.join(missing)}")
-        card, field = str(item["card"]).upper(), str(item["field"]).upper()
+            raise ConfigError(f"{where}: missing {', '.join(missing)}")
+        for key in ("name", "card", "field", "description"):
+            if key in item and (not isinstance(item[key], str)
+                                or (key != "description" and not item[key].strip())):
+                raise ConfigError(f"{where}: {key} = {item[key]!r}: expected a "
+                                  f"{'string' if key == 'description' else 'name'}")
+        card, field = item["card"].strip().upper(), item["field"].strip().upper()
         if (card, field) not in FIELDS:
             known = ", ".join(f"{c} {f}" for c, f in FIELDS)
-            raise ValueError(f"{where}: {card} {field} is not a parameter field femcal "
-                             f"calibrates ({known})")  # fmt: skip
+            raise ConfigError(f"{where}: {card} {field} is not a parameter field femcal "
+                              f"calibrates ({known})")  # fmt: skip
         ident = _value(item, "id", int, where)
         try:
             nominal = current_value(model, card, ident, field)
         except ValueError as e:
-            raise ValueError(f"{where}: {e}") from None
-        if not np.isfinite(nominal) or nominal == 0:
-            raise ValueError(f"{where}: {card} {ident} {field} is {nominal} in the deck; a "
-                             "parameter needs a nonzero nominal value")  # fmt: skip
+            raise ConfigError(f"{where}: {e}") from None
+        if not np.isfinite(nominal) or nominal <= 0:
+            raise ConfigError(f"{where}: {card} {ident} {field} is {nominal} in the deck; a "
+                              "parameter needs a positive nominal value (P = P0 (1 + p))")
         if "nominal" in item and not np.isclose(_value(item, "nominal", float, where), nominal,
-                                                rtol=1e-9):  # fmt: skip
-            raise ValueError(f"{where}: nominal {item['nominal']} but the deck has {nominal}")
-        if "lower" in item and "upper" in item:
-            lo, hi = _value(item, "lower", float, where), _value(item, "upper", float, where)
-        elif "lower_rel" in item and "upper_rel" in item:
-            lo = nominal * (1.0 + _value(item, "lower_rel", float, where))
-            hi = nominal * (1.0 + _value(item, "upper_rel", float, where))
-        else:
-            raise ValueError(f"{where}: give bounds as lower and upper (absolute) or lower_rel "
-                             "and upper_rel (fractions of the nominal)")  # fmt: skip
-        lo, hi = min(lo, hi), max(lo, hi)
-        if not lo <= nominal <= hi or lo == hi:
-            raise ValueError(f"{where}: bounds [{lo}, {hi}] must hold the nominal {nominal}")
+                                                rtol=1e-9, atol=0.0):  # fmt: skip
+            raise ConfigError(f"{where}: nominal {item['nominal']!r} but the deck has "
+                              f"{nominal!r}")  # fmt: skip
+        lo, lo_text = _bound(item, "lower", nominal, where)
+        hi, hi_text = _bound(item, "upper", nominal, where)
+        if lo > hi:
+            raise ConfigError(f"{where}: {lo_text} is above {hi_text}: expected lower < upper "
+                              "(bounds are not swapped for you)")  # fmt: skip
+        if lo == hi:
+            raise ConfigError(f"{where}: {lo_text} equals {hi_text}: nothing to calibrate; "
+                              "widen the bounds, or leave the parameter out to keep the "
+                              "deck's value")  # fmt: skip
+        if not lo > 0:
+            raise ConfigError(f"{where}: {lo_text}: expected a positive lower bound (the "
+                              f"value {field} must stay positive)")  # fmt: skip
+        if not lo <= nominal <= hi:
+            raise ConfigError(f"{where}: bounds [{lo!r}, {hi!r}] must hold the nominal "
+                              f"{nominal!r} (the deck's {card} {ident} {field})")
         confidence = None
         if "confidence" in item:
             confidence = _value(item, "confidence", float, where)
             if not 0 < confidence < 10:
-                raise ValueError(f"{where}: confidence = {confidence}: expected the standard "
-                                 "deviation as a fraction of the nominal, e.g. 0.05")  # fmt: skip
+                raise ConfigError(f"{where}: confidence = {confidence}: expected the standard "
+                                  "deviation as a fraction of the nominal, e.g. 0.05")
         key = f"{card} {ident} {field}"
         if name in seen:
-            raise ValueError(f"{where}: the name is used twice")
+            raise ConfigError(f"{where}: the name is used twice")
         if key in seen.values():
-            raise ValueError(f"{where}: {key} is already a parameter")
+            raise ConfigError(f"{where}: {key} is already a parameter")
         seen[name] = key
         out.append(Parameter(name, card, ident, field, nominal, lo, hi,
-                             str(item.get("description", "")), confidence))  # fmt: skip
+                             item.get("description", ""), confidence))  # fmt: skip
     return out
 
 
@@ -260,29 +331,29 @@ def read_truth(path: str | os.PathLike[str], params: list[Parameter]) -> np.ndar
 
     Raises
     ------
-    ValueError
+    ConfigError
         Naming the file and parameter: not TOML, a parameter missing, a ``true`` that is not
         a number, a card/id/field that is not the parameter's.
     """
     path = Path(path)
-    try:
-        doc = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as e:
-        raise ValueError(f"{path}: not valid TOML ({e})") from None
-    items = {str(t.get("name")): t for t in doc.get("parameter", []) if isinstance(t, dict)}
+    doc = _read_toml(path)
+    tables = doc.get("parameter", [])
+    if not isinstance(tables, list):
+        raise ConfigError(f"{path}: parameter = {tables!r}: expected [[parameter]] tables")
+    items = {str(t.get("name")): t for t in tables if isinstance(t, dict)}
     out = np.empty(len(params))
     for i, par in enumerate(params):
         where = f"{path}: parameter {par.name}"
         if par.name not in items:
-            raise ValueError(f"{where}: not in the file (it needs a [[parameter]] with "
-                             "name and true for every calibrated parameter)")  # fmt: skip
+            raise ConfigError(f"{where}: not in the file (it needs a [[parameter]] with "
+                              "name and true for every calibrated parameter)")  # fmt: skip
         item = items[par.name]
         for key, mine in (("card", par.card), ("id", par.id), ("field", par.field)):
             if key in item and str(item[key]).upper() != str(mine).upper():
-                raise ValueError(f"{where}: {key} = {item[key]!r}, but the parameter's is "
-                                 f"{mine!r}")  # fmt: skip
+                raise ConfigError(f"{where}: {key} = {item[key]!r}, but the parameter's is "
+                                  f"{mine!r}")  # fmt: skip
         if "true" not in item:
-            raise ValueError(f"{where}: missing true (the parameter's true value)")
+            raise ConfigError(f"{where}: missing true (the parameter's true value)")
         out[i] = _value(item, "true", float, where)
     return out
 

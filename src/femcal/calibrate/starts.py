@@ -8,12 +8,14 @@ import queue as queue_mod
 import time
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, wait
+from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
 import numpy as np
 from threadpoolctl import threadpool_limits
 
 from ..atomic import write_atomic
+from ..errors import FemcalError
 from ..parallel import executor, message_queue
 from .lm import levenberg_marquardt
 from .problem import Problem
@@ -75,7 +77,15 @@ def run_starts(problem: Problem, starts: list[np.ndarray], *, workers: int = 1,
     With ``folder``, each finished start is written there (``start_NNN.json``, atomically,
     with ``fingerprint``) and starts already there with the same fingerprint are read
     instead of run again. With ``workers`` > 1 the starts run in that many processes
-    (:func:`femcal.parallel.executor`), their progress coming back through a queue.
+    (:func:`femcal.parallel.executor`), their progress coming back through a queue; the
+    workers ignore Ctrl-C and die with this process, and an exception here (Ctrl-C's
+    KeyboardInterrupt among them) ends them at once, the starts finished being kept.
+
+    Raises
+    ------
+    FemcalError
+        When a worker process ends without its result (killed from outside, or for want of
+        memory).
     """
     say = progress or (lambda _m: None)
     results: dict[int, StartResult] = {}
@@ -120,5 +130,13 @@ def run_starts(problem: Problem, starts: list[np.ndarray], *, workers: int = 1,
                         break
                     say(f"start {s + 1}/{len(starts)} iteration {it}: deviation {dev:.5g}")
                 for fut in done:
-                    keep(fut.result())
+                    try:
+                        res = fut.result()
+                    except BrokenProcessPool:
+                        raise FemcalError(
+                            "a worker process of the Levenberg-Marquardt starts ended without "
+                            "its result (killed from outside, or by the system for want of "
+                            f"memory); the {len(results)} starts finished are kept: run again "
+                            "to resume, with fewer workers if memory is short") from None
+                    keep(res)
     return [results[k] for k in range(len(starts))]

@@ -26,20 +26,24 @@ made Bayesian so that its parameters carry over to configurations it did not see
 7. trust-region cycles: the surrogates are rebuilt at the candidate, where they are the full
    models; the step is kept if the full models' cost fell, and LM runs again within the
    trust radius, until the identifiable parameters move less than ``settle`` (or the radius
-   falls below it, or ``max_cycles`` is reached); when a kept step lowers the cost by less
-   than ``restart_fall``, or the cycles settle, the multi-start search runs again over the
-   whole box on the current surrogates (at most ``restarts`` times), and its best start is
-   the next candidate (the full models decide again): a local minimum the cycles have
-   reached is left when a search on the newer surrogates finds a lower one;
+   falls below it, or ``max_cycles`` is reached: the last cycle only checks the candidate
+   before it, so the result is always a point the full models have judged, and
+   ``max_cycles = 1`` runs as 2, one search and its check); when a kept step lowers the
+   cost by less than ``restart_fall``, or the cycles settle, the multi-start search runs
+   again over the whole box on the current surrogates (at most ``restarts`` times), and its
+   best start is the next candidate (the full models decide again): a local minimum the
+   cycles have reached is left when a search on the newer surrogates finds a lower one;
 8. the calibrated models are solved in full; frequencies, MAC, the deviation before and
    after and the posterior at the solution, with each configuration's model-form
    diagnostics (:mod:`femcal.calibrate.modelform`) and the validation on held-out data
    (:mod:`femcal.calibrate.holdout`), make the typed
    :class:`~femcal.calibrate.result.CalibrationResult`.
 
-The starts and cycles are kept in a state folder as they finish, so a stopped run resumes
-(:mod:`femcal.calibrate.starts`); files of the edge (report, calibrated decks, pictures) are
-written by :mod:`femcal.jobs.calibration`.
+The starts and cycles are kept in a state folder as they finish (each file written whole or
+not at all), so a stopped run resumes (:mod:`femcal.calibrate.starts`) from the starts whose
+fingerprint is its own: the models, the settings, the tests and the content of every file
+read, INCLUDEs too (:func:`fingerprint`); files of the edge (report, calibrated decks,
+pictures) are written by :mod:`femcal.jobs.calibration`.
 """
 
 from __future__ import annotations
@@ -61,7 +65,7 @@ from ..model.model import Model
 from ..response.frf import channel_matrix
 from ..testdata.data import FRFData
 from .cases import Case, TestSetup, prepare_case, residual_rows
-from .config import Config
+from .config import SETTINGS, Config, ConfigError, check_config
 from .gradient import first_order_correction
 from .holdout import fold_plan, validate
 from .identifiability import identifiability, identifiability_summary
@@ -91,10 +95,23 @@ from .surrogate import Surrogate
 SURROGATE_VERSION = 8
 
 
-#: Config fields that do not change a start's result (the configurations' files, whose
-#: content enters through the models and test FRFs; the number of worker processes,
-#: pictures, the raw text).
+#: Config fields that do not change a start's result (where the files are, whose content
+#: enters through the models, the test FRFs and the files' own digests; the number of worker
+#: processes, pictures, the raw text). The configurations' settings enter on their own.
 _NOT_IN_FINGERPRINT = ("path", "configurations", "workers", "pictures", "raw")
+
+
+def file_digest(path: str | Path) -> str:
+    """A hash of a file's bytes (not of its name); ``"missing"`` for a file that cannot be
+    read, so that a run that finds it again differs from one that did not."""
+    h = hashlib.sha256()
+    try:
+        with open(path, "rb") as fh:
+            for block in iter(lambda: fh.read(1 << 20), b""):
+                h.update(block)
+    except OSError:
+        return "missing"
+    return h.hexdigest()
 
 
 def _digest(value: object) -> str:
@@ -128,19 +145,30 @@ def _digest(value: object) -> str:
 
 
 def fingerprint(parts: Sequence[tuple[Model, Sequence[Parameter], np.ndarray, np.ndarray, float]],
-                cfg: Config, n_starts: int) -> str:  # fmt: skip
+                cfg: Config, n_starts: int, *, channels: Sequence[object] = (),
+                sources: Sequence[str | Path] = ()) -> str:  # fmt: skip
     """What decides a calibration's starts, hashed: the surrogate's version, the number of
-    starts, the settings (not file names or worker counts) and, per configuration, its
-    model's arrays and tables (not where they were read from), its parameters, the test
-    FRFs compared at their frequencies and the equalised damping: ``parts`` holds
-    (model, params, freq, H_test, zeta0) per configuration."""
+    starts, the settings (not file names or worker counts; each configuration's band,
+    damping, identification and units) and, per configuration, its model's arrays and tables
+    (not where they were read from), its parameters, the test FRFs compared at their
+    frequencies and the equalised damping: ``parts`` holds (model, params, freq, H_test,
+    zeta0) per configuration; ``channels`` what else of the test decides them (the channels
+    compared, the FRFs' quantity). Besides, the content (not the name) of every file the
+    models were read from, a deck's INCLUDEs among them (:attr:`Model.files`), and of the
+    files in ``sources`` (a configuration's parameter, test, sensor and input files): a
+    change to any of them starts afresh, even one that leaves the arrays alone."""
     settings = {k: v for k, v in vars(cfg).items() if k not in _NOT_IN_FINGERPRINT}
+    settings["configurations"] = [(c.band, c.zeta0, c.identify, c.model_units)
+                                  for c in cfg.configurations]  # fmt: skip
     physics = []
+    files = []
     for model, params, freq, H_test, zeta0 in parts:
         bare = replace(model, files=[], elements={t: replace(b, file=b.file[:0], line=b.line[:0])
                                                   for t, b in model.elements.items()})  # fmt: skip
         physics.append((bare, list(params), freq, H_test, float(zeta0)))
-    return _digest((SURROGATE_VERSION, n_starts, settings, physics))
+        files += [file_digest(f) for f in model.files]
+    files += [file_digest(f) for f in sources]
+    return _digest((SURROGATE_VERSION, n_starts, settings, physics, list(channels), files))
 
 
 def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
@@ -150,22 +178,24 @@ def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
               starts: int | None = None,
               progress: Callable[[str], None] | None = None) -> CalibrationResult:  # fmt: skip
     """Calibrate ``params`` of ``model`` against one test: :func:`calibrate_setups` with the
-    first configuration of ``cfg`` (its name, band and zeta0; its files are not read here).
+    first configuration of ``cfg`` (its name, band and zeta0; its files are not read here,
+    but their content enters the resume fingerprint).
     ``data``, ``identified``: the measured FRFs and/or an identified model of them."""
+    check_config(cfg)
     conf = cfg.configurations[0]
     setup = TestSetup(conf.name, model, tuple(params), conf.band, data, identified, conf.zeta0,
                       conf.model_units)
     return calibrate_setups([setup], cfg, truth=truth, state=state,
                             fresh=fresh, workers=workers, starts=starts,
-                            progress=progress)  # fmt: skip
+                            progress=progress, sources=conf.sources)  # fmt: skip
 
 
 def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
                      truth: np.ndarray | None = None, state: str | Path | None = None,
                      fresh: bool = False, workers: int | None = None,
                      starts: int | None = None,
-                     progress: Callable[[str], None] | None = None
-                     ) -> CalibrationResult:  # fmt: skip
+                     progress: Callable[[str], None] | None = None,
+                     sources: Sequence[str | Path] = ()) -> CalibrationResult:  # fmt: skip
     """Calibrate the parameters of one or more configurations, shared by name, against their
     tests (see the module docstring).
 
@@ -179,13 +209,19 @@ def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
         report's errors only.
     state : folder for the finished starts and cycles (``starts/`` in a job's output). Each
         start is kept with a fingerprint of everything that decides it (the models' arrays and
-        tables, the parameters, the settings, the test FRFs compared, the surrogate's version),
-        and a run resumes from the starts whose fingerprint is its own. None: nothing kept.
+        tables, the parameters, the settings, the test FRFs and channels compared, the
+        surrogate's version, the content of the files the models were read from and of
+        ``sources``), and a run resumes from the starts whose fingerprint is its own. None:
+        nothing kept.
     fresh : ignore finished starts in ``state``. workers, starts : override the
-        configuration's.
+        configuration's (at least 1).
+    sources : the other files the run was read from (parameter, test, sensor and input
+        files): their content enters the fingerprint.
 
     Raises
     ------
+    ConfigError
+        For settings out of range (:func:`~femcal.calibrate.config.check_config`).
     ValueError
         For no configuration, shared parameters that disagree, test data in other units,
         a band without test modes or data, test FRFs that are zero in the band.
@@ -194,6 +230,11 @@ def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
     t0 = time.perf_counter()
     if not setups:
         raise ValueError("calibrate needs at least one configuration")
+    check_config(cfg)
+    for what, n in (("workers", workers), ("starts", starts)):
+        if n is not None and (isinstance(n, bool) or not isinstance(n, int)
+                              or not SETTINGS[what].accepts(n)):
+            raise ConfigError(f"{what} = {n!r}: expected {SETTINGS[what].expected}")
     params, indices = share_parameters([s.params for s in setups], [s.name for s in setups])
     n_p = len(params)
     cases = [prepare_case(s, idx, cfg, say) for s, idx in zip(setups, indices, strict=True)]
@@ -203,7 +244,8 @@ def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
     lo = np.array([p.p_lower for p in params])
     hi = np.array([p.p_upper for p in params])
     fp = fingerprint([(c.model, c.params, c.freq, c.H_test, c.zeta0) for c in cases], cfg,
-                     n_starts)  # fmt: skip
+                     n_starts, channels=[(c.outputs, c.inputs, c.quantity) for c in cases],
+                     sources=sources)  # fmt: skip
     state_dir = Path(state) if state is not None else None
     rng = np.random.default_rng(cfg.seed)
     prior = prior_of(params, cfg.bounds_sigma)
@@ -318,12 +360,17 @@ def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
     save_cycles()
     say(f"cycle 1: best start {best.start + 1}, deviation {best.deviation:.5g} (surrogate)")
     # cycles 2...: trust region; the surrogates rebuilt at the candidate are the full models
-    # there, which decide whether the step is kept
+    # there, which decide whether the step is kept. The last cycle only decides, so that the
+    # result is always a point the full models have checked: max_cycles = 1 runs the one
+    # search of cycle 1 and a cycle 2 that checks its candidate, as max_cycles = 2 does
+    n_cycles = max(cfg.max_cycles, 2)
+    if cfg.max_cycles < 2:
+        say("max_cycles = 1: cycle 2 only checks cycle 1's candidate on the full model")
     radius = max(float(np.abs(cand - center).max()), cfg.settle)
     settled = False
     restarts_left = cfg.restarts if n_starts > 1 else 0
     searched = False  # the candidate came from a multi-start search over the whole box
-    for c in range(2, cfg.max_cycles + 1):
+    for c in range(2, n_cycles + 1):
         surs_new, modes_new = surrogates_at(cand)
         prob_new = problem_on(surs_new, lo, hi)
         cost_new = prob_new.cost(cand)
@@ -355,7 +402,7 @@ def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
                 f"(full-model cost {cost_new:.5g} against {cost_c:.5g}); trust radius "
                 f"{radius:.3g}")  # fmt: skip
             settled = radius < cfg.settle
-        last = c == cfg.max_cycles
+        last = c == n_cycles
         local: StartResult | None = None
         found: list[StartResult] = []
         search_best: float | None = None

@@ -28,7 +28,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..calibrate.config import read_config
+    from ..calibrate.config import SETTINGS, read_config
     from ..io.calibration import summary_lines
     from ..jobs.calibration import run as calibrate
 
@@ -37,9 +37,10 @@ def run(args: argparse.Namespace) -> int:
     def progress(msg: str) -> None:
         print(f"[{time.perf_counter() - t0:7.1f} s] {msg}", file=sys.stderr, flush=True)
 
-    for name, v in (("--workers", args.workers), ("--starts", args.starts)):
-        if v is not None and v < 1:
-            print(f"femcal calibrate: {name} must be at least 1", file=sys.stderr)
+    for name, v in (("workers", args.workers), ("starts", args.starts)):
+        if v is not None and not SETTINGS[name].accepts(v):
+            print(f"femcal calibrate: --{name} {v}: expected {SETTINGS[name].expected}",
+                  file=sys.stderr)  # fmt: skip
             return 2
     try:
         cfg = read_config(args.config)

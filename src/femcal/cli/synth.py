@@ -6,10 +6,10 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-import tomllib
 from pathlib import Path
 
 from ..atomic import write_lines
+from ..errors import message
 from ..jobs.synthetic_test import SynthSettings, make_hammer_test, truth_toml
 from ..testdata.formats.matlab import write_mat
 from ..testdata.formats.uff import write_uff
@@ -32,8 +32,8 @@ def run(args: argparse.Namespace) -> int:
     try:
         test = make_hammer_test(args.deck, args.params, args.sensors, args.inputs,
                                 SynthSettings(seed=args.seed))  # fmt: skip
-    except (ValueError, tomllib.TOMLDecodeError) as e:
-        print(f"femcal synth-test: {e}", file=sys.stderr)
+    except (KeyError, ValueError) as e:  # bad parameter, sensor or input files (TOML too)
+        print(f"femcal synth-test: {message(e)}", file=sys.stderr)
         return 2
     args.out.mkdir(parents=True, exist_ok=True)
     d = test.data

@@ -14,20 +14,21 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from ..calibrate.cases import TestSetup
 from ..calibrate.config import Config, Configuration
-from ..calibrate.parameters import read_parameters, read_truth, share_parameters
+from ..calibrate.parameters import Parameter, read_parameters, read_truth, share_parameters
 from ..calibrate.result import CalibrationResult
 from ..calibrate.workflow import calibrate_setups
 from ..identify import IdentifiedModel, Settings, identify
 from ..io.calibration import calibrated_deck_name, write_calibrated_deck, write_report_json
 from ..io.identified import read_model, write_model, write_summary
 from ..model.build import load_model
+from ..model.model import Model
 from ..testdata.data import FRFData, convert_units
 from ..testdata.formats import read_frf
 from ..testdata.points import channel_names
@@ -79,13 +80,55 @@ def _truth(cfg: Config, per_config: list[list], shared: list) -> np.ndarray | No
     return np.array([known[p.name] for p in shared])
 
 
+@dataclass(frozen=True)
+class Inputs:
+    """What a calibration reads before its tests: per configuration its model and
+    parameters, the parameters shared by name, and a synthetic test's known values."""
+
+    models: list[Model]
+    parameters: list[list[Parameter]]
+    shared: list[Parameter]
+    truth: np.ndarray | None
+
+
+def read_inputs(cfg: Config, say: Callable[[str], None] | None = None) -> Inputs:
+    """Each configuration's deck and parameter file, the parameters they share, and the
+    truth files (read now: a bad file fails before any work).
+
+    Raises
+    ------
+    ConfigError
+        Naming the parameter or truth file and the parameter (a ValueError too).
+    DeckError, ModelError
+        For a deck that does not read or does not make a model.
+    ValueError
+        For parameters shared by name that disagree.
+    """
+    say = say or (lambda _m: None)
+    models, per_config = [], []
+    for conf in cfg.configurations:
+        model = load_model(conf.deck)
+        params = read_parameters(conf.parameters, model)
+        say(f"{conf.deck.name}: {model.n_dof} DOF; {len(params)} parameters from "
+            f"{conf.parameters.name}")
+        models.append(model)
+        per_config.append(params)
+    shared, _ = share_parameters(per_config, [str(c.parameters) for c in cfg.configurations])
+    return Inputs(models, per_config, shared, _truth(cfg, per_config, shared))
+
+
 def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | None = None,
         starts: int | None = None,
         progress: Callable[[str], None] | None = None) -> CalibrationResult:  # fmt: skip
     """Run the calibration of ``cfg`` into the folder ``out`` (see the module docstring).
 
     ``fresh`` ignores finished starts of an earlier run; ``workers`` and ``starts``
-    override the configuration's.
+    override the configuration's. The finished starts in ``out/starts`` are resumed only
+    by a run whose models, settings, tests and files (the decks with their INCLUDEs, the
+    parameter, test, sensor and input files) are the same
+    (:func:`femcal.calibrate.workflow.fingerprint`). Every file is written whole or not at
+    all, so a run stopped at any point (Ctrl-C) leaves no partial file, and the next run
+    resumes from the starts it finished.
 
     Raises
     ------
@@ -97,17 +140,8 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     several = len(cfg.configurations) > 1
-    models, per_config = [], []
-    for conf in cfg.configurations:
-        model = load_model(conf.deck)
-        params = read_parameters(conf.parameters, model)
-        say(f"{conf.deck.name}: {model.n_dof} DOF; {len(params)} parameters from "
-            f"{conf.parameters.name}")
-        models.append(model)
-        per_config.append(params)
-    shared, _ = share_parameters(per_config, [str(c.parameters) for c in cfg.configurations])
-    # a synthetic test's known values, for the report only (read now: a bad file fails fast)
-    truth = _truth(cfg, per_config, shared)
+    inputs = read_inputs(cfg, say)
+    models, per_config, truth = inputs.models, inputs.parameters, inputs.truth
     setups = []
     for conf, model, params in zip(cfg.configurations, models, per_config, strict=True):
         data, ident = load_test(conf, out / "identify" / conf.name if several
@@ -118,8 +152,10 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
                 names.update(channel_names(points))
         setups.append(TestSetup(conf.name, model, tuple(params), conf.band, data, ident,
                                 conf.zeta0, conf.model_units, names))  # fmt: skip
+    sources = [f for c in cfg.configurations for f in c.sources]
     result = calibrate_setups(setups, cfg, truth=truth, state=out / "starts", fresh=fresh,
-                              workers=workers, starts=starts, progress=progress)  # fmt: skip
+                              workers=workers, starts=starts, progress=progress,
+                              sources=sources)  # fmt: skip
     for conf, params, case in zip(cfg.configurations, per_config, result.cases, strict=True):
         deck = out / calibrated_deck_name(conf, cfg)
         write_calibrated_deck(conf.deck, params, result.values[case.index], deck)

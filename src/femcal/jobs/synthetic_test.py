@@ -3,7 +3,8 @@
 The "real" frame differs from the FE model in three ways, as a test article does:
 
 * a hidden parameter set: every calibration parameter (PSHELL T, PBAR A, MAT1 E ...) drawn
-  uniformly within ``spread`` times its bounds around the nominal (P = P0 (1 + p));
+  uniformly within ``spread`` (at most 1) times its bounds around the nominal
+  (P = P0 (1 + p)), so within the bounds;
 * a model-form difference the FE model does not have: a cross support near a cross member
   that adds rotational stiffness (``support_stiffness`` N mm/rad about X and Z at the two
   rail webs' mid-height nodes nearest ``support_x``);
@@ -18,13 +19,13 @@ FRF's magnitude, plus a floor), and the runs are assembled into one MIMO set
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from ..assembly import Options, assemble
+from ..calibrate.parameters import read_parameters, with_values
 from ..model import EigenRequest
 from ..model.build import load_model
 from ..response.frf import modal_frf, point_matrix
@@ -32,12 +33,6 @@ from ..solve.normal_modes import solve_normal_modes
 from ..testdata.data import FRFData
 from ..testdata.points import point_label, read_points
 from ..testdata.runs import assemble_runs
-
-#: Parameter tables and the column each field lives in.
-_FIELDS = {("PSHELL", "T"): ("properties", "pid", "t"), ("PBAR", "A"): ("properties", "pid", "a"),
-           ("MAT1", "E"): ("materials", "mid", "e"), ("MAT1", "RHO"): ("materials", "mid", "rho"),
-           ("PBAR", "I1"): ("properties", "pid", "i1"), ("PBAR", "I2"): ("properties", "pid", "i2"),
-           ("PBAR", "J"): ("properties", "pid", "j")}  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -55,6 +50,27 @@ class SynthSettings:
     noise: float = 0.02  # of each FRF's magnitude
     noise_floor: float = 1e-3  # of the median magnitude
     modes_to: float = 400.0  # Hz, modes summed
+
+    def __post_init__(self) -> None:
+        """Check every setting's range (ValueError naming it)."""
+        checks = (
+            ("seed", self.seed, isinstance(self.seed, int) and self.seed >= 0,
+             "a whole number, 0 or more"),
+            ("spread", self.spread, 0 <= self.spread <= 1,
+             "a fraction in [0, 1] of each parameter's bounds (beyond 1 the hidden values "
+             "would leave them)"),
+            ("damping", self.damping, len(self.damping) == 2
+             and 0 < self.damping[0] <= self.damping[1] < 1, "0 < low <= high < 1"),
+            ("f_max", self.f_max, self.f_max > 0, "a positive frequency"),
+            ("df", self.df, 0 < self.df <= self.f_max, "a positive step up to f_max"),
+            ("sensors_per_run", self.sensors_per_run, self.sensors_per_run >= 1, "1 or more"),
+            ("noise", self.noise, self.noise >= 0, "0 or more"),
+            ("noise_floor", self.noise_floor, self.noise_floor >= 0, "0 or more"),
+            ("modes_to", self.modes_to, self.modes_to > 0, "a positive frequency"),
+        )  # fmt: skip
+        for name, value, ok, expected in checks:
+            if not ok:
+                raise ValueError(f"synthetic test: {name} = {value!r}: expected {expected}")
 
 
 @dataclass(frozen=True)
@@ -79,33 +95,31 @@ def hidden_frame(deck_path: str | Path, params_path: str | Path, settings: Synth
     (:class:`femcal.solve.normal_modes.Modes`) and per parameter a dict (name, card, id, field,
     nominal, true, p). With ``rng = np.random.default_rng(settings.seed)`` this is the frame behind
     :func:`make_hammer_test`'s data (it draws the parameters first).
+
+    The parameter file is read as a calibration reads it
+    (:func:`femcal.calibrate.parameters.read_parameters`: any parameter field, bounds
+    absolute or relative, the nominal the deck's), and each hidden value is drawn uniformly
+    within ``spread`` times its bounds around the nominal, so it lies within them.
+
+    Raises
+    ------
+    ConfigError
+        Naming the parameter file and parameter (a ValueError too), for a file a
+        calibration would refuse: bounds inverted, equal or not holding the nominal, an
+        unknown key or field, a card not in the deck.
     """
     s = settings
     model = load_model(deck_path)
-    params = tomllib.loads(Path(params_path).read_text()).get("parameter", [])
-    truth = []
-    for n, p in enumerate(params, start=1):
-        need = ("name", "card", "id", "field", "nominal", "lower", "upper")
-        if any(k not in p for k in need):
-            raise ValueError(f"{params_path}: parameter {n} needs {', '.join(need)}; it has "
-                             f"{', '.join(p)}")  # fmt: skip
-        if (p["card"], p["field"]) not in _FIELDS:
-            known = ", ".join(f"{c} {f}" for c, f in _FIELDS)
-            raise ValueError(f"{params_path}: parameter {p['name']}: {p['card']} {p['field']} "
-                             f"is not a parameter field femcal knows ({known})")  # fmt: skip
-        where, key, column = _FIELDS[(p["card"], p["field"])]
-        table = getattr(model, where)[p["card"]]
-        rows = np.flatnonzero(table[key] == p["id"])
-        if len(rows) != 1:
-            raise ValueError(f"{params_path}: parameter {p['name']}: {p['card']} {p['id']} is "
-                             "not in the deck")  # fmt: skip
-        lo = p["lower"] / p["nominal"] - 1.0
-        hi = p["upper"] / p["nominal"] - 1.0
-        rel = float(rng.uniform(s.spread * lo, s.spread * hi))
-        true = p["nominal"] * (1.0 + rel)
-        table[column][rows[0]] = true
-        truth.append({"name": p["name"], "card": p["card"], "id": p["id"], "field": p["field"],
-                      "nominal": p["nominal"], "true": true, "p": rel})  # fmt: skip
+    params = read_parameters(params_path, model)  # checked: bounds hold the deck's nominal
+    truth, values = [], []
+    for par in params:
+        # within spread times the bounds around the nominal: inside the bounds, as
+        # p_lower <= 0 <= p_upper and spread <= 1
+        rel = float(rng.uniform(s.spread * par.p_lower, s.spread * par.p_upper))
+        values.append(par.value(rel))
+        truth.append({"name": par.name, "card": par.card, "id": par.id, "field": par.field,
+                      "nominal": par.nominal, "true": values[-1], "p": rel})  # fmt: skip
+    model = with_values(model, params, np.array(values))
     mats = assemble(model, Options())
     K = mats.K.copy()
     for side in (1.0, -1.0):  # the cross support: rotational springs at the rail webs

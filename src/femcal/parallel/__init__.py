@@ -5,7 +5,9 @@ or processes here, and any engine that offers the same interface (see
 from .executors import (
     KINDS,
     Kind,
+    ProcessPool,
     SerialExecutor,
+    die_with_parent,
     executor,
     in_background,
     message_queue,
@@ -16,7 +18,9 @@ from .executors import (
 __all__ = [
     "KINDS",
     "Kind",
+    "ProcessPool",
     "SerialExecutor",
+    "die_with_parent",
     "executor",
     "in_background",
     "message_queue",

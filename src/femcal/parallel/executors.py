@@ -7,16 +7,31 @@ calibration's Levenberg-Marquardt starts in processes. :func:`executor` makes th
 of a kind; a distributed engine offers the same interface (dask.distributed's
 ``Client.get_executor()`` returns a ``concurrent.futures.Executor``), so work written against
 it runs there unchanged.
+
+Worker processes belong to the process that made them: each ignores Ctrl-C (SIGINT goes to
+the whole foreground process group; the parent decides), takes SIGTERM's default action, and
+dies with its parent, however the parent ends (SIGKILL included): on Linux the kernel sends
+it SIGKILL when the parent goes (``prctl(PR_SET_PDEATHSIG)``), elsewhere on POSIX a thread
+in the worker watches its parent's pid; on other systems nothing watches. When the block of
+a process pool is left by an exception (Ctrl-C's KeyboardInterrupt among them), the tasks
+not started are cancelled and the workers are ended at once instead of finishing their
+tasks.
 """
 
 from __future__ import annotations
 
+import ctypes
 import multiprocessing
 import os
 import queue
+import signal
+import sys
+import threading
+import time
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Executor, Future, ProcessPoolExecutor, ThreadPoolExecutor
+from types import TracebackType
 from typing import Literal, TypeVar
 
 T = TypeVar("T")
@@ -55,13 +70,103 @@ def _process_context() -> multiprocessing.context.BaseContext:
     return multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
 
 
+#: Linux's prctl option that has the kernel signal a process when its parent ends.
+_PR_SET_PDEATHSIG = 1
+
+#: Seconds between a watchdog's looks at its parent (where the kernel cannot be asked).
+WATCH_INTERVAL = 0.5
+
+
+def _kernel_kills_orphan() -> bool:
+    """Ask the kernel to SIGKILL this process when its parent ends (Linux); False where it
+    cannot be asked."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)  # the C library the interpreter runs on
+        return libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0) == 0
+    except (OSError, AttributeError):  # no prctl in it (another C library)
+        return False
+
+
+def _watch_parent(parent: int) -> None:
+    """End this process as soon as its parent is no longer ``parent`` (the orphan is
+    adopted by another process)."""
+    while os.getppid() == parent:
+        time.sleep(WATCH_INTERVAL)
+    os._exit(1)
+
+
+def die_with_parent(parent: int) -> None:
+    """Make this process end when the process ``parent`` ends: by the kernel on Linux, by a
+    watchdog thread elsewhere on POSIX, not at all where neither is possible (Windows).
+    A process whose parent has already gone ends now."""
+    if not _kernel_kills_orphan() and os.name == "posix":
+        threading.Thread(target=_watch_parent, args=(parent,), name="femcal-parent-watch",
+                         daemon=True).start()  # fmt: skip
+    if os.name == "posix" and os.getppid() != parent:  # the parent went before the request
+        os._exit(1)
+
+
+def _start_worker(parent: int, initializer: Callable[..., object] | None,
+                  initargs: tuple) -> None:  # fmt: skip
+    """Prepare a worker process: Ctrl-C ignored (the parent handles it), SIGTERM's default
+    action (not a handler inherited from the parent), death with the parent; then the
+    caller's ``initializer(*initargs)``."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    die_with_parent(parent)
+    if initializer is not None:
+        initializer(*initargs)
+
+
+class ProcessPool(ProcessPoolExecutor):
+    """A :class:`ProcessPoolExecutor` whose workers die with this process and ignore Ctrl-C,
+    and whose ``with`` block, left by an exception, cancels the waiting tasks and ends the
+    workers at once (:meth:`terminate`) rather than waiting for every task to finish."""
+
+    def __init__(self, workers: int, *, mp_context: multiprocessing.context.BaseContext,
+                 initializer: Callable[..., object] | None = None,
+                 initargs: tuple = ()) -> None:  # fmt: skip
+        super().__init__(workers, mp_context=mp_context, initializer=_start_worker,
+                         initargs=(os.getpid(), initializer, initargs))  # fmt: skip
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> bool:  # fmt: skip
+        if exc_type is None:
+            self.shutdown(wait=True)
+        else:
+            self.terminate()
+        return False
+
+    def terminate(self, timeout: float = 5.0) -> None:
+        """Cancel the tasks not started, end the workers (SIGTERM, then SIGKILL after
+        ``timeout`` seconds) and wait for them; the pool is shut down after it. The workers
+        and the thread that feeds them are the executor's own attributes (``_processes``,
+        ``_executor_manager_thread``, as CPython has kept them since 3.9)."""
+        processes = list((getattr(self, "_processes", None) or {}).values())
+        manager = getattr(self, "_executor_manager_thread", None)
+        self.shutdown(wait=False, cancel_futures=True)
+        for proc in processes:
+            if proc.is_alive():
+                proc.terminate()
+        for proc in processes:
+            proc.join(timeout)
+            if proc.is_alive():
+                proc.kill()
+                proc.join(timeout)
+        if manager is not None:
+            manager.join(timeout)
+
+
 def executor(kind: Kind, workers: int = 1, *, name: str = "femcal",
              initializer: Callable[..., object] | None = None,
              initargs: tuple = ()) -> Executor:  # fmt: skip
     """An executor of ``kind`` with ``workers`` workers; one worker, or ``"serial"``, gives a
     :class:`SerialExecutor`. ``initializer(*initargs)`` prepares each worker thread or
     process; a serial executor has none, so it is not run. ``name`` prefixes the threads'
-    names. Use it as a context manager, or call ``shutdown``.
+    names. Use it as a context manager, or call ``shutdown``. Processes come as a
+    :class:`ProcessPool` (see the module docstring).
 
     Raises
     ------
@@ -77,15 +182,17 @@ def executor(kind: Kind, workers: int = 1, *, name: str = "femcal",
     if kind == "threads":
         return ThreadPoolExecutor(workers, thread_name_prefix=name, initializer=initializer,
                                   initargs=initargs)  # fmt: skip
-    return ProcessPoolExecutor(workers, mp_context=_process_context(), initializer=initializer,
-                               initargs=initargs)  # fmt: skip
+    return ProcessPool(workers, mp_context=_process_context(), initializer=initializer,
+                       initargs=initargs)  # fmt: skip
 
 
 def message_queue(kind: Kind) -> queue.Queue:
     """A queue that the workers of an executor of ``kind`` can put messages on and the caller
-    read (progress from worker processes goes through a manager's queue)."""
+    read (``put``, ``get``, ``get_nowait`` raising :class:`queue.Empty`). For processes a
+    :func:`multiprocessing.Queue`, handed to the workers through the executor's
+    ``initargs`` (a pipe: no server process that could outlive the caller)."""
     if kind == "processes":
-        return _process_context().Manager().Queue()
+        return _process_context().Queue()
     return queue.Queue()
 
 
