@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.femcal-setup
 
-.PHONY: setup demo test test-slow lint bench-parse bench-assembly bench-eigen bench-identify bench-calibration clean
+.PHONY: setup demo test test-slow lint bench-parse bench-assembly bench-eigen bench-identify bench-calibration bench-fuzz clean
 
 setup: $(STAMP)
 
@@ -52,6 +52,11 @@ bench-identify: setup .venv-ema/.ok
 # hammer frame's parameters.
 bench-calibration: setup
 	$(PY) benchmarks/calibration.py
+
+# The long fuzz run: mutated reference decks (10 000), FRF files and calibration configs; prints
+# the outcomes per harness (0 crashes, hangs and wrong answers is the target).
+bench-fuzz: setup
+	$(PY) benchmarks/fuzz.py
 
 .venv-ema/.ok:
 	python3 -m venv .venv-ema
