@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -165,3 +167,45 @@ def test_direction_sensors_read_along_basic_directions_in_any_cd_frame(write):
         direction_matrix(model, [(2, [0, 0, 0])])
     with pytest.raises(ValueError, match="point 9: no GRID 9"):
         direction_matrix(model, [(9, v)])
+
+
+@pytest.mark.parametrize(("args", "expected"), [
+    (["--damping", "-1"], r"--damping -1: expected a damping ratio 0 <= Z < 1"),
+    (["--damping", "nan"], r"--damping nan: expected a damping ratio"),
+    (["--damping", "1.5"], r"--damping 1.5: expected a damping ratio"),
+    (["--freq", "1:inf:1"], r"--freq 1:inf:1: expected finite numbers"),
+    (["--freq", "5:1:1"], r"--freq 5:1:1: expected 0 <= F1 < F2 and DF > 0"),
+    (["--freq", "1:1e9:0.001"], r"--freq 1:1e9:0.001 \(999,999,999,001 frequencies\) for 1 "
+     r"outputs x 1 inputs would need 21\.8 TiB of memory; .* is available"),
+    (["--modes-to", "-5"], r"--modes-to -5: expected a frequency above 0 Hz"),
+])  # fmt: skip
+def test_frf_command_refuses_bad_options_in_one_line_before_reading(tmp_path, capsys, args,
+                                                                    expected):  # fmt: skip
+    from femcal.cli import main
+
+    argv = ["frf", str(tmp_path / "not-read.bdf"), "--input", "1:3", "--output", "2:3",
+            "--freq", "1:100:1", "--out", str(tmp_path / "h.npz"), *args]  # fmt: skip
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("femcal frf: ")
+    assert re.search(expected, err[0]), err[0]
+    assert not (tmp_path / "h.npz").exists()
+
+
+def test_frf_command_refuses_an_out_directory_and_a_band_without_modes(tmp_path, capsys):
+    from femcal.cli import main
+
+    from .conftest import REFDECKS
+
+    deck = str(REFDECKS / "cofe_cantilever_cbar" / "noReduction.dat")
+    base = ["frf", deck, "--input", "11:2", "--output", "11:2", "--freq", "1:100:9"]
+    assert main([*base, "--out", str(tmp_path)]) == 2
+    assert "is a directory; expected a file name" in capsys.readouterr().err
+    (tmp_path / "afile").write_text("")
+    assert main([*base, "--out", str(tmp_path / "afile" / "h.npz")]) == 2
+    assert f"{tmp_path / 'afile'} is a file, not a directory" in capsys.readouterr().err
+    # the first mode lies above 200 Hz: modes up to twice 100 Hz are none, the FRF would be 0
+    assert main([*base, "--out", str(tmp_path / "h.npz")]) == 2
+    assert "no mode up to 200 Hz: every FRF would be zero" in capsys.readouterr().err
+    assert not (tmp_path / "h.npz").exists()
+    assert main([*base, "--modes-to", "1000", "--out", str(tmp_path / "h.npz")]) == 0

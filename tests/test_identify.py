@@ -5,6 +5,7 @@ stabilisation diagram, the building blocks against their definitions."""
 from __future__ import annotations
 
 import itertools
+import re
 
 import numpy as np
 import pytest
@@ -22,7 +23,7 @@ from femcal.identify import (
 )
 from femcal.identify.lsq import Resolvent, cost, response
 from femcal.response.statespace import modal_to_poles, poles_to_modal
-from femcal.testdata.data import FRFData
+from femcal.testdata.data import FRFData, FRFError
 
 FN = np.array([12.0, 21.0, 33.0, 47.0, 52.0, 80.0, 130.0, 200.0])  # Hz
 ZETA = np.array([0.01, 0.02, 0.015, 0.01, 0.012, 0.02, 0.01, 0.01])
@@ -238,3 +239,141 @@ def test_cli_reports_bad_input(tmp_path, capsys):
     assert main(["identify", str(src), "--band", "15", "500"]) == 2
     assert "outside the data" in capsys.readouterr().err
     assert main(["identify", str(src), "--band", "15", "100", "--units", "g/N"]) == 0
+
+
+# ----------------------------------------------------------------------------- bad data
+
+
+def with_h(data: FRFData, H: np.ndarray, f: np.ndarray | None = None) -> FRFData:
+    return FRFData(data.frequency_hz if f is None else f, H, data.outputs, data.inputs,
+                   data.quantity, data.units)  # fmt: skip
+
+
+def test_dead_real_or_nonfinite_channels_are_refused_by_name():
+    data, _ = modal_set(p=4)
+    H = data.H.copy()
+    H[2] = 0  # one dead sensor
+    with pytest.raises(FRFError, match=r"^output 3:\+Z is zero at every input and frequency "
+                       "in the band 15-100 Hz: a dead or unconnected sensor"):  # fmt: skip
+        identify(with_h(data, H), BAND)
+    with pytest.raises(FRFError, match=r"^outputs 1:\+Z, 2:\+Z, 3:\+Z, 4:\+Z \(every output\) "
+                       "are zero"):  # fmt: skip
+        identify(with_h(data, 0 * H), BAND)
+    H = data.H.copy()
+    H[:, 1] = 0
+    with pytest.raises(FRFError, match=r"^input 101:\+Y is zero at every output"):
+        identify(with_h(data, H), BAND)
+    H = data.H.copy()
+    H[1] = H[1].real  # magnitudes or real parts only
+    with pytest.raises(FRFError, match=r"^output 2:\+Z is real \(no imaginary part\) in the "
+                       "band 15-100 Hz: identification needs complex FRFs"):  # fmt: skip
+        identify(with_h(data, H), BAND)
+    H = data.H.copy()
+    k = int(np.searchsorted(data.frequency_hz, 50.0))
+    H[3, 0, k] = np.nan  # e.g. a pair not measured (assemble_runs with allow_missing)
+    with pytest.raises(FRFError, match=r"^output 4:\+Z / input 100:\+Y at 50 Hz: H is "
+                       r"\(nan\+0j\) \(1 such value in the band 15-100 Hz\)"):  # fmt: skip
+        identify(with_h(data, H), BAND)
+    identify(with_h(data, H), (15.0, 45.0), orders=10)  # outside the band it is not used
+    H = data.H.copy()
+    H[0, 1, k] = 1e300  # beyond any unit: the channel scaling would overflow
+    with pytest.raises(FRFError, match=r"output 1:\+Z / input 101:\+Y at 50 Hz: H is "
+                       r"\(1e\+300\+0j\).*magnitude 1e-100 to 1e\+100"):  # fmt: skip
+        identify(with_h(data, H), BAND)
+
+
+def test_bands_the_numbers_cannot_hold_and_too_few_frequencies_are_refused():
+    data, _ = modal_set(p=3)
+    f = data.frequency_hz.copy()
+    f[0] = 1e-320
+    with pytest.raises(FRFError, match=r"band [\d.]+e-321-100 Hz: expected an upper edge at most "
+                       "1e\\+12 times the lower"):  # fmt: skip
+        identify(with_h(data, data.H, f), (1e-320, 100.0))
+    f = data.frequency_hz.copy()
+    f[-1] = 1e308
+    with pytest.raises(FRFError, match=r"band 15-1e\+308 Hz: expected an upper edge of at most "
+                       "1e\\+09 Hz"):  # fmt: skip
+        identify(with_h(data, data.H, f), (15.0, 1e308))
+    # one output, one input, four frequencies: not even order 2 (the fuzzer's case 4:7441)
+    few = FRFData(data.frequency_hz[:4], data.H[:1, :1, :4], data.outputs[:1], data.inputs[:1],
+                  data.quantity)  # fmt: skip
+    band = (float(few.frequency_hz[0]), float(few.frequency_hz[-1]))
+    with pytest.raises(FRFError, match=r"band 1-1.3 Hz: 4 frequencies and 1 output\(s\) allow "
+                       r"models up to order \d; the stabilisation diagram needs order 2"):
+        identify(few, band)
+    with pytest.raises(FRFError, match=r"order 4 is outside 1\.\.2 for part 1-1\.3 Hz"):
+        identify(few, band, orders=4)
+
+
+@pytest.mark.parametrize(("setting", "value", "expected"), [
+    ("gamma", 1.0, "a number above 1"), ("gamma", 0.0, "a number above 1"),
+    ("gamma", -1.0, "a number above 1"), ("gamma", float("nan"), "a number above 1"),
+    ("beta", 1.2, "a number above gamma"), ("beta", float("inf"), "a number above gamma"),
+    ("residual_damping", 0.0, "between 0 and 1"), ("zeta_max", 2.0, r"in \(0, 1\]"),
+    ("max_order", 1, "from 2 to 200"), ("max_iter", 0, "at least 1"),
+])  # fmt: skip
+def test_settings_that_make_no_sense_are_refused(setting, value, expected):
+    with pytest.raises(ValueError, match=rf"identification setting {setting} = .*: expected .*"
+                       f"{expected}"):  # fmt: skip
+        Settings(**{setting: value})
+
+
+@pytest.mark.parametrize(("args", "expected"), [
+    (["--gamma", "0"], "--gamma 0: expected a number above 1"),
+    (["--gamma", "-1"], "--gamma -1: expected a number above 1"),
+    (["--gamma", "1"], "--gamma 1: expected a number above 1"),
+    (["--beta", "1.2"], r"--beta 1.2: expected a number above --gamma \(1.43\)"),
+    (["--band", "50", "15"], "--band 50 15: expected 0 < F1 < F2"),
+    (["--band", "-5", "50"], "--band -5 50: expected 0 < F1 < F2"),
+    (["--band", "15", "inf"], "--band 15 inf: expected 0 < F1 < F2"),
+    (["--split", "nan"], "--split nan: expected a frequency inside the band 15-100 Hz"),
+    (["--max-order", "1"], "--max-order 1: expected a whole number from 2 to 200"),
+    (["--order", "4", "4"], "--order: 2 orders for 1 parts"),
+])  # fmt: skip
+def test_cli_refuses_bad_options_in_one_line_before_reading(tmp_path, capsys, args, expected):
+    from femcal.cli import main
+
+    missing = tmp_path / "not-read.npz"  # checked before the file is read
+    argv = ["identify", str(missing), "--band", "15", "100"]
+    if args[0] == "--band":
+        argv = argv[:3] + args[1:]
+    else:
+        argv += args
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("femcal identify: ")
+    assert re.search(expected, err[0]), err[0]
+
+
+def test_cli_refuses_an_out_that_is_a_file_and_bad_files_by_name(tmp_path, capsys):
+    from femcal.cli import main
+    from femcal.testdata.formats.npz import write_npz
+
+    data, _ = modal_set(p=3)
+    src = write_npz(tmp_path / "d.npz", data)
+    (tmp_path / "taken").write_text("")
+    assert main(["identify", str(src), "--band", "15", "100", "--out",
+                 str(tmp_path / "taken")]) == 2  # fmt: skip
+    assert "--out " in capsys.readouterr().err and (tmp_path / "taken").read_text() == ""
+    assert main(["identify", str(src), "--band", "15", "100", "--json", str(tmp_path)]) == 2
+    assert "is a directory; expected a file name" in capsys.readouterr().err
+    assert main(["identify", str(src), "--band", "15", "100", "--json",
+                 str(tmp_path / "taken" / "id.json")]) == 2  # fmt: skip
+    assert f"{tmp_path / 'taken'} is a file, not a directory" in capsys.readouterr().err
+    H = data.H.copy()
+    H[1] = 0
+    dead = write_npz(tmp_path / "dead.npz", with_h(data, H))
+    assert main(["identify", str(dead), "--band", "15", "100"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err.startswith(f"femcal identify: {dead}: output 2:+Z is zero")
+    f = data.frequency_hz.copy()
+    f[7] = np.nan
+    np.savez(tmp_path / "nanf.npz", frequency_hz=f, H=data.H,
+             output_labels=np.array([c.label for c in data.outputs]),
+             input_labels=np.array([c.label for c in data.inputs]),
+             quantity=np.array("accelerance"))  # fmt: skip
+    assert main(["identify", str(tmp_path / "nanf.npz"), "--band", "15", "100"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"femcal identify: {tmp_path / 'nanf.npz'}: frequency_hz: frequency 8 of "
+                   f"{len(f)} is nan; expected finite, non-negative, strictly increasing "
+                   "frequencies in Hz"]

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 import scipy.io
 
-from femcal.testdata.data import convert_units, quantity_of_units
+from femcal.errors import FemcalWarning
+from femcal.testdata.data import FRFError, convert_units, quantity_of_units
 from femcal.testdata.formats import read_frf
 from femcal.testdata.formats.lms import channel_label, read_lms_mat, split_function_name
 from femcal.testdata.formats.matlab import read_mat
@@ -108,7 +109,7 @@ def test_errors_name_the_file_block_and_pair(tmp_path):
         read_lms_mat(path)
     assert read_lms_mat(path, quantity="accelerance").units == "Pa/N"
     scipy.io.savemat(path, {"something": np.eye(2)})
-    with pytest.raises(KeyError, match=r"no Test\.Lab struct"):
+    with pytest.raises(FRFError, match=r"no Test\.Lab struct"):
         read_mat(path)
     with pytest.raises(ValueError, match="unknown FRF file type"):
         read_frf(tmp_path / "a.xyz")
@@ -135,3 +136,78 @@ def test_files_that_are_not_what_their_suffix_says_are_named(tmp_path):
     (tmp_path / "one.npy").rename(tmp_path / "one.npz")
     with pytest.raises(ValueError, match=r"one\.npz: not an NPZ archive"):
         read_frf(tmp_path / "one.npz")
+
+
+# ----------------------------------------------------------------------------- damaged files
+
+
+def patched(tmp_path, name, find: bytes, offset: int, value: int):
+    """A one-block Test.Lab file (uncompressed) with the byte ``offset`` from where ``find``
+    starts set to ``value``."""
+    h = np.arange(1, 5) * (1 + 1j)
+    path = tmp_path / name
+    scipy.io.savemat(path, {"FRF": lms_block(1.0, 1.0, h, ["Point1:+X/Point9:+Y"])})
+    raw = bytearray(path.read_bytes())
+    raw[raw.index(find) + offset] = value
+    path.write_bytes(raw)
+    return path
+
+
+def test_elements_that_crash_scipy_are_refused_before_it_reads_them(tmp_path):
+    # SciPy's loadmat looks up an element's type code in a table without checking it: code
+    # 80 (the fuzzer's case 2:1025) killed the process with a segmentation fault
+    p = patched(tmp_path, "code.mat", b"g/N", -4, 80)
+    with pytest.raises(FRFError, match=r"code\.mat: byte \d+: the characters of type code 80; "
+                       r"expected one of \[1, 2"):  # fmt: skip
+        read_frf(p)
+    # a character array whose dimensions element holds no number (case 3:1211): SciPy's
+    # chars_to_strings reads the missing last dimension and crashes
+    p = patched(tmp_path, "dims.mat", b"Hz\x00", -26, 1)
+    with pytest.raises(FRFError, match=r"dims\.mat: byte \d+: a character array without "
+                       "dimensions; the MATLAB file is damaged"):  # fmt: skip
+        read_frf(p)
+    # the file as written passes the check
+    assert read_frf(patched(tmp_path, "fine.mat", b"g/N", 0, ord("g"))).H.shape == (1, 1, 4)
+
+
+def test_lms_fields_that_are_wrong_are_named(tmp_path):
+    h = np.arange(1, 5) * (1 + 1j)
+    path = tmp_path / "f.mat"
+
+    def save(**change):
+        block = lms_block(1.0, 1.0, h, ["Point1:+X/Point9:+Y"])
+        for dotted, value in change.items():
+            *parents, leaf = dotted.split("__")
+            node = block
+            for k in parents:
+                node = node[k]
+            if value is None:
+                del node[leaf]
+            else:
+                node[leaf] = value
+        scipy.io.savemat(path, {"FRF": block})
+        return path
+
+    with pytest.raises(FRFError, match=r"f\.mat: FRF: y_values\.values holds real \(float64\) "
+                       "values; expected complex FRFs"):  # fmt: skip
+        read_frf(save(y_values__values=h.real))
+    with pytest.raises(FRFError, match=r"FRF: x_values\.number_of_values is 1e\+15; expected "
+                       r"the number of values of y_values\.values"):  # fmt: skip
+        read_frf(save(x_values__number_of_values=1e15))  # refused before it is allocated
+    with pytest.raises(FRFError, match=r"FRF: x_values\.increment is nan; expected one finite"):
+        read_frf(save(x_values__increment=np.nan))
+    with pytest.raises(FRFError, match=r"f\.mat: FRF: x_values: frequency 2 of 4 \(1\.0 Hz\) "
+                       "repeats frequency 1"):  # fmt: skip
+        read_frf(save(x_values__increment=0.0))
+    with pytest.raises(FRFError, match=r"unit_transformation\.factor is 'text'; expected one"):
+        read_frf(save(y_values__quantity__unit_transformation__factor="text"))
+    # without a transformation factor the values are SI: the unit says so, whatever the label
+    d = read_frf(save(y_values__quantity__unit_transformation=None))
+    assert d.units == "m/s^2/N" and d.quantity == "accelerance"
+    np.testing.assert_allclose(d.H[0, 0], h)
+    # a struct that is no block (a damaged one?) is named in a warning, not dropped silently
+    block = lms_block(1.0, 1.0, h, ["Point1:+X/Point9:+Y"])
+    scipy.io.savemat(path, {"FRF": block, "FRF_1": {"y_values": block["y_values"]}})
+    with pytest.warns(FemcalWarning, match=r"f\.mat: struct FRF_1 is not a Test\.Lab function "
+                      "block"):  # fmt: skip
+        read_frf(path)

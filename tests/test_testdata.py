@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from femcal.cli import main
 from femcal.deck import read_deck
@@ -11,7 +13,8 @@ from femcal.model import EigenRequest
 from femcal.model.build import build_model
 from femcal.response.frf import modal_frf, point_matrix
 from femcal.solve.normal_modes import solve_normal_modes
-from femcal.testdata.data import Channel, FRFData
+from femcal.testdata.data import Channel, FRFData, FRFError
+from femcal.testdata.formats import read_frf
 from femcal.testdata.formats.matlab import read_mat, write_mat
 from femcal.testdata.formats.npz import read_npz, write_npz
 from femcal.testdata.formats.text import read_csv, write_csv
@@ -125,7 +128,7 @@ def test_roving_runs_assemble_into_one_mimo_set():
 
 def test_frf_command_writes_uff_and_mat_and_refuses_other_formats(tmp_path):
     deck_path = str(REFDECKS / "cofe_cantilever_cbar" / "noReduction.dat")
-    args = ["frf", deck_path, "--input", "11:2", "--output", "11:2", "--freq", "1:100:9"]
+    args = ["frf", deck_path, "--input", "11:2", "--output", "11:2", "--freq", "1:200:9"]
     assert main([*args, "--out", str(tmp_path / "h.npz")]) == 0
     assert main([*args, "--out", str(tmp_path / "h.uff")]) == 0
     a, b = read_npz(tmp_path / "h.npz"), read_uff(tmp_path / "h.uff")
@@ -134,3 +137,225 @@ def test_frf_command_writes_uff_and_mat_and_refuses_other_formats(tmp_path):
     assert np.allclose(read_mat(tmp_path / "h.mat").H, a.H)
     assert main([*args, "--out", str(tmp_path / "h.txt")]) == 2
     assert not (tmp_path / "h.txt").exists()
+
+
+# ----------------------------------------------------------------------------- bad files
+# Each file is the smallest that shows one way an FRF file can be wrong; every one must end
+# as an FRFError (a FemcalError) naming the file, where in it and what was expected.
+
+
+def small() -> FRFData:
+    """2 outputs x 1 input x 6 frequencies with GRID:DIR labels (UFF can hold them)."""
+    f = np.array([1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
+    H = np.array([[1 + 1j, 2 - 1j, 3 + 2j, 1 - 3j, 2 + 2j, 1 + 1j]])
+    return FRFData.from_labels(f, np.stack([H, 2 * H]), ["1:3", "2:3"], ["9:2"], "receptance",
+                               "m/N")  # fmt: skip
+
+
+def npz_of(path, f, H, outs=("1:3", "2:3"), ins=("9:2",)):
+    """An NPZ in femcal's layout from raw arrays (the writer would refuse bad ones)."""
+    np.savez(path, frequency_hz=f, H=H, output_labels=np.array(outs),
+             input_labels=np.array(ins), quantity=np.array("receptance"), units=np.array("m/N"))
+    return path
+
+
+def test_frequencies_must_be_finite_and_increasing(tmp_path):
+    d = small()
+    for value, found in ((np.nan, "is nan"), (np.inf, "is inf"), (-1.0, "is -1.0"),
+                         (2.0, r"\(2.0 Hz\) repeats frequency 2"),
+                         (1.5, r"\(1.5 Hz\) is below frequency 2")):  # fmt: skip
+        f = d.frequency_hz.copy()
+        f[2] = value
+        p = npz_of(tmp_path / "f.npz", f, d.H)
+        with pytest.raises(FRFError, match=rf"f\.npz: frequency_hz: frequency 3 of 6 {found}"):
+            read_frf(p)
+    # in a CSV the message names the line
+    text = write_csv(tmp_path / "f.csv", d).read_text().replace("\n3.0,1:3", "\nnan,1:3", 1)
+    (tmp_path / "f.csv").write_text(text)
+    with pytest.raises(FRFError, match=r"f\.csv:5: frequency_hz is nan; expected a finite"):
+        read_frf(tmp_path / "f.csv")
+    # and the FRFData container refuses them too
+    with pytest.raises(FRFError, match="frequency 2 of 2 is nan"):
+        FRFData.from_labels([1.0, np.nan], np.ones((1, 1, 2)), ["a"], ["b"])
+
+
+def test_real_frfs_are_refused(tmp_path):
+    d = small()
+    with pytest.raises(FRFError, match=r"r\.npz: H holds real \(float64\) values; expected "
+                       "complex FRFs"):  # fmt: skip
+        read_frf(npz_of(tmp_path / "r.npz", d.frequency_hz, d.H.real))
+    import scipy.io
+
+    scipy.io.savemat(tmp_path / "r.mat", {"frequency_hz": d.frequency_hz, "H": d.H.real,
+                                          "output_labels": np.array(["1:3", "2:3"], object),
+                                          "input_labels": np.array(["9:2"], object),
+                                          "quantity": "receptance"})  # fmt: skip
+    with pytest.raises(FRFError, match=r"r\.mat: H holds real"):
+        read_frf(tmp_path / "r.mat")
+    # a UFF 58 record of real ordinates (type 4): named by its dataset and line
+    import pyuff
+
+    sets = [pyuff.prepare_58(binary=0, id1="x", id2="m/N", id3="x", id4="x", id5="x",
+                             func_type=4, rsp_node=o + 1, rsp_dir=3, ref_node=9, ref_dir=2,
+                             ord_data_type=4, abscissa_spacing=1, abscissa_spec_data_type=18,
+                             ordinate_spec_data_type=8, orddenom_spec_data_type=13,
+                             data=d.H[o, 0].real.copy(), x=d.frequency_hz)
+            for o in range(2)]  # fmt: skip
+    pyuff.UFF(str(tmp_path / "r.uff")).write_sets(sets, mode="overwrite")
+    with pytest.raises(FRFError, match=r"r\.uff:1: dataset 1: ordinate data type 4 is real; "
+                       "expected complex FRFs"):  # fmt: skip
+        read_frf(tmp_path / "r.uff")
+
+
+def test_values_that_are_not_finite_name_output_input_and_frequency(tmp_path):
+    d = small()
+    H = d.H.copy()
+    H[1, 0, 3] = complex(np.nan, 1.0)
+    with pytest.raises(FRFError, match=r"n\.npz: output 2:3 / input 9:2 at 4 Hz: H is "
+                       r"\(nan\+1j\); expected finite"):  # fmt: skip
+        read_frf(npz_of(tmp_path / "n.npz", d.frequency_hz, H))
+    text = write_csv(tmp_path / "n.csv", d).read_text().splitlines()
+    text[3] = "3.0,1:3,9:2,inf,2.0"
+    (tmp_path / "n.csv").write_text("\n".join(text) + "\n")
+    with pytest.raises(FRFError, match=r"n\.csv:4: output 1:3 / input 9:2 at 3 Hz: H is "
+                       r"\(inf\+2j\)"):  # fmt: skip
+        read_frf(tmp_path / "n.csv")
+    text = write_uff(tmp_path / "n.uff", d).read_text().splitlines()
+    first = next(k for k, line in enumerate(text) if line.startswith("   ") and "e" in line
+                 and k > 12)  # fmt: skip
+    text[first] = "nan".rjust(20) + text[first][20:]
+    (tmp_path / "n.uff").write_text("\n".join(text) + "\n")
+    with pytest.raises(FRFError, match=r"n\.uff:1: dataset 1: output 1:3 / input 9:2 at 1 Hz: "
+                       r"H is \(nan"):  # fmt: skip
+        read_frf(tmp_path / "n.uff")
+
+
+def test_a_uff_cut_short_or_without_a_pair_names_where(tmp_path):
+    d = FRFData.from_labels(small().frequency_hz, np.ones((6, 1, 6)) * (1 + 1j),
+                            [f"{k}:3" for k in range(1, 7)], ["9:2"], "receptance")  # fmt: skip
+    raw = write_uff(tmp_path / "full.uff", d).read_bytes()
+    lines = raw.split(b"\n")
+    # cut inside the third of six datasets: not 2 of 6 outputs, but an error
+    (tmp_path / "cut.uff").write_bytes(raw[: int(0.4 * len(raw))])
+    with pytest.raises(FRFError, match=r"cut\.uff:\d+: dataset 3 has no closing '    -1' line: "
+                       "the file ends inside it"):  # fmt: skip
+        read_frf(tmp_path / "cut.uff")
+    # a whole dataset of a 2 x 2 grid missing: the pair is named
+    two = FRFData.from_labels(d.frequency_hz, np.ones((2, 2, 6)) * (1 + 1j), ["1:3", "2:3"],
+                              ["9:2", "8:1"], "receptance")  # fmt: skip
+    lines = write_uff(tmp_path / "two.uff", two).read_bytes().split(b"\n")
+    starts = [k for k, line in enumerate(lines) if line == b"    -1"]
+    del lines[starts[4]:starts[6]]  # the third dataset: output 2:3, input 9:2
+    (tmp_path / "gap.uff").write_bytes(b"\n".join(lines))
+    with pytest.raises(FRFError, match=r"gap\.uff: 1 of 4 output/input pairs have no dataset: "
+                       "2:3/9:2"):  # fmt: skip
+        read_frf(tmp_path / "gap.uff")
+    # text after the last dataset (the start of one cut short)
+    (tmp_path / "tail.uff").write_bytes(raw + b"    58\n")
+    with pytest.raises(FRFError, match=r"tail\.uff:\d+: text outside any dataset"):
+        read_frf(tmp_path / "tail.uff")
+
+
+def test_pyuff_failures_become_errors_naming_the_dataset(tmp_path):
+    text = write_uff(tmp_path / "v.uff", small()).read_text().splitlines()
+    starts = [k for k, line in enumerate(text) if line == "    -1"]
+    k = starts[2] + 14  # a data line of the second dataset
+    text[k] = "abc" + text[k][3:]
+    (tmp_path / "v.uff").write_text("\n".join(text) + "\n")
+    with pytest.raises(FRFError, match=rf"v\.uff:{starts[2] + 1}: dataset 2: pyuff cannot read "
+                       r"it \(ValueError: could not convert string to float"):  # fmt: skip
+        read_frf(tmp_path / "v.uff")
+    # a data line lost: the header's number of points says so
+    text = write_uff(tmp_path / "l.uff", small()).read_text().splitlines()
+    del text[14]
+    (tmp_path / "l.uff").write_text("\n".join(text) + "\n")
+    with pytest.raises(FRFError, match=r"l\.uff:1: dataset 1: the header gives 6 points "
+                       r"\(record 7\), the data hold 4"):  # fmt: skip
+        read_frf(tmp_path / "l.uff")
+
+
+def test_csv_without_rows_or_cut_short_or_repeating_a_row(tmp_path):
+    p = tmp_path / "h.csv"
+    p.write_text("# quantity=receptance units=m/N\nfrequency_hz,output,input,real,imag\n")
+    with pytest.raises(FRFError, match=r"h\.csv:2: no rows after the header"):
+        read_frf(p)
+    p.write_text("")
+    with pytest.raises(FRFError, match=r"h\.csv: no header; expected frequency_hz,output"):
+        read_frf(p)
+    text = write_csv(tmp_path / "c.csv", small()).read_text()
+    (tmp_path / "c.csv").write_text(text[:200])  # cut inside a row
+    with pytest.raises(FRFError, match=r"c\.csv:\d+: the last line does not end with a line "
+                       "break: is the file cut short"):  # fmt: skip
+        read_frf(tmp_path / "c.csv")
+    rows = text.splitlines()
+    (tmp_path / "c.csv").write_text("\n".join([*rows, rows[4]]) + "\n")
+    with pytest.raises(FRFError, match=rf"c\.csv:{len(rows) + 1}: output 1:3 / input 9:2 at "
+                       "3 Hz is given again \\(first on line 5\\)"):  # fmt: skip
+        read_frf(tmp_path / "c.csv")
+    (tmp_path / "c.csv").write_text("\n".join(rows[:5] + rows[6:]) + "\n")
+    with pytest.raises(FRFError, match=r"c\.csv: output 1:3 / input 9:2 has no row at 4 Hz"):
+        read_frf(tmp_path / "c.csv")
+
+
+def test_uff_writer_refuses_what_uff_cannot_hold(tmp_path):
+    d = small()
+    one = FRFData(d.frequency_hz[:1], d.H[:, :, :1], d.outputs, d.inputs, d.quantity)
+    with pytest.raises(FRFError, match="1 frequency; a UFF 58 file"):
+        write_uff(tmp_path / "one.uff", one)
+    assert not (tmp_path / "one.uff").exists()
+    # unevenly spaced ASCII abscissae are E13.5 fields: 1000 and 1000.001 Hz would be one
+    close = FRFData(np.array([999.0, 1000.0, 1000.001]), d.H[:, :, :3], d.outputs, d.inputs,
+                    d.quantity)  # fmt: skip
+    with pytest.raises(FRFError, match=r"frequencies 1000\.0 and 1000\.001 Hz become one "
+                       r"\(1000 Hz\) in UFF 58's 6 significant digits"):  # fmt: skip
+        write_uff(tmp_path / "close.uff", close)
+    back = read_frf(write_uff(tmp_path / "close.uff", close, binary=True))  # doubles there
+    np.testing.assert_array_equal(back.frequency_hz, close.frequency_hz)
+
+
+def test_ctrl_c_inside_pyuff_stays_an_interruption(tmp_path, monkeypatch):
+    import pyuff
+
+    def read_sets(self, setn=None, header_only=False):
+        try:  # what pyuff's bare except makes of a Ctrl-C while it reads
+            raise KeyboardInterrupt
+        except BaseException:
+            raise Exception("Error when reading data-set(s).") from None
+
+    path = write_uff(tmp_path / "k.uff", small())
+    monkeypatch.setattr(pyuff.UFF, "read_sets", read_sets)
+    with pytest.raises(KeyboardInterrupt):
+        read_frf(path)
+
+
+@st.composite
+def frf_sets(draw) -> FRFData:
+    """A valid set: 1-3 outputs, 1-2 inputs, 2-12 increasing frequencies, finite complex
+    values of any sign and a wide range of magnitudes (zero among them)."""
+    p, m, n = draw(st.integers(1, 3)), draw(st.integers(1, 2)), draw(st.integers(2, 12))
+    steps = draw(st.lists(st.floats(1e-3, 1e3), min_size=n, max_size=n))
+    f = draw(st.floats(0.0, 100.0)) + np.cumsum(steps)
+    parts = st.one_of(st.just(0.0), st.floats(1e-30, 1e30), st.floats(-1e30, -1e-30))
+    values = draw(st.lists(parts, min_size=2 * p * m * n, max_size=2 * p * m * n))
+    H = np.array(values[::2]) + 1j * np.array(values[1::2])
+    outs = [f"{k + 1}:{'+-'[k % 2]}{'XYZ'[k % 3]}" for k in range(p)]
+    return FRFData.from_labels(f, H.reshape(p, m, n), outs, [f"{90 + k}:3" for k in range(m)],
+                               draw(st.sampled_from(["receptance", "accelerance"])), "m/N")
+
+
+@settings(max_examples=30, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])  # fmt: skip
+@given(frf_sets(), st.sampled_from([".npz", ".csv", ".mat", ".uff"]))
+def test_every_format_gives_back_what_it_was_given(tmp_path, data, suffix):
+    from femcal.testdata.formats import write_frf
+
+    try:
+        back = read_frf(write_frf(tmp_path / f"p{suffix}", data))
+    except FRFError as e:  # frequencies UFF's 6 significant digits cannot tell apart
+        assert suffix == ".uff" and "6 significant digits" in str(e)
+        return
+    # UFF's text has 12 significant digits for values, 6 for frequencies (E13.5)
+    uff = suffix == ".uff"
+    np.testing.assert_allclose(back.frequency_hz, data.frequency_hz, rtol=1e-5 if uff else 0)
+    np.testing.assert_allclose(back.H, data.H, rtol=1e-11 if uff else 0, atol=0)
+    assert back.quantity == data.quantity and len(back.outputs) == len(data.outputs)

@@ -26,6 +26,15 @@ class ConfigError(FemcalError, ValueError):
     A :class:`ValueError` too, so that callers catching ValueError keep working."""
 
 
+class FRFError(FemcalError, ValueError):
+    """FRF data that cannot be used: a file that is not what its suffix says, or a data set
+    that breaks what an FRF set is (finite, strictly increasing frequencies; finite complex
+    values on a complete outputs x inputs grid; channels that measured something). The
+    message names the file (or the data set), where in it (line, dataset, variable), the
+    channel and what was expected. A ValueError as well, so that callers which catch
+    ValueError for bad input keep doing so."""
+
+
 class ResourceError(FemcalError):
     """A request would need more memory (or another resource) than the machine has; raised
     before allocating."""

@@ -6,18 +6,22 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..assembly import Options, assemble
+from ..errors import ResourceError
 from ..model import EigenRequest
 from ..model.build import load_model
+from ..resources import check_memory
 from ..response.frf import modal_frf, point_matrix, residual_flexibility
 from ..response.modal import QUANTITIES
 from ..solve.normal_modes import solve_normal_modes
 from ..testdata.data import FRFData
 from ..testdata.formats import format_of, write_frf
+from .paths import file_in_the_way
 
 
 def _point(text: str) -> tuple[int, int]:
@@ -30,14 +34,42 @@ def _point(text: str) -> tuple[int, int]:
         ) from None
 
 
-def _band(text: str) -> np.ndarray:
+@dataclass(frozen=True)
+class Grid:
+    """The frequency grid of ``--freq F1:F2:DF`` (Hz): F1, F1 + DF, ... up to F2; ``text``
+    as given."""
+
+    f1: float
+    f2: float
+    df: float
+    text: str
+
+    def problem(self) -> str | None:
+        """What is wrong with the grid, or None."""
+        if not all(np.isfinite(v) for v in (self.f1, self.f2, self.df)):
+            return "expected finite numbers"
+        if not (0 <= self.f1 < self.f2 and self.df > 0):
+            return "expected 0 <= F1 < F2 and DF > 0"
+        return None
+
+    def count(self) -> int:
+        """Number of frequencies (a finite grid, see :meth:`problem`)."""
+        return int(np.floor((self.f2 - self.f1) / self.df + 1e-9)) + 1
+
+    def frequencies(self) -> np.ndarray:
+        """The grid (n,), Hz."""
+        return self.f1 + self.df * np.arange(self.count())
+
+    def __str__(self) -> str:
+        return self.text
+
+
+def _band(text: str) -> Grid:
     try:
         f1, f2, df = (float(v) for v in text.split(":"))
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r}: expected F1:F2:DF in Hz") from None
-    if not (0 <= f1 < f2 and df > 0):
-        raise argparse.ArgumentTypeError(f"{text!r}: expected 0 <= F1 < F2 and DF > 0")
-    return f1 + df * np.arange(int(np.floor((f2 - f1) / df + 1e-9)) + 1)
+    return Grid(f1, f2, df, text)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -94,6 +126,43 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
 
 
+#: Bytes per value of H (complex128) and the number of (k, n_freq) complex arrays the modal
+#: sum makes (the modal factors, their denominators and the product in einsum).
+_BYTES, _MODAL_ARRAYS = 16, 3
+
+
+def _count(n: int) -> str:
+    """``999,999,999,001``, or ``1e+300`` for a number too long to read."""
+    return f"{n:,}" if n < 10**15 else f"{float(n):.3g}"
+
+
+def _check(args: argparse.Namespace) -> str | None:
+    """What is wrong with the arguments, as one line, or None; checked before the deck is
+    read, and the grid against the memory before anything is allocated."""
+    grid: Grid = args.freq
+    problem = grid.problem()
+    if problem:
+        return f"--freq {grid}: {problem}"
+    if not (np.isfinite(args.damping) and 0 <= args.damping < 1):
+        return f"--damping {args.damping:g}: expected a damping ratio 0 <= Z < 1 (0.02 is 2 %)"
+    if args.modes_to is not None and not (np.isfinite(args.modes_to) and args.modes_to > 0):
+        return f"--modes-to {args.modes_to:g}: expected a frequency above 0 Hz"
+    if args.out.is_dir():
+        return f"--out {args.out}: is a directory; expected a file name"
+    blocked = file_in_the_way(args.out)
+    if blocked is not None:
+        return f"--out {args.out}: {blocked} is a file, not a directory"
+    try:
+        format_of(args.out, "frf", writing=True)
+    except ValueError as e:
+        return f"--out {e}"
+    n = grid.count()
+    check_memory(float(n) * (_BYTES * len(args.output) * len(args.input) + 8),
+                 f"--freq {grid} ({_count(n)} frequencies) for {len(args.output)} outputs x "
+                 f"{len(args.input)} inputs")  # fmt: skip
+    return None
+
+
 def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
 
@@ -101,9 +170,11 @@ def run(args: argparse.Namespace) -> int:
         print(f"[{time.perf_counter() - t0:7.1f} s] {msg}", file=sys.stderr, flush=True)
 
     try:
-        format_of(args.out, "frf", writing=True)
-    except ValueError as e:
-        print(f"femcal frf: --out {e}", file=sys.stderr)
+        problem = _check(args)
+    except ResourceError as e:
+        problem = str(e)
+    if problem:
+        print(f"femcal frf: {problem}", file=sys.stderr)
         return 2
     progress(f"reading {args.deck}")
     model = load_model(args.deck)
@@ -113,12 +184,26 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as e:
         print(f"femcal frf: {e}", file=sys.stderr)
         return 2
-    f = args.freq
-    top = args.modes_to if args.modes_to is not None else 2.0 * float(f[-1])
+    grid: Grid = args.freq
+    top = args.modes_to if args.modes_to is not None else 2.0 * grid.f2
     mats = assemble(model, Options())
     modes, red = solve_normal_modes(model, matrices=mats, request=EigenRequest(v2=top, nd=None),
                                     progress=progress)  # fmt: skip
     progress(f"{len(modes.eigenvalues)} modes up to {top:g} Hz")
+    if len(modes.eigenvalues) == 0 and not args.residual:
+        print(f"femcal frf: no mode up to {top:g} Hz: every FRF would be zero; expected "
+              "--modes-to above the first mode, or --residual", file=sys.stderr)  # fmt: skip
+        return 2
+    n = grid.count()
+    try:
+        check_memory(float(n) * _BYTES * (len(args.output) * len(args.input)
+                                          + _MODAL_ARRAYS * len(modes.eigenvalues)),
+                     f"--freq {grid} ({_count(n)} frequencies) for {len(args.output)} outputs x "
+                     f"{len(args.input)} inputs and {len(modes.eigenvalues)} modes")
+    except ResourceError as e:
+        print(f"femcal frf: {e}", file=sys.stderr)
+        return 2
+    f = grid.frequencies()
     R = None
     if args.residual:
         keep = modes.radians > 0

@@ -12,10 +12,12 @@ import numpy as np
 
 from ..errors import message
 from ..identify import Settings, identify
+from ..identify.workflow import MAX_ORDER
 from ..io.identified import write_model, write_summary
 from ..testdata.data import convert_units
 from ..testdata.formats import read_frf
 from ..testdata.formats.npz import write_npz
+from .paths import file_in_the_way
 
 
 def _order(text: str) -> int | None:
@@ -60,12 +62,48 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "test-against-model overlays and the stabilisation diagrams (PNG)")  # fmt: skip
 
 
+def _check(args: argparse.Namespace) -> str | None:
+    """What is wrong with the arguments, as one line, or None; checked before the file is
+    read so that a mistyped option costs nothing."""
+    f1, f2 = args.band
+    if not (np.isfinite(f1) and np.isfinite(f2) and 0 < f1 < f2):
+        return f"--band {f1:g} {f2:g}: expected 0 < F1 < F2 (Hz, finite)"
+    bad = [x for x in args.split if not (np.isfinite(x) and f1 < x < f2)]
+    if bad:
+        return f"--split {bad[0]:g}: expected a frequency inside the band {f1:g}-{f2:g} Hz"
+    if not (np.isfinite(args.gamma) and args.gamma > 1):
+        return (f"--gamma {args.gamma:g}: expected a number above 1 (residual poles at GAMMA "
+                "times the upper band edge and at F1 / GAMMA, outside the band)")
+    if not (np.isfinite(args.beta) and args.beta > args.gamma):
+        return (f"--beta {args.beta:g}: expected a number above --gamma ({args.gamma:g}): the "
+                "far residual pole sits at BETA times the upper band edge")
+    if not 2 <= args.max_order <= MAX_ORDER:
+        return f"--max-order {args.max_order}: expected a whole number from 2 to {MAX_ORDER}"
+    n_parts = len(args.split) + 1
+    if args.order is not None and len(args.order) not in (1, n_parts):
+        return (f"--order: {len(args.order)} orders for {n_parts} parts; expected one for "
+                "every part or one per part")
+    if args.out is not None and args.out.exists() and not args.out.is_dir():
+        return f"--out {args.out}: exists and is not a directory; expected a directory"
+    if args.json is not None and args.json.is_dir():
+        return f"--json {args.json}: is a directory; expected a file name"
+    for name, path in (("--out", args.out), ("--json", args.json)):
+        blocked = None if path is None else file_in_the_way(path)
+        if blocked is not None:
+            return f"{name} {path}: {blocked} is a file, not a directory"
+    return None
+
+
 def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
 
     def progress(msg: str) -> None:
         print(f"[{time.perf_counter() - t0:7.1f} s] {msg}", file=sys.stderr, flush=True)
 
+    problem = _check(args)
+    if problem:
+        print(f"femcal identify: {problem}", file=sys.stderr)
+        return 2
     try:
         data = read_frf(args.frf)
         if args.units:
@@ -80,14 +118,14 @@ def run(args: argparse.Namespace) -> int:
     orders = args.order
     if orders is not None and len(orders) == 1:
         orders = orders * n_parts
-    settings = Settings(gamma=args.gamma, beta=args.beta,
-                        lower_residual=not args.no_lower_residual,
-                        feedthrough=not args.no_feedthrough, max_order=args.max_order)  # fmt: skip
     try:
+        settings = Settings(gamma=args.gamma, beta=args.beta,
+                            lower_residual=not args.no_lower_residual,
+                            feedthrough=not args.no_feedthrough, max_order=args.max_order)
         model = identify(data, tuple(args.band), splits=args.split, orders=orders,
                          settings=settings, progress=progress)  # fmt: skip
     except ValueError as e:
-        print(f"femcal identify: {e}", file=sys.stderr)
+        print(f"femcal identify: {args.frf}: {message(e)}", file=sys.stderr)
         return 2
     print(f"{'mode':>5} {'frequency (Hz)':>15} {'damping (%)':>12}")
     for k, (f, z) in enumerate(zip(model.frequency_hz, model.damping_ratio, strict=True)):

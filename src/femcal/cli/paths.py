@@ -11,6 +11,15 @@ class UsageError(FemcalError):
     """A command-line argument that cannot be used (exit status 2)."""
 
 
+def file_in_the_way(path: Path) -> Path | None:
+    """The nearest existing parent of ``path`` if it is not a directory (the output could
+    not be made there), else None."""
+    for parent in path.parents:
+        if parent.exists():
+            return None if parent.is_dir() else parent
+    return None
+
+
 def output_folder(path: Path | None, option: str) -> Path | None:
     """``path`` if it is a folder or can become one; a :class:`UsageError` naming ``option``
     if it is an existing file (or under one)."""

@@ -23,6 +23,7 @@ import numpy as np
 
 from ..correlate.shapes import mac
 from ..response.statespace import poles_to_modal
+from ..testdata.data import FRFError
 from .lsq import lsfd
 from .subspace import default_block_rows, model_of_order, subspace_basis
 
@@ -80,7 +81,14 @@ def stabilization(freq_hz: np.ndarray, H: np.ndarray, band: tuple[float, float],
                   tol_damping: float = 0.2, tol_mac: float = 0.95,
                   min_share: float = 0.5, stable_system: bool = True) -> Stabilization:  # fmt: skip
     """Identify models of each order in ``orders`` from H (p, m, K) on the band's
-    frequencies and classify their poles (see the module docstring)."""
+    frequencies and classify their poles (see the module docstring); orders the data cannot
+    support are left out.
+
+    Raises
+    ------
+    FRFError
+        When the data support not even the lowest order (too few frequencies and outputs).
+    """
     f = np.asarray(freq_hz, float)
     sel = (f >= band[0]) & (f <= band[1])
     orders = sorted(set(int(n) for n in orders))
@@ -91,6 +99,11 @@ def stabilization(freq_hz: np.ndarray, H: np.ndarray, band: tuple[float, float],
     Hb = H[:, :, sel]
     s_k = 2j * np.pi * f[sel]
     basis = subspace_basis(f[sel], Hb, q)
+    if orders[0] > basis.max_order():
+        raise FRFError(f"band {band[0]:g}-{band[1]:g} Hz: {int(sel.sum())} frequencies and "
+                       f"{p} output(s) allow models up to order {basis.max_order()}; the "
+                       f"stabilisation diagram needs order {orders[0]}: expected more "
+                       "frequencies (or outputs) in the band")  # fmt: skip
     orders = [n for n in orders if n <= basis.max_order()]
     result: list[OrderPoles] = []
     prev = None
@@ -112,17 +125,25 @@ def stabilization(freq_hz: np.ndarray, H: np.ndarray, band: tuple[float, float],
 
 
 def _misfit(A: np.ndarray, s: np.ndarray, H: np.ndarray) -> float:
-    """Relative misfit of the least-squares residues of A's complex poles (with D)."""
+    """Relative misfit of the least-squares residues of A's complex poles (with D); infinite
+    when the fit cannot be made (a pole on a data frequency makes its regressor infinite: an
+    order with such a pole is never the automatic one)."""
     lam = np.linalg.eigvals(A)
     lam = lam[lam.imag > 0]
     if len(lam) == 0:
         return 1.0
-    residues, D = lsfd(s, H, lam)
-    g = 1.0 / (s[None, :] - lam[:, None])
-    g2 = 1.0 / (s[None, :] - np.conj(lam)[:, None])
-    Hf = np.einsum("jpm,jk->pmk", residues, g) + np.einsum("jpm,jk->pmk", residues.conj(), g2)
-    Hf = Hf + D[:, :, None]
-    return float(np.linalg.norm(Hf - H) / np.linalg.norm(H))
+    with np.errstate(all="ignore"):
+        g = 1.0 / (s[None, :] - lam[:, None])
+        g2 = 1.0 / (s[None, :] - np.conj(lam)[:, None])
+        if not (np.isfinite(g).all() and np.isfinite(g2).all()):
+            return np.inf
+        try:
+            residues, D = lsfd(s, H, lam)
+        except np.linalg.LinAlgError:
+            return np.inf
+        Hf = np.einsum("jpm,jk->pmk", residues, g) + np.einsum("jpm,jk->pmk", residues.conj(), g2)
+        misfit = float(np.linalg.norm(Hf + D[:, :, None] - H) / np.linalg.norm(H))
+    return misfit if np.isfinite(misfit) else np.inf
 
 
 def _mode_groups(result: list[OrderPoles], tol: float, min_share: float) -> np.ndarray:

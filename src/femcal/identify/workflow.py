@@ -38,7 +38,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..response.statespace import StateSpace, frequency_response, poles_to_modal
-from ..testdata.data import Channel, FRFData
+from ..testdata.data import Channel, FRFData, FRFError
 from .channels import consistency_error, outliers
 from .lsq import FixedPoleModel, Resolvent, fit_c, fit_fixed_poles, response
 from .stabilization import Stabilization, physical_poles, poles_at_modes, stabilization
@@ -46,6 +46,11 @@ from .subspace import default_block_rows, model_of_order, subspace_basis
 
 #: Highest model order of a part (and at most half its frequencies).
 MAX_ORDER = 200
+#: Largest band edge (Hz), largest ratio of the band's edges, and largest magnitude of a
+#: nonzero FRF value (smallest: its inverse) that identification takes: bounds no
+#: structural test comes near, inside which the scaling, the bilinear map about the band's
+#: geometric centre and the powers of the frequency stay far from overflow and round-off.
+MAX_HZ, MAX_SPAN, MAX_ABS = 1e9, 1e12, 1e100
 
 
 @dataclass(frozen=True)
@@ -84,6 +89,31 @@ class Settings:
     suspect_floor: float = 0.1
     exclude_suspects: bool = True
     frequency_weighting: bool = True
+
+    def __post_init__(self) -> None:
+        """Refuse settings that make no sense (ValueError naming the setting and what is
+        expected): the residual poles must lie outside the band (gamma > 1) and apart
+        (beta > gamma), damping ratios between 0 and 1, orders and counts positive."""
+        checks = [
+            (self.gamma > 1, "gamma", self.gamma, "a number above 1 (the residual poles sit "
+             "at gamma times the upper band edge and the lower edge / gamma, outside the "
+             "band)"),
+            (self.beta > self.gamma, "beta", self.beta, f"a number above gamma = {self.gamma} "
+             "(the far residual pole sits at beta times the upper band edge)"),
+            (0 < self.residual_damping < 1, "residual_damping", self.residual_damping,
+             "a damping ratio between 0 and 1"),
+            (0 < self.zeta_max <= 1, "zeta_max", self.zeta_max, "a damping ratio in (0, 1]"),
+            (2 <= self.max_order <= MAX_ORDER, "max_order", self.max_order,
+             f"a whole number from 2 to {MAX_ORDER}"),
+            (self.max_iter >= 1, "max_iter", self.max_iter, "at least 1"),
+            (self.tol > 0, "tol", self.tol, "a positive number"),
+            (self.suspect_factor > 0, "suspect_factor", self.suspect_factor, "a positive number"),
+            (self.suspect_floor >= 0, "suspect_floor", self.suspect_floor, "0 or more"),
+        ]
+        for ok, name, value, expected in checks:
+            if not (ok and np.isfinite(value)):
+                raise ValueError(f"identification setting {name} = {value!r}: expected "
+                                 f"{expected}")  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -168,6 +198,70 @@ def _scales(H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return so, si
 
 
+def check_band_data(data: FRFData, band: tuple[float, float]) -> None:
+    """Refuse FRFs that cannot be identified over ``band``: a band edge above
+    :data:`MAX_HZ` or edges further apart than :data:`MAX_SPAN` times, a value that is not
+    finite or whose magnitude lies outside 1 / :data:`MAX_ABS` to :data:`MAX_ABS` (other
+    than 0), an output or input that is zero throughout (a dead or unconnected channel: its
+    fit and scaling are undefined), or an output whose FRFs have no imaginary part (real
+    values: magnitudes without phase, or an undamped model).
+
+    Raises
+    ------
+    FRFError
+        Naming the channels, the band, and (for a bad value) the output, input and
+        frequency.
+    """
+    f = np.asarray(data.frequency_hz)
+    sel = (f >= band[0]) & (f <= band[1])
+    H = np.asarray(data.H)[:, :, sel]
+    span = f"in the band {band[0]:g}-{band[1]:g} Hz"
+    if band[1] > MAX_HZ:
+        raise FRFError(f"band {band[0]:g}-{band[1]:g} Hz: expected an upper edge of at most "
+                       f"{MAX_HZ:g} Hz (structural FRFs; above it the powers of the "
+                       "frequency that the fits use overflow)")  # fmt: skip
+    if band[1] > MAX_SPAN * band[0]:
+        raise FRFError(f"band {band[0]:g}-{band[1]:g} Hz: expected an upper edge at most "
+                       f"{MAX_SPAN:g} times the lower (the subspace method maps the band about "
+                       "its geometric centre; wider, the round-off swamps the modes)")
+    size = np.abs(H)
+    bad = ~np.isfinite(H) | (size > MAX_ABS) | ((size < 1 / MAX_ABS) & (size > 0))
+    if bad.any():
+        o, i, k = (int(x) for x in np.argwhere(bad)[0])
+        n = int(bad.sum())
+        raise FRFError(f"output {data.outputs[o].label} / input {data.inputs[i].label} at "
+                       f"{f[sel][k]:g} Hz: H is {complex(H[o, i, k])} ({n} such value"
+                       f"{'s' if n > 1 else ''} {span}); expected finite complex values of "
+                       f"magnitude {1 / MAX_ABS:g} to {MAX_ABS:g} (or 0): beyond that no FRF "
+                       "is physical in any unit, and the channel scaling overflows")  # fmt: skip
+
+    def named(kind: str, channels: tuple[Channel, ...], which: np.ndarray) -> str:
+        """``output 4:3 is`` or ``outputs 4:3, 5:3 are`` (the first ten, then how many more;
+        ``(every output)`` when all are)."""
+        labels = [channels[k].label for k in np.flatnonzero(which)]
+        more = f" and {len(labels) - 10} more" if len(labels) > 10 else ""
+        every = f" (every {kind})" if which.all() and len(labels) > 1 else ""
+        if len(labels) == 1:
+            return f"{kind} {labels[0]} is"
+        return f"{kind}s {', '.join(labels[:10])}{more}{every} are"
+
+    zero_out = ~np.any(H != 0, axis=(1, 2))
+    if zero_out.any():
+        raise FRFError(f"{named('output', data.outputs, zero_out)} zero at every input and "
+                       f"frequency {span}: a dead or unconnected sensor? expected measured "
+                       "FRFs; remove the channel or fix the data")  # fmt: skip
+    zero_in = ~np.any(H != 0, axis=(0, 2))
+    if zero_in.any():
+        raise FRFError(f"{named('input', data.inputs, zero_in)} zero at every output and "
+                       f"frequency {span}: expected measured FRFs; remove the input or fix "
+                       "the data")  # fmt: skip
+    real = ~np.any(H.imag != 0, axis=(1, 2))
+    if real.any():
+        raise FRFError(f"{named('output', data.outputs, real)} real (no imaginary part) "
+                       f"{span}: identification needs complex FRFs (magnitude and phase), "
+                       "not magnitudes or real parts alone")  # fmt: skip
+
+
 def _dedupe(found: list[tuple[complex, tuple[float, float]]]) -> np.ndarray:
     """Poles found in several parts kept once: the one farthest (relatively) from its part's
     edges; poles closer than 0.5 % in frequency and 20 % in damping count as one."""
@@ -209,18 +303,22 @@ def identify(data: FRFData, band: tuple[float, float], *,
 
     Raises
     ------
+    FRFError
+        For data that cannot be identified over the band (:func:`check_band_data`), a band
+        outside the data, a part with fewer than 4 frequencies, or an order a part's
+        frequencies cannot support.
     ValueError
-        For a band outside the data, splits outside the band, a part without data, or an
-        order list of the wrong length.
+        For a band that is not 0 < f_lo < f_hi, splits outside the band, or an order list of
+        the wrong length.
     """
     s = settings or Settings()
     say = progress or (lambda _msg: None)
     f_all = np.asarray(data.frequency_hz, float)
     lo, hi = float(band[0]), float(band[1])
-    if not (lo < hi) or lo <= 0:
-        raise ValueError(f"band {lo}-{hi} Hz: expected 0 < f_lo < f_hi")
+    if not (lo < hi) or lo <= 0 or not np.isfinite(hi):
+        raise ValueError(f"band {lo}-{hi} Hz: expected 0 < f_lo < f_hi, finite")
     if lo < f_all[0] * (1 - 1e-12) or hi > f_all[-1] * (1 + 1e-12):
-        raise ValueError(f"band {lo}-{hi} Hz lies outside the data ({f_all[0]}-{f_all[-1]} Hz)")
+        raise FRFError(f"band {lo}-{hi} Hz lies outside the data ({f_all[0]}-{f_all[-1]} Hz)")
     edges = [lo, *sorted(float(x) for x in splits), hi]
     if any(not (lo < x < hi) for x in edges[1:-1]):
         raise ValueError(f"splits {list(splits)} must lie inside the band {lo}-{hi} Hz")
@@ -231,6 +329,7 @@ def identify(data: FRFData, band: tuple[float, float], *,
         part_orders = list(orders)
         if len(part_orders) != n_parts:
             raise ValueError(f"{len(part_orders)} orders for {n_parts} parts")
+    check_band_data(data, (lo, hi))
     sel = (f_all >= lo) & (f_all <= hi)
     f = f_all[sel]
     so, si = _scales(data.H[:, :, sel])
@@ -281,7 +380,8 @@ def _identify_pass(data: FRFData, f: np.ndarray, Hs: np.ndarray, so: np.ndarray,
     for a, b, n in zip(edges[:-1], edges[1:], part_orders, strict=True):
         ps = (f >= a) & (f <= b)
         if ps.sum() < 4:
-            raise ValueError(f"part {a}-{b} Hz holds {ps.sum()} frequencies; need at least 4")
+            raise FRFError(f"part {a:g}-{b:g} Hz holds {ps.sum()} frequencies; expected at "
+                           "least 4")  # fmt: skip
         # the subspace step sees the part scaled on its own (its poles do not depend on it)
         po, pi = _scales(Hu[:, :, ps])
         Hp = Hu[:, :, ps] / po[:, None, None] / pi[None, :, None]
@@ -297,8 +397,8 @@ def _identify_pass(data: FRFData, f: np.ndarray, Hs: np.ndarray, so: np.ndarray,
             n_use = int(n)
             limit = min(MAX_ORDER, int(ps.sum()) // 2)
             if not 1 <= n_use <= limit:
-                raise ValueError(f"order {n_use} is outside 1..{limit} for part {a:g}-{b:g} "
-                                 f"Hz ({ps.sum()} frequencies)")  # fmt: skip
+                raise FRFError(f"order {n_use} is outside 1..{limit} for part {a:g}-{b:g} "
+                               f"Hz ({ps.sum()} frequencies)")  # fmt: skip
             basis = subspace_basis(f[ps], Hp, default_block_rows(n_use, p))
             A, C = model_of_order(basis, n_use, stable=s.stable)
             lam, _ = physical_poles(A, C, (a, b), s.zeta_max)

@@ -23,17 +23,24 @@ useless for assembling a MIMO set.
 
 The values are returned in the display unit of the file (``unit_transformation`` applied),
 the unit recorded in :attr:`FRFData.units`; :func:`femcal.testdata.data.convert_units` changes it.
+A block without ``unit_transformation.factor`` holds SI values whatever its label says: they
+are returned in the SI unit of the label's quantity (``m/s^2/N`` for ``g/N``). Structs that
+are not function blocks, and blocks of another function type, are skipped with a
+:class:`~femcal.errors.FemcalWarning`; other variables (notes) are skipped.
 """
 
 from __future__ import annotations
 
 import os
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-from ..data import FRFData, quantity_of_units
+from ...errors import FemcalWarning
+from ..data import FRFData, FRFError, check_frequencies, frf_of, quantity_of_units
+from .mat5 import check_mat5
 
 _POINT = re.compile(r"^(?:.*:)?\s*[A-Za-z_]*\s*(\d+)\s*:\s*([+-]?(?:R?[XYZ]|[1-6]))\s*$", re.I)
 
@@ -63,53 +70,142 @@ _FUNCTION = re.compile(rf"^\s*(?:FRF\s+)?(?P<resp>[^/]+?:\s*{_DIR})\s*/\s*(?P<re
 def split_function_name(name: str, where: str) -> tuple[str, str]:
     """(response, reference) labels of an FRF channel name ``resp/ref``, e.g.
     ``FRF Point12:+Z/Point1:+Y (g/N)`` -> (``12:+Z``, ``1:+Y``); the LMS prefix ``FRF`` and
-    anything after the reference's direction and a space are dropped."""
+    anything after the reference's direction and a space are dropped.
+
+    Raises
+    ------
+    FRFError
+        For a name that is not response/reference, naming ``where``.
+    """
     m = _FUNCTION.match(name)
     if not m:
-        raise ValueError(f"{where}: channel name {name!r} is not 'point:direction/"
-                         "point:direction' (response/reference, e.g. 'Point12:+Z/Point1:+Y')")
+        raise FRFError(f"{where}: channel name {name!r} is not 'point:direction/"
+                       "point:direction' (response/reference, e.g. 'Point12:+Z/Point1:+Y')")
     return channel_label(m.group("resp")), channel_label(m.group("ref"))
 
 
-def _scalar(block: dict, *keys: str, where: str) -> float:
-    v = block
+def load_mat(path: str | os.PathLike[str], **options: object) -> dict:
+    """``scipy.io.loadmat(path, **options)`` once :func:`~femcal.testdata.formats.mat5.
+    check_mat5` has found nothing in the file that would crash SciPy's reader; FRFError
+    naming the file for one that cannot be read (not a MATLAB file, a damaged one, version
+    7.3)."""
+    import scipy.io
+
+    check_mat5(path)
+    try:
+        return scipy.io.loadmat(str(path), **options)
+    except Exception as e:  # a damaged file makes SciPy fail in many ways
+        raise FRFError(f"{path}: not a readable MATLAB file ({type(e).__name__}: {e}); "
+                       "expected MATLAB version 5 to 7.2") from e  # fmt: skip
+
+
+def _field(block: dict, keys: tuple[str, ...], where: str) -> object:
+    """block[k1][k2]...; FRFError naming the dotted field when one is missing."""
+    v: object = block
     for k in keys:
         if not isinstance(v, dict) or k not in v:
-            raise KeyError(f"{where}: missing {'.'.join(keys)}")
+            raise FRFError(f"{where}: missing {'.'.join(keys)}")
         v = v[k]
-    return float(np.asarray(v, float).reshape(-1)[0])
+    return v
 
 
-def _abscissa(block: dict, where: str) -> np.ndarray:
-    xv = block["x_values"]
+def _number(value: object, field: str, where: str, default: float | None = None) -> float:
+    """One finite real number (a scalar or a one-element array); FRFError naming the field
+    otherwise. ``default`` stands for an empty value when given."""
+    arr = np.asarray(value)
+    if arr.size == 0 and default is not None:
+        return default
+    if arr.size != 1 or arr.dtype.kind not in "iuf" or not np.isfinite(arr).all():
+        shown = (repr(arr.reshape(-1)[0].item()) if arr.size == 1
+                 else f"an array of shape {arr.shape}")  # fmt: skip
+        raise FRFError(f"{where}: {field} is {shown}; expected one finite number")
+    return float(arr.reshape(-1)[0])
+
+
+def _values(block: dict, where: str) -> np.ndarray:
+    """y_values.values as (n_values, n_channels) or (n_channels, n_values) complex: as
+    stored (a vector is one channel); FRFError for real, non-numeric or 3-D values."""
+    y = np.asarray(_field(block, ("y_values", "values"), where))
+    what = f"{where}: y_values.values"
+    if y.dtype.kind in "iuf":
+        raise FRFError(f"{what} holds real ({y.dtype}) values; expected complex FRFs (real "
+                       "and imaginary parts): identification and calibration need the phase, "
+                       "which magnitudes alone do not give")  # fmt: skip
+    if y.dtype.kind != "c":
+        raise FRFError(f"{what} holds {y.dtype} values; expected complex numbers")
+    if y.ndim > 2 or y.size == 0:
+        raise FRFError(f"{what} has shape {y.shape}; expected (n_values, n_channels)")
+    return y.reshape(-1, 1) if y.ndim < 2 else y
+
+
+def _abscissa(block: dict, y: np.ndarray, where: str) -> tuple[np.ndarray, np.ndarray]:
+    """(abscissa (n,), y as (n, n_channels)): the stored abscissae (uneven spacing) or
+    start + increment * k; y is turned to frequencies down the rows to match them.
+
+    Raises
+    ------
+    FRFError
+        For a missing or non-numeric field, or a number of abscissae that neither
+        dimension of y has.
+    """
+    xv = _field(block, ("x_values",), where)
     if isinstance(xv, dict) and "values" in xv and np.size(xv["values"]) > 0:
-        return np.asarray(xv["values"], float).reshape(-1)
-    start = _scalar(block, "x_values", "start_value", where=where)
-    step = _scalar(block, "x_values", "increment", where=where)
-    n = int(_scalar(block, "x_values", "number_of_values", where=where))
-    return start + step * np.arange(n)
+        x = np.asarray(xv["values"])
+        if x.dtype.kind not in "iuf":
+            raise FRFError(f"{where}: x_values.values holds {x.dtype} values; expected "
+                           "frequencies in Hz")  # fmt: skip
+        x = x.reshape(-1).astype(float)
+        n = len(x)
+    else:
+        start = _number(_field(block, ("x_values", "start_value"), where),
+                        "x_values.start_value", where)  # fmt: skip
+        step = _number(_field(block, ("x_values", "increment"), where),
+                       "x_values.increment", where)  # fmt: skip
+        count = _number(_field(block, ("x_values", "number_of_values"), where),
+                        "x_values.number_of_values", where)  # fmt: skip
+        n = int(count) if count.is_integer() else -1
+        if n not in y.shape:  # checked before the abscissa is made: it may be huge
+            raise FRFError(f"{where}: x_values.number_of_values is {count:g}; expected the "
+                           f"number of values of y_values.values, shape {y.shape}")
+        x = start + step * np.arange(n)
+    if y.shape[0] != n:
+        if y.shape[1] != n:
+            raise FRFError(f"{where}: y_values.values has shape {y.shape}; expected "
+                           f"({n}, n_channels) for {n} abscissae")  # fmt: skip
+        y = y.T  # stored channels x frequencies
+    return x, y
 
 
 def _names(block: dict, n_channels: int, where: str) -> list[str]:
     rec = block.get("function_record")
     if not isinstance(rec, dict) or "name" not in rec:
-        raise KeyError(f"{where}: missing function_record.name (the channel names)")
+        raise FRFError(f"{where}: missing function_record.name (the channel names)")
     names = rec["name"]
     names = [names] if isinstance(names, str) else [str(s) for s in np.ravel(names)]
     if len(names) != n_channels:
-        raise ValueError(f"{where}: {len(names)} channel names for {n_channels} columns "
-                         "of y_values.values")  # fmt: skip
+        raise FRFError(f"{where}: {len(names)} channel names for {n_channels} columns "
+                       "of y_values.values")  # fmt: skip
     return names
 
 
-def _display_units(block: dict) -> tuple[str, float, float]:
-    q = block["y_values"].get("quantity") if isinstance(block["y_values"], dict) else None
+#: The SI unit of each quantity, for SI values.
+_SI = {"receptance": "m/N", "mobility": "m/s/N", "accelerance": "m/s^2/N"}
+
+
+def _display_units(block: dict, where: str) -> tuple[str, float, float]:
+    """(unit, factor, offset) of y_values.quantity: the display unit with its transformation
+    from SI; without a transformation factor the values are SI, and the unit is the SI unit
+    of the label's quantity (the label as it is if it names none)."""
+    q = block["y_values"].get("quantity")
     if not isinstance(q, dict):
         return "", 1.0, 0.0
     label = str(q.get("label", "")).strip()
     tr = q.get("unit_transformation")
-    factor = float(np.ravel(tr.get("factor", 1.0))[0]) if isinstance(tr, dict) else 1.0
-    offset = float(np.ravel(tr.get("offset", 0.0))[0]) if isinstance(tr, dict) else 0.0
+    if not isinstance(tr, dict) or "factor" not in tr:
+        return _SI.get(quantity_of_units(label) or "", label), 1.0, 0.0
+    field = "y_values.quantity.unit_transformation."
+    factor = _number(tr["factor"], field + "factor", where)
+    offset = _number(tr.get("offset", 0.0), field + "offset", where, 0.0)
     return label, factor, offset
 
 
@@ -129,57 +225,56 @@ def read_lms_mat(path: str | os.PathLike[str], *, quantity: str | None = None) -
 
     Raises
     ------
-    KeyError, ValueError
-        Naming the file, the struct and the field: no FRF block, a missing field, blocks on
-        different frequency axes or in different units, a channel name that is not
-        response/reference, an output/input pair measured twice or not at all.
+    FRFError
+        Naming the file, the struct and the field: no FRF block, a missing or malformed
+        field, real values, blocks on different frequency axes or in different units, a
+        channel name that is not response/reference, an output/input pair measured twice
+        or not at all, values that are not finite.
     """
-    import scipy.io
-
     path = Path(path)
-    z = scipy.io.loadmat(str(path), simplify_cells=True)
+    z = load_mat(path, simplify_cells=True)
     blocks = {k: v for k, v in z.items() if not k.startswith("__") and is_lms_block(v)}
+    for k, v in z.items():  # a struct that is no block may be a damaged one
+        if isinstance(v, dict) and not k.startswith("__") and k not in blocks:
+            warnings.warn(f"{path}: struct {k} is not a Test.Lab function block (no x_values "
+                          "and y_values): skipped", FemcalWarning, stacklevel=2)  # fmt: skip
     if not blocks:
-        raise KeyError(f"{path}: no Test.Lab function block (a struct with x_values and "
+        raise FRFError(f"{path}: no Test.Lab function block (a struct with x_values and "
                        "y_values)")  # fmt: skip
     f = None
+    first = ""
     units = None
     outs: dict[str, int] = {}
     ins: dict[str, int] = {}
     cells: dict[tuple[int, int], np.ndarray] = {}
     for var, block in blocks.items():
-        where = f"{path.name}: {var}"
+        where = f"{path}: {var}"
         rec = block.get("function_record")
         ftype = str(rec.get("type", "FRF")) if isinstance(rec, dict) else "FRF"
         if ftype.strip().upper() != "FRF":
+            warnings.warn(f"{where}: function_record.type {ftype!r}, not FRF: skipped",
+                          FemcalWarning, stacklevel=2)  # fmt: skip
             continue
-        x = _abscissa(block, where)
-        if not isinstance(block["y_values"], dict) or "values" not in block["y_values"]:
-            raise KeyError(f"{where}: missing y_values.values")
-        y = np.asarray(block["y_values"]["values"])
-        y = y.reshape(-1, 1) if y.ndim == 1 else y
-        if y.shape[0] != len(x):
-            if y.shape[1] == len(x):  # stored channels x frequencies
-                y = y.T
-            else:
-                raise ValueError(f"{where}: y_values.values has shape {y.shape}; "
-                                 f"expected ({len(x)}, n_channels)")  # fmt: skip
-        label, factor, offset = _display_units(block)
-        y = y.astype(complex) * factor + offset
+        if not isinstance(block["y_values"], dict):
+            raise FRFError(f"{where}: y_values is not a struct; expected one with a values "
+                           "field")  # fmt: skip
+        x, y = _abscissa(block, _values(block, where), where)
+        label, factor, offset = _display_units(block, where)
+        y = y * factor + offset
         if f is None:
-            f, units = x, label
+            f, units, first = x, label, var
         elif len(x) != len(f) or not np.allclose(x, f, rtol=1e-9, atol=1e-12):
-            raise ValueError(f"{where}: on another frequency axis than {next(iter(blocks))}")
+            raise FRFError(f"{where}: on another frequency axis than {first}")
         elif label != units:
-            raise ValueError(f"{where}: unit {label!r}, other blocks {units!r}")
+            raise FRFError(f"{where}: unit {label!r}, other blocks {units!r}")
         for c, name in enumerate(_names(block, y.shape[1], where)):
             o_lab, i_lab = split_function_name(name, where)
             key = (outs.setdefault(o_lab, len(outs)), ins.setdefault(i_lab, len(ins)))
             if key in cells:
-                raise ValueError(f"{where}: {o_lab}/{i_lab} appears twice")
+                raise FRFError(f"{where}: {o_lab}/{i_lab} appears twice")
             cells[key] = y[:, c]
     if f is None:
-        raise KeyError(f"{path}: no block with function_record.type FRF")
+        raise FRFError(f"{path}: no block with function_record.type FRF")
     H = np.full((len(outs), len(ins), len(f)), np.nan + 0j)
     for (o, i), v in cells.items():
         H[o, i] = v
@@ -187,11 +282,12 @@ def read_lms_mat(path: str | os.PathLike[str], *, quantity: str | None = None) -
         ol, il = list(outs), list(ins)
         missing = [f"{ol[o]}/{il[i]}" for o in range(len(ol)) for i in range(len(il))
                    if (o, i) not in cells]  # fmt: skip
-        raise ValueError(f"{path}: {len(missing)} output/input pairs have no FRF: "
-                         f"{', '.join(missing[:10])}")  # fmt: skip
+        raise FRFError(f"{path}: {len(missing)} output/input pairs have no FRF: "
+                       f"{', '.join(missing[:10])}")  # fmt: skip
     q = quantity or quantity_of_units(units or "")
     if q is None:
-        raise ValueError(f"{path}: cannot tell receptance, mobility or accelerance from the "
-                         f"unit {units!r}; give the quantity")  # fmt: skip
-    order = np.argsort(f, kind="stable")
-    return FRFData.from_labels(f[order], H[:, :, order], list(outs), list(ins), q, units or "")
+        raise FRFError(f"{path}: cannot tell receptance, mobility or accelerance from the "
+                       f"unit {units!r}; give the quantity")  # fmt: skip
+    check_frequencies(f, f"{path}: {first}: x_values")
+    return frf_of(str(path), f, H, list(outs), list(ins), q, units or "",
+                  names=("x_values", "y_values.values"))  # fmt: skip

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 
 from ...atomic import write_atomic
-from ..data import FRFData
-from .lms import read_lms_mat
+from ..data import FRFData, FRFError, frf_of
+from .lms import load_mat, read_lms_mat
 from .registry import Format, register
 
 
@@ -32,27 +32,40 @@ def write_mat(path: str | os.PathLike[str], data: FRFData) -> Path:
     return write_atomic(path, dump)
 
 
+#: The variables of femcal's own layout (``units`` is optional).
+_VARIABLES = ("frequency_hz", "H", "input_labels", "output_labels", "quantity")
+
+
 def read_mat(path: str | os.PathLike[str], *, quantity: str | None = None) -> FRFData:
     """Read a MATLAB file (version 5 to 7.2): what :func:`write_mat` writes, or the LMS
     Test.Lab export layout (structs with ``x_values`` and ``y_values``; see
-    :mod:`femcal.testdata.formats.lms`, where ``quantity`` is used). KeyError names a missing
-    variable."""
-    import scipy.io
+    :mod:`femcal.testdata.formats.lms`, where ``quantity`` is used).
 
-    z = scipy.io.loadmat(str(path), squeeze_me=True)
-    missing = {"frequency_hz", "H", "input_labels", "output_labels", "quantity"} - set(z)
+    Raises
+    ------
+    FRFError
+        Naming the file and the variable: not a MATLAB file, a missing variable, or values
+        that do not make an FRF set (see :func:`~femcal.testdata.data.frf_of`).
+    """
+    z = load_mat(path, squeeze_me=True)
+    missing = set(_VARIABLES) - set(z)
     if missing:
         if not any(isinstance(v, np.ndarray) and v.dtype.names and "x_values" in v.dtype.names
                    and "y_values" in v.dtype.names for v in z.values()):  # fmt: skip
-            raise KeyError(f"{path}: missing {', '.join(sorted(missing))} (and no Test.Lab "
+            raise FRFError(f"{path}: missing {', '.join(sorted(missing))} (and no Test.Lab "
                            "struct with x_values and y_values)")  # fmt: skip
         return read_lms_mat(path, quantity=quantity)
-    f = np.atleast_1d(np.asarray(z["frequency_hz"], float))
-    labels = lambda v: [str(s) for s in np.atleast_1d(v)]  # noqa: E731
-    outs, ins = labels(z["output_labels"]), labels(z["input_labels"])
-    H = np.asarray(z["H"], complex).reshape(len(outs), len(ins), len(f))
-    units = str(z["units"]) if "units" in z and np.size(z["units"]) else ""
-    return FRFData.from_labels(f, H, outs, ins, str(z["quantity"]), units)
+    f = np.atleast_1d(np.asarray(z["frequency_hz"]))
+    outs = np.atleast_1d(np.asarray(z["output_labels"], dtype=object))
+    ins = np.atleast_1d(np.asarray(z["input_labels"], dtype=object))
+    H = np.asarray(z["H"])
+    shape = (len(outs), len(ins), len(f))
+    if H.shape not in (shape, tuple(n for n in shape if n != 1)):  # squeeze_me drops 1s
+        raise FRFError(f"{path}: H has shape {H.shape}; expected (outputs, inputs, "
+                       f"frequencies) = {shape}")  # fmt: skip
+    texts = {k: str(z[k]) if np.size(z[k]) else "" for k in ("quantity", "units") if k in z}
+    return frf_of(str(path), f, H.reshape(shape), outs, ins, texts["quantity"],
+                  texts.get("units", ""))  # fmt: skip
 
 
 register(Format("mat", "frf", (".mat",), read_mat, write_mat,

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ...atomic import write_atomic
-from ..data import FRFData
+from ..data import FRFData, FRFError, frf_of
 from .registry import Format, register
 
 
@@ -27,21 +27,51 @@ def write_npz(path: str | os.PathLike[str], data: FRFData) -> Path:
     return write_atomic(path, dump)
 
 
+#: The arrays an FRF archive must hold (``units`` is optional).
+_KEYS = ("frequency_hz", "H", "output_labels", "input_labels", "quantity")
+
+
 def read_npz(path: str | os.PathLike[str]) -> FRFData:
-    """Read what :func:`write_npz` writes (``units`` optional); KeyError names a missing key."""
+    """Read what :func:`write_npz` writes (``units`` optional).
+
+    Raises
+    ------
+    FRFError
+        Naming the file: not an NPZ archive (or a damaged one), a missing key, or arrays
+        that do not make an FRF set (see :func:`~femcal.testdata.data.frf_of`: real or
+        non-finite H, frequencies not increasing, shapes that do not agree...).
+    """
     try:
         z = np.load(path, allow_pickle=False)
     except (ValueError, OSError, EOFError, zipfile.BadZipFile):
-        raise ValueError(f"{path}: not an NPZ archive of arrays") from None
+        raise FRFError(f"{path}: not an NPZ archive of arrays") from None
     if not hasattr(z, "files"):  # a single .npy array, not an archive
-        raise ValueError(f"{path}: not an NPZ archive of arrays")
+        raise FRFError(f"{path}: not an NPZ archive of arrays")
     with z:
-        missing = {"frequency_hz", "H", "input_labels", "output_labels", "quantity"} - set(z)
+        missing = sorted(set(_KEYS) - set(z.files))
         if missing:
-            raise KeyError(f"{path}: missing {', '.join(sorted(missing))}")
-        units = str(z["units"]) if "units" in z else ""
-        return FRFData.from_labels(z["frequency_hz"], z["H"], z["output_labels"],
-                                   z["input_labels"], str(z["quantity"]), units)  # fmt: skip
+            raise FRFError(f"{path}: missing {', '.join(missing)}; expected the arrays "
+                           f"{', '.join(_KEYS)} (and units)")  # fmt: skip
+        arrays = {}
+        for key in (*_KEYS, "units"):
+            if key not in z.files:
+                continue
+            try:  # members are read (and decompressed) only now
+                arrays[key] = z[key]
+            except Exception as e:  # a damaged member can fail in many ways
+                raise FRFError(f"{path}: array {key!r} cannot be read ({type(e).__name__}: "
+                               f"{e}); the archive is damaged") from e  # fmt: skip
+    text = {k: _text(arrays[k], k, path) for k in ("quantity", "units") if k in arrays}
+    return frf_of(str(path), arrays["frequency_hz"], arrays["H"], arrays["output_labels"],
+                  arrays["input_labels"], text["quantity"], text.get("units", ""))  # fmt: skip
+
+
+def _text(value: np.ndarray, key: str, path: str | os.PathLike[str]) -> str:
+    """One string stored as a 0-d (or one-element) array; FRFError naming the key otherwise."""
+    if value.dtype.kind not in "US" or value.size != 1:
+        raise FRFError(f"{path}: {key} is a {value.dtype} array of shape {value.shape}; "
+                       "expected one string")  # fmt: skip
+    return str(value.reshape(-1)[0])
 
 
 register(Format("npz", "frf", (".npz",), read_npz, write_npz, "NumPy archive (femcal's keys)"))

@@ -15,6 +15,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from ...errors import FemcalError, message
+from ..data import FRFError
+
 
 @dataclass(frozen=True)
 class Format:
@@ -91,9 +94,14 @@ def format_of(path: str | os.PathLike[str], kind: str, *, writing: bool = False)
 def read(path: str | os.PathLike[str], kind: str) -> object:
     """Read a file of ``kind`` by its suffix.
 
+    The readers raise :class:`~femcal.testdata.data.FRFError` (a ValueError) for a file
+    that is not what its suffix says, naming the file and what is wrong; a KeyError or
+    ValueError that a reader lets through is passed on as an FRFError naming the file too,
+    so that no reader's slip shows the user a bare message.
+
     Raises
     ------
-    ValueError
+    FRFError
         For an unknown suffix, or a file that is not what its suffix says (naming the file
         and what is wrong).
     FileNotFoundError
@@ -102,17 +110,28 @@ def read(path: str | os.PathLike[str], kind: str) -> object:
     from scipy.io.matlab import MatReadError
 
     path = Path(path)
-    fmt = format_of(path, kind)
     what = _WHAT.get(kind, kind)
+    try:
+        fmt = format_of(path, kind)
+    except ValueError as e:
+        raise FRFError(str(e)) from None
     if not path.is_file():
+        if path.is_dir():
+            raise IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR), str(path))
         raise FileNotFoundError(errno.ENOENT, os.strerror(errno.ENOENT), str(path))
     try:
         return fmt.read(path)
-    except (KeyError, ValueError) as e:  # the readers' own errors mostly name the file
-        msg = str(e).strip('"')
-        raise ValueError(msg if str(path) in msg else f"{path}: {msg}") from None
+    except FRFError as e:
+        if str(path) in str(e):
+            raise
+        raise FRFError(f"{path}: {e}") from e
+    except FemcalError:
+        raise
+    except (KeyError, ValueError) as e:
+        msg = message(e)
+        raise FRFError(msg if str(path) in msg else f"{path}: {msg}") from e
     except (OSError, EOFError, zipfile.BadZipFile, MatReadError) as e:
-        raise ValueError(f"{path}: not a readable {path.suffix} {what} file ({e})") from None
+        raise FRFError(f"{path}: not a readable {path.suffix} {what} file ({e})") from e
 
 
 def write(path: str | os.PathLike[str], data: object, kind: str) -> Path:

@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from ...atomic import write_atomic
-from ..data import FRFData
+from ...response.modal import QUANTITIES
+from ..data import FRFData, FRFError, frf_of
 from .registry import Format, register
 
 _CSV_HEAD = ["frequency_hz", "output", "input", "real", "imag"]
@@ -39,42 +40,125 @@ def _csv_rows(fh, data: FRFData) -> None:
 
 
 def read_csv(path: str | os.PathLike[str]) -> FRFData:
-    """Read what :func:`write_csv` writes; ValueError with the line for a bad row."""
-    text = Path(path).read_text()
+    """Read what :func:`write_csv` writes: an optional ``# quantity=Q units=U`` line, the
+    header, then one row per output, input and frequency, each exactly once, each line ended
+    by a line break (a last line without one is taken for a file cut short).
+
+    Raises
+    ------
+    FRFError
+        Naming the file and line: a last line without a line break, no header or no rows,
+        a row without 5 fields, a field that is not a number, a frequency or value that is
+        not finite (or a negative frequency), a row that repeats an output, input and
+        frequency, or an output, input and frequency that no row gives.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except UnicodeDecodeError as e:
+        raise FRFError(f"{path}: not a text file ({e})") from None
+    if text and not text.endswith("\n"):  # a writer ends every row; a cut file does not
+        raise FRFError(f"{path}:{text.count(chr(10)) + 1}: the last line does not end with a "
+                       "line break: is the file cut short? (if the line is whole, end it "
+                       "with a line break)")  # fmt: skip
     quantity, units = "receptance", ""
     first, _, rest = text.partition("\n")
+    skipped = 0  # lines before the CSV text
     if first.startswith("#"):  # "# quantity=Q units=U" (U may hold spaces)
         head, _, units = first[1:].partition(" units=")
         quantity = head.strip().removeprefix("quantity=") or quantity
         units = units.strip()
-        text = rest
-    rows = list(csv.reader(io.StringIO(text)))
-    if not rows or rows[0] != _CSV_HEAD:
-        raise ValueError(f"{path}: expected the header {','.join(_CSV_HEAD)}")
+        if quantity not in QUANTITIES:
+            raise FRFError(f"{path}:1: quantity {quantity!r}; expected "
+                           f"'# quantity=Q units=U' with Q one of {', '.join(QUANTITIES)}")
+        text, skipped = rest, 1
+    reader = csv.reader(io.StringIO(text))
+    freqs: list[float] = []
+    values: list[complex] = []
+    lines: list[int] = []
     outs: dict[str, int] = {}
     ins: dict[str, int] = {}
-    freqs: dict[float, int] = {}
-    values = []
-    for n, r in enumerate(rows[1:], start=2 + (first.startswith("#"))):
-        if len(r) != 5:
-            raise ValueError(f"{path}:{n}: expected 5 fields, found {len(r)}")
-        try:
-            f, re_, im = float(r[0]), float(r[3]), float(r[4])
-        except ValueError:
-            raise ValueError(f"{path}:{n}: frequency, real and imag must be numbers") from None
-        o = outs.setdefault(r[1], len(outs))
-        i = ins.setdefault(r[2], len(ins))
-        k = freqs.setdefault(f, len(freqs))
-        values.append((o, i, k, complex(re_, im)))
-    fs = np.array(sorted(freqs))
-    order = {f: j for j, f in enumerate(fs)}
-    kmap = np.array([order[f] for f in freqs])
-    H = np.full((len(outs), len(ins), len(fs)), np.nan + 0j)
-    for o, i, k, h in values:
-        H[o, i, kmap[k]] = h
-    if np.isnan(H.real).any():
-        raise ValueError(f"{path}: not every output, input and frequency has a value")
-    return FRFData.from_labels(fs, H, list(outs), list(ins), quantity, units)
+    pairs: list[tuple[int, int]] = []
+    header = None
+    try:
+        for r in reader:
+            n = reader.line_num + skipped
+            if header is None:
+                if r != _CSV_HEAD:
+                    raise FRFError(f"{path}:{n}: found {','.join(r)!r}; expected the header "
+                                   f"{','.join(_CSV_HEAD)}")  # fmt: skip
+                header = n
+                continue
+            if not r:  # a blank line
+                continue
+            if len(r) != 5:
+                raise FRFError(f"{path}:{n}: expected 5 fields ({','.join(_CSV_HEAD)}), "
+                               f"found {len(r)}")  # fmt: skip
+            freqs.append(_number(r[0], "frequency_hz", path, n))
+            values.append(complex(_number(r[3], "real", path, n), _number(r[4], "imag", path, n)))
+            pairs.append((outs.setdefault(r[1], len(outs)), ins.setdefault(r[2], len(ins))))
+            lines.append(n)
+    except csv.Error as e:
+        raise FRFError(f"{path}:{reader.line_num + skipped}: not CSV ({e})") from None
+    if header is None:
+        raise FRFError(f"{path}: no header; expected {','.join(_CSV_HEAD)}")
+    if not lines:
+        raise FRFError(f"{path}:{header}: no rows after the header; expected one row per "
+                       "output, input and frequency")  # fmt: skip
+    return _assemble(path, np.array(freqs), np.array(values), np.array(pairs),
+                     np.array(lines), list(outs), list(ins), quantity, units)  # fmt: skip
+
+
+def _number(text: str, field: str, path: Path, line: int) -> float:
+    """One field as a float; FRFError naming the file, line and field otherwise."""
+    try:
+        return float(text)
+    except ValueError:
+        raise FRFError(f"{path}:{line}: {field} {text!r} is not a number") from None
+
+
+def _assemble(path: Path, f: np.ndarray, h: np.ndarray, pairs: np.ndarray, lines: np.ndarray,
+              outs: list[str], ins: list[str], quantity: str, units: str) -> FRFData:  # fmt: skip
+    """The FRF set of the rows (frequency, value, (output, input) index, line each), every
+    output, input and frequency given once; FRFError naming the line otherwise."""
+    bad = np.flatnonzero(~np.isfinite(f) | (f < 0))
+    if bad.size:
+        k = bad[0]
+        raise FRFError(f"{path}:{lines[k]}: frequency_hz is {float(f[k])!r}; expected a finite, "
+                       "non-negative frequency in Hz")  # fmt: skip
+    bad = np.flatnonzero(~np.isfinite(h))
+    if bad.size:
+        k = bad[0]
+        o, i = pairs[k]
+        raise FRFError(f"{path}:{lines[k]}: output {outs[o]} / input {ins[i]} at {f[k]:g} Hz: "
+                       f"H is {h[k]}; expected finite real and imag")  # fmt: skip
+    fs, kf = np.unique(f, return_inverse=True)
+    n_o, n_i, n_f = len(outs), len(ins), len(fs)
+    key = np.column_stack([pairs, kf])  # (rows, 3): output, input, frequency index
+    order = np.lexsort(key.T[::-1])
+    sk = key[order]
+    same = np.flatnonzero((sk[1:] == sk[:-1]).all(axis=1))
+    if same.size:
+        a, b = np.sort(order[same[0]:same[0] + 2])
+        o, i = pairs[a]
+        raise FRFError(f"{path}:{lines[b]}: output {outs[o]} / input {ins[i]} at {f[a]:g} Hz "
+                       f"is given again (first on line {lines[a]}); expected each output, "
+                       "input and frequency once")  # fmt: skip
+    # sorted and without repeats, row j is cell j of the full grid until one is missing
+    j = np.arange(len(sk))
+    want = np.column_stack([j // (n_i * n_f), j // n_f % n_i, j % n_f])
+    gaps = np.flatnonzero((sk != want).any(axis=1))
+    if gaps.size or len(sk) < n_o * n_i * n_f:
+        o, i, k = want[gaps[0]] if gaps.size else (
+            (len(sk) // (n_i * n_f), len(sk) // n_f % n_i, len(sk) % n_f))  # fmt: skip
+        raise FRFError(f"{path}: output {outs[o]} / input {ins[i]} has no row at {fs[k]:g} Hz; "
+                       f"expected a row for each of the {n_o} outputs x {n_i} inputs x "
+                       f"{n_f} frequencies, found {len(lines)} rows")  # fmt: skip
+    total = len(sk)
+    cell = (pairs[:, 0] * n_i + pairs[:, 1]) * n_f + kf
+    H = np.empty(total, complex)
+    H[cell] = h
+    return frf_of(str(path), fs, H.reshape(n_o, n_i, n_f), outs, ins, quantity, units)
 
 
 register(Format("csv", "frf", (".csv",), read_csv, write_csv, "long-format CSV"))

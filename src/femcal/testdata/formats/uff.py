@@ -3,12 +3,16 @@
 from __future__ import annotations
 
 import os
+import re
+import warnings
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ...atomic import write_atomic
-from ..data import Channel, FRFData
+from ...errors import FemcalWarning
+from ..data import Channel, FRFData, FRFError, check_frequencies, frf_of, pair_names
 from .registry import Format, register
 
 #: UFF 58 ordinate data types of the response (per unit force, type 13 in the denominator).
@@ -33,14 +37,27 @@ def _uff_label(node: int, direction: int) -> str:
 def write_uff(path: str | os.PathLike[str], data: FRFData, *, binary: bool = False) -> Path:
     """UFF (universal file) with one dataset 58 per output and input (58b with ``binary``,
     about 2.5 times smaller), complex ordinates; channels must be ``GRID:DIR`` (direction
-    codes 1-6 or signed axes)."""
+    codes 1-6 or signed axes), and there must be 2 frequencies at least. The frequencies
+    keep 6 significant digits (the format's E13.5 fields) unless they are unevenly spaced
+    and ``binary``.
+
+    Raises
+    ------
+    ValueError
+        For a channel that names no grid and direction; FRFError for fewer than 2
+        frequencies, or frequencies that become one in 6 significant digits.
+    """
     import pyuff
 
     path = Path(path)
     sets = []
     f = np.asarray(data.frequency_hz, float)
+    if len(f) < 2:  # pyuff takes the abscissa step from the first two
+        raise FRFError(f"{path}: {len(f)} frequency; a UFF 58 file (as pyuff writes it) "
+                       "needs at least 2")  # fmt: skip
     df = np.diff(f)
     even = len(f) > 1 and np.allclose(df, df[0], rtol=1e-9, atol=0)
+    _check_abscissa(f, even, binary, path)
     for o, co in enumerate(data.outputs):
         for i, ci in enumerate(data.inputs):
             sets.append(pyuff.prepare_58(
@@ -61,37 +78,234 @@ def write_uff(path: str | os.PathLike[str], data: FRFData, *, binary: bool = Fal
     return write_atomic(path, dump)
 
 
+def _e13_5(x: np.ndarray) -> np.ndarray:
+    """Values as a UFF E13.5 field gives them back: 6 significant digits."""
+    return np.array([float(f"{v:.5e}") for v in np.atleast_1d(x)])
+
+
+def _check_abscissa(f: np.ndarray, even: bool, binary: bool, path: Path) -> None:
+    """Refuse frequencies that UFF 58 cannot tell apart: the header's abscissa start and
+    step, and the abscissae of unevenly spaced ASCII data, are E13.5 fields (6 significant
+    digits); frequencies that become one there would make a file no reader takes."""
+    if even:
+        written = _e13_5(f[0])[0] + _e13_5(f[1] - f[0])[0] * np.arange(len(f))
+    else:
+        written = f if binary else _e13_5(f)
+    same = np.flatnonzero(np.diff(written) <= 0)
+    if same.size:
+        k = int(same[0])
+        a, b = float(f[k]), float(f[k + 1])
+        raise FRFError(f"{path}: frequencies {a!r} and {b!r} Hz become one ({written[k]:g} "
+                       "Hz) in UFF 58's 6 significant digits; expected frequencies that "
+                       "differ in them (or a .npz, .csv or .mat file)")
+
+
+#: A dataset delimiter as pyuff finds one: ``    -1`` at the end of a line (or of the file),
+#: or followed by 74 blanks and more.
+_DELIMITER = re.compile(rb"    -1(?=\n|\r|\Z| {74}.)", re.DOTALL)
+
+
+@dataclass(frozen=True)
+class _Dataset:
+    """One dataset of a universal file: its number (1-based), its type (58 for ``58`` and
+    ``58b``; None if the type line is not a number) and the line of its opening
+    delimiter."""
+
+    number: int
+    type: int | None
+    line: int
+
+    def where(self, path: Path) -> str:
+        """``file:line: dataset N``, how messages name it."""
+        return f"{path}:{self.line}: dataset {self.number}"
+
+
+def _datasets(raw: bytes, path: Path) -> list[_Dataset]:
+    """The datasets of a universal file, delimited as pyuff delimits them.
+
+    Raises
+    ------
+    FRFError
+        For an odd number of delimiters (the file ends inside its last dataset: cut short),
+        naming the dataset and the line where it starts; or for text outside the datasets
+        (before the first, between two, after the last: the rest of a dataset whose
+        delimiter was lost), naming its line.
+    """
+    starts = np.array([m.start() for m in _DELIMITER.finditer(raw)], dtype=np.int64)
+    newlines = np.flatnonzero(np.frombuffer(raw, np.uint8) == 10)
+    lines = np.searchsorted(newlines, starts) + 1
+    if len(starts) % 2:
+        n = len(starts) // 2 + 1
+        raise FRFError(f"{path}:{lines[-1]}: dataset {n} has no closing '    -1' line: the "
+                       "file ends inside it (cut short?); expected every dataset closed")
+    if len(starts):  # text before, between or after the datasets: a dataset cut short?
+        outside = zip(np.append(0, starts[1::2] + 6), np.append(starts[::2], len(raw)),
+                      strict=True)  # fmt: skip
+        for a, b in outside:
+            chunk = raw[a:b]
+            if chunk.strip():
+                at = a + len(chunk) - len(chunk.lstrip())
+                raise FRFError(f"{path}:{np.searchsorted(newlines, at) + 1}: text outside any "
+                               "dataset (a dataset without its opening '    -1', or one cut "
+                               "short?); expected datasets between '    -1' lines")
+    out = []
+    for k, (a, b) in enumerate(zip(starts[::2], starts[1::2], strict=True)):
+        head = raw[a:min(b, a + 200)].splitlines()
+        text = head[1][:6].strip() if len(head) > 1 else b""
+        try:
+            kind = int(text)
+        except ValueError:
+            kind = None
+        out.append(_Dataset(k + 1, kind, int(lines[2 * k])))
+    return out
+
+
+def _interruption(error: BaseException) -> BaseException | None:
+    """A KeyboardInterrupt (or another BaseException that is not an Exception) that pyuff's
+    bare ``except:`` turned into an Exception, found in the chain of ``error``."""
+    seen = set()
+    e: BaseException | None = error
+    while e is not None and id(e) not in seen:
+        seen.add(id(e))
+        if not isinstance(e, Exception):
+            return e
+        e = e.__cause__ or e.__context__
+    return None
+
+
+def _pyuff_failure(error: Exception, where: str) -> FRFError:
+    """femcal's error for an exception pyuff raised while reading ``where``; an interruption
+    (Ctrl-C) hidden in it is raised again instead."""
+    hidden = _interruption(error)
+    if hidden is not None:
+        raise hidden
+    cause = error  # pyuff re-raises as bare Exceptions: the first one tells what went wrong
+    while cause.__context__ is not None and cause.__context__ is not cause:
+        cause = cause.__context__
+    return FRFError(f"{where}: pyuff cannot read it ({type(cause).__name__}: {cause}); "
+                    "expected a dataset 58 as the universal file format defines it")
+
+
+def _integer(dset: dict, key: str, where: str) -> int:
+    """A header field of a dataset read by pyuff as an integer; FRFError naming it."""
+    value = dset.get(key)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    raise FRFError(f"{where}: header field {key} is {value!r}; expected an integer")
+
+
 def read_uff(path: str | os.PathLike[str]) -> FRFData:
     """FRFs of every dataset 58 with function type 4 (FRF) in a universal file, arranged as
-    outputs x inputs (labels ``GRID:DIR``); ValueError if the sets share no common frequency
-    axis or leave an output/input pair without data."""
+    outputs x inputs (labels ``GRID:DIR``). Other datasets are skipped; a dataset 58 of
+    another function type is skipped with a :class:`~femcal.errors.FemcalWarning`.
+
+    Raises
+    ------
+    FRFError
+        Naming the file, the line and the dataset: a file cut short inside a dataset, a
+        dataset pyuff cannot read, a header whose number of points the data do not have,
+        real ordinates (an FRF must be complex), frequencies that are not finite and
+        increasing, values that are not finite, datasets on different frequency axes or of
+        different quantities, a pair given twice, or output/input pairs that no dataset
+        gives (naming them).
+    """
     import pyuff
 
-    sets = pyuff.UFF(str(path)).read_sets()
-    sets = [sets] if isinstance(sets, dict) else sets
-    frfs = [s for s in sets if s.get("type") == 58 and s.get("func_type") == 4]
-    if not frfs:
-        raise ValueError(f"{path}: no dataset 58 FRF (function type 4)")
-    f = np.asarray(frfs[0]["x"], float)
+    path = Path(path)
+    sets = _datasets(path.read_bytes(), path)
+    try:
+        uff = pyuff.UFF(str(path))
+        n_sets = uff.get_n_sets()
+    except Exception as e:  # pyuff raises bare Exceptions
+        raise _pyuff_failure(e, str(path)) from e
+    if n_sets != len(sets):  # both split at the same delimiters
+        raise FRFError(f"{path}: pyuff finds {n_sets} datasets, femcal {len(sets)}; "
+                       "expected a universal file of complete datasets")  # fmt: skip
+    f: np.ndarray | None = None
+    first: _Dataset | None = None
+    quantity_code = 0
+    units = ""
     outs: dict[str, int] = {}
     ins: dict[str, int] = {}
-    cells = {}
-    for s in frfs:
-        if len(s["x"]) != len(f) or not np.allclose(s["x"], f, rtol=1e-9, atol=1e-12):
-            raise ValueError(f"{path}: datasets 58 on different frequency axes")
-        o = outs.setdefault(_uff_label(int(s["rsp_node"]), int(s["rsp_dir"])), len(outs))
-        i = ins.setdefault(_uff_label(int(s["ref_node"]), int(s["ref_dir"])), len(ins))
-        cells[o, i] = np.asarray(s["data"], complex)
-    H = np.full((len(outs), len(ins), len(f)), np.nan + 0j)
-    for (o, i), v in cells.items():
-        H[o, i] = v
-    if np.isnan(H.real).any():
-        raise ValueError(f"{path}: not every output and input pair has an FRF")
-    code = int(frfs[0].get("ordinate_spec_data_type", 8))
-    quantity = {v: k for k, v in _UFF_ORDINATE.items()}.get(code, "receptance")
-    units = str(frfs[0].get("id2", "")).strip()
-    return FRFData.from_labels(f, H, list(outs), list(ins), quantity,
-                               "" if units == "NONE" else units)  # fmt: skip
+    cells: dict[tuple[int, int], tuple[np.ndarray, _Dataset]] = {}
+    for ds in sets:
+        where = ds.where(path)
+        if ds.type is None:
+            raise FRFError(f"{where}: the dataset type (the line after '    -1') is not a "
+                           "number; expected e.g. 58 or 58b")  # fmt: skip
+        if ds.type != 58:
+            continue
+        try:
+            s = uff.read_sets(ds.number - 1)
+        except Exception as e:  # pyuff raises bare Exceptions
+            raise _pyuff_failure(e, where) from e
+        if _integer(s, "func_type", where) != 4:
+            warnings.warn(f"{where}: a dataset 58 of function type {s['func_type']}, not an "
+                          "FRF (4): skipped", FemcalWarning, stacklevel=2)  # fmt: skip
+            continue
+        x, h = _frf_values(s, where)
+        o_lab = _uff_label(_integer(s, "rsp_node", where), _integer(s, "rsp_dir", where))
+        i_lab = _uff_label(_integer(s, "ref_node", where), _integer(s, "ref_dir", where))
+        code = _integer(s, "ordinate_spec_data_type", where)
+        if f is None or first is None:
+            f, first, quantity_code = x, ds, code
+            units = str(s.get("id2", "")).strip()
+        else:
+            if len(x) != len(f) or not np.allclose(x, f, rtol=1e-9, atol=1e-12):
+                raise FRFError(f"{where}: its {len(x)} frequencies ({x[0]:g}-{x[-1]:g} Hz) "
+                               f"are not those of dataset {first.number} ({len(f)}, "
+                               f"{f[0]:g}-{f[-1]:g} Hz); expected one frequency axis")
+            if code != quantity_code:
+                raise FRFError(f"{where}: ordinate type {code}, dataset {first.number} "
+                               f"{quantity_code}; expected one quantity in a file")
+        o = outs.setdefault(o_lab, len(outs))
+        i = ins.setdefault(i_lab, len(ins))
+        if (o, i) in cells:
+            raise FRFError(f"{where}: output {o_lab} / input {i_lab} again (first in dataset "
+                           f"{cells[o, i][1].number}); expected each pair once")  # fmt: skip
+        bad = np.flatnonzero(~np.isfinite(h))
+        if bad.size:
+            raise FRFError(f"{where}: output {o_lab} / input {i_lab} at {x[bad[0]]:g} Hz: H "
+                           f"is {h[bad[0]]}; expected finite values")  # fmt: skip
+        cells[o, i] = (h, ds)
+    if f is None:
+        raise FRFError(f"{path}: no dataset 58 FRF (function type 4)")
+    if len(cells) < len(outs) * len(ins):
+        have = np.zeros((len(outs), len(ins)), bool)
+        have[tuple(np.array(list(cells)).T)] = True
+        channels = lambda labels: [Channel.parse(c) for c in labels]  # noqa: E731
+        raise FRFError(f"{path}: {int((~have).sum())} of {have.size} output/input pairs have "
+                       "no dataset: " + pair_names(channels(outs), channels(ins),
+                                                   np.argwhere(~have))
+                       + "; expected an FRF for every output and input")  # fmt: skip
+    H = np.empty((len(outs), len(ins), len(f)), complex)
+    for (o, i), (h, _) in cells.items():
+        H[o, i] = h
+    quantity = {v: k for k, v in _UFF_ORDINATE.items()}.get(quantity_code, "receptance")
+    return frf_of(str(path), f, H, list(outs), list(ins), quantity,
+                  "" if units == "NONE" else units)  # fmt: skip
+
+
+def _frf_values(dset: dict, where: str) -> tuple[np.ndarray, np.ndarray]:
+    """(frequencies, complex values) of one dataset 58 as pyuff read it, checked against
+    its header; FRFError naming the field otherwise."""
+    kind = _integer(dset, "ord_data_type", where)
+    if kind in (2, 4):
+        raise FRFError(f"{where}: ordinate data type {kind} is real; expected complex "
+                       "FRFs (type 5 or 6): identification and calibration need the phase, "
+                       "which magnitudes alone do not give")  # fmt: skip
+    if kind not in (5, 6):
+        raise FRFError(f"{where}: ordinate data type {kind}; expected 5 or 6 (complex)")
+    x = np.asarray(dset.get("x"), dtype=float).reshape(-1)
+    h = np.asarray(dset.get("data")).reshape(-1)
+    n = _integer(dset, "num_pts", where)
+    if len(x) != n or len(h) != n:
+        raise FRFError(f"{where}: the header gives {n} points (record 7), the data hold "
+                       f"{len(h)}; expected as many as the header says (a line lost?)")
+    if n == 0:
+        raise FRFError(f"{where}: no points; expected at least one frequency")
+    check_frequencies(x, where)
+    return x, h.astype(complex)
 
 
 register(Format("uff", "frf", (".uff", ".unv"), read_uff, write_uff, "universal file, dataset 58"))
