@@ -372,3 +372,15 @@ def test_bars_of_a_material_without_shear_modulus_are_an_error_naming_them(write
 HEAD_BAR = ("SOL 103\nCEND\nMETHOD = 1\nBEGIN BULK\nEIGRL,1,,,3\nGRID,1,,0.,0.,0.\n"
             "GRID,2,,100.,0.,0.\nGRID,3,,200.,0.,0.\nCBAR,1,1,1,2,0.,0.,1.\nCBAR,2,1,2,3,0.,0.,1.\n"
             "PBAR,1,1,10.,20.,30.,40.\n")  # fmt: skip
+
+
+@pytest.mark.parametrize("command", [
+    ["calibrate", "cal.toml"],
+    ["synth-test", "deck.bdf", "--params", "p", "--sensors", "s", "--inputs", "i"],
+    ["model", "truck-frame"],
+])  # fmt: skip
+def test_out_naming_a_file_is_refused_before_any_work(write, capsys, command):
+    f = write("x", "taken")
+    assert main([*command, "--out", str(f)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"femcal {command[0]}: --out {f}: expected a folder, but {f} is a file"]

@@ -31,12 +31,14 @@ def run(args: argparse.Namespace) -> int:
     from ..calibrate.config import SETTINGS, read_config
     from ..io.calibration import summary_lines
     from ..jobs.calibration import run as calibrate
+    from .paths import output_folder
 
     t0 = time.perf_counter()
 
     def progress(msg: str) -> None:
         print(f"[{time.perf_counter() - t0:7.1f} s] {msg}", file=sys.stderr, flush=True)
 
+    output_folder(args.out, "--out")
     for name, v in (("workers", args.workers), ("starts", args.starts)):
         if v is not None and not SETTINGS[name].accepts(v):
             print(f"femcal calibrate: --{name} {v}: expected {SETTINGS[name].expected}",

@@ -13,6 +13,7 @@ from ..errors import message
 from ..jobs.synthetic_test import SynthSettings, make_hammer_test, truth_toml
 from ..testdata.formats.matlab import write_mat
 from ..testdata.formats.uff import write_uff
+from .paths import output_folder
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -28,6 +29,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
+    output_folder(args.out, "--out")
     print(f"[{0.0:7.1f} s] making the synthetic test of {args.deck}", file=sys.stderr)
     try:
         test = make_hammer_test(args.deck, args.params, args.sensors, args.inputs,
