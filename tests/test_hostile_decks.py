@@ -384,3 +384,19 @@ def test_out_naming_a_file_is_refused_before_any_work(write, capsys, command):
     assert main([*command, "--out", str(f)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [f"femcal {command[0]}: --out {f}: expected a folder, but {f} is a file"]
+
+
+def test_a_density_that_puts_k_over_m_beyond_double_precision_is_an_error(write):
+    # fuzz seed 717: RHO = 1e-300 beside a 1080 t CONM2; the median K_ii / M_ii overflowed and
+    # the shift with it
+    path = write(plate(E="7.+10", rho="1.-306", bulk="CONM2,99,1,,1080."))
+    with pytest.raises(SolverError, match=r"stiffness-to-mass ratios K_ii / M_ii .* are beyond "
+                       r"double precision"):  # fmt: skip
+        solve_normal_modes(load_model(path))
+
+
+def test_an_include_name_with_a_nul_character_is_an_error(write):
+    # fuzz seed 8115: a NUL byte in an INCLUDE line reached os.stat
+    path = write(plate(bulk="INCLUDE 'a\0b.inc'"))
+    with pytest.raises(DeckError, match=r"INCLUDE: found .*; expected a file name without NUL"):
+        read_deck(path)

@@ -80,6 +80,8 @@ def read_deck(
 def _not_readable(path: Path, max_bytes: int) -> str:
     """Why ``path`` cannot be read as a deck file (not regular, or larger than ``max_bytes``),
     ``""`` if it can. A missing file raises FileNotFoundError."""
+    if "\0" in str(path):
+        return "a file name without NUL characters"
     st = path.stat()
     if not stat.S_ISREG(st.st_mode):
         return "a regular file (not a device, pipe or directory)"
@@ -154,6 +156,10 @@ class _Reader:
 
     # ------------------------------------------------------------------ files
     def _read_file(self, path: Path, include_at: tuple[int, int] | None) -> None:
+        if include_at is not None and "\0" in str(path):
+            self.error(*include_at, "INCLUDE", "a file name without NUL characters",
+                       found=str(path))  # fmt: skip
+            return
         real = path.resolve()
         if real in self.stack:
             chain = " -> ".join(str(p) for p in [*self.stack, real])

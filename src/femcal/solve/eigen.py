@@ -84,10 +84,11 @@ def problem_scale(K: sp.spmatrix, M: sp.spmatrix) -> float:
     it scales every eigenvalue."""
     k, m = np.asarray(K.diagonal()), np.asarray(M.diagonal())
     both = (k > 0) & (m > 0)
-    if both.any():
-        return float(np.median(k[both] / m[both]))
-    km, mm = float(np.abs(k).sum()), float(np.abs(m).sum())
-    return km / mm if km > 0 and mm > 0 else 1.0
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        if both.any():
+            return float(np.median(k[both] / m[both]))
+        km, mm = float(np.abs(k).sum()), float(np.abs(m).sum())
+        return km / mm if km > 0 and mm > 0 else 1.0
 
 
 def default_shift(K: sp.spmatrix, M: sp.spmatrix) -> float:
@@ -150,6 +151,10 @@ def solve_modes(
         request = replace(request, nd=n)
     # below the spectrum; V1 filters the roots afterwards
     sigma = default_shift(K, M) if shift_hz is None else -_to_lambda(shift_hz)
+    if not np.isfinite(sigma):
+        raise SolverError(f"the stiffness-to-mass ratios K_ii / M_ii (median "
+                          f"{problem_scale(K, M):g}) are beyond double precision: expected "
+                          "densities and masses in the deck's units")  # fmt: skip
     lam_lo = -np.inf if request.v1 is None else _to_lambda(request.v1) * (1 - 1e-9)
     lam_hi = np.inf if request.v2 is None else _to_lambda(request.v2) * (1 + 1e-9)
     if request.nd is None and request.v2 is None:
