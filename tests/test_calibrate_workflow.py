@@ -926,3 +926,18 @@ def test_ctrl_c_ends_the_workers_and_leaves_no_partial_file(tiny, tmp_path):
     lines: list[str] = []
     run(read_config(cfg), out, progress=lines.append)
     assert sum("finished earlier" in line for line in lines) >= len(saved)
+
+
+def test_a_damping_that_asks_for_too_many_frequencies_is_refused(study):
+    # zeta0 = "median" takes the identified damping, which the configuration check cannot
+    # see: 1e-9 would ask for 1e10 metric frequencies
+    from femcal.calibrate.cases import TestSetup, prepare_case
+    from femcal.errors import ConfigError
+
+    d, params, outcome, _ = study
+    cfg = read_config(d / "cal.toml")
+    case0 = outcome.cases[0]
+    setup = TestSetup("plate", case0.model, tuple(params), (10.0, 350.0), case0.data, None, 1e-9)
+    with pytest.raises(ConfigError, match=r"zeta0 = 1e-09 and 3 samples per bandwidth over "
+                       r"10-350 Hz ask for 5.\d+e\+09 frequencies, more than 100000"):  # fmt: skip
+        prepare_case(setup, np.arange(len(params)), cfg, lambda _m: None)

@@ -16,10 +16,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import ConfigError
 from ..identify import IdentifiedModel, equalize_damping
 from ..model.model import Model
 from ..testdata.data import Channel, FRFData
-from .config import Config
+from .config import MAX_FREQUENCIES, Config, n_frequencies
 from .derivatives import group_polynomials
 from .metric import log_frequencies
 from .parameters import Parameter
@@ -155,6 +156,14 @@ def prepare_case(setup: TestSetup, index: np.ndarray, cfg: Config,
             raise ValueError(f"{at}: without an identified test model zeta0 must be given")
         test_hz, test_shapes = np.zeros(0), np.zeros((len(outputs), 0))
         zeta0 = float(setup.zeta0)
+    n_f = n_frequencies(band, zeta0, cfg.samples_per_bandwidth)
+    if n_f > MAX_FREQUENCIES:  # a tiny identified damping with zeta0 = "median"
+        source = " (the identified modes' median damping)" if not setup.zeta0 else ""
+        raise ConfigError(f"{at}: zeta0 = {zeta0:.3g}{source} and "
+                          f"{cfg.samples_per_bandwidth:g} samples per bandwidth over "
+                          f"{band[0]:g}-{band[1]:g} Hz ask for {n_f:.3g} frequencies, more "
+                          f"than {MAX_FREQUENCIES}: expected a zeta0 given in the "
+                          "configuration, or fewer samples per bandwidth")  # fmt: skip
     freq = log_frequencies(band[0], band[1], zeta0, cfg.samples_per_bandwidth)
     try:
         freq, H_test = _test_frfs(data, ident, keep, zeta0, freq)
