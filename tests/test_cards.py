@@ -112,7 +112,7 @@ def test_spoint_and_spc1_thru(write):
     )
     assert [r.ids for r in d.records_of("SPOINT")] == [(1, 2, 3, 4), (10, 12)]
     s = d.records_of("SPC1")[0]
-    assert (s.sid, s.components, s.ids) == (3, 123, (5, 6, 7, 8))
+    assert (s.sid, s.components, s.ids, s.ranges) == (3, 123, (), ((5, 8),))
 
 
 def test_rbe2_with_alpha(write):

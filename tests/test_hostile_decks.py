@@ -320,9 +320,17 @@ def test_an_id_list_with_an_id_beyond_64_bits_is_an_error(write):
         read_deck(path)
 
 
-def test_a_thru_range_of_a_hundred_million_ids_is_an_error_not_a_memory_grab(write):
-    path = write(plate(head="SPC = 1", bulk="SPC1,1,123456,1,THRU,99999999"))
-    with pytest.raises(DeckError, match="SPC1 field 6: found '99999999'; expected a THRU range "
+def test_spc1_thru_fixes_the_grids_of_the_range_that_exist_without_listing_them(write):
+    # QRG SPC1: the points of the THRU form need not exist. 1 THRU 99999999 is every grid,
+    # read without a list of 1e8 ids.
+    model = load_model(write(plate(head="SPC = 1", bulk="SPC1,1,3,1,THRU,99999999")))
+    fixed = model.constraints.fixed
+    assert len(fixed) == model.n_grids and set(model.dof_owner(fixed)[1]) == {3}
+
+
+def test_a_thru_range_of_a_hundred_million_ids_in_a_list_is_an_error_not_a_memory_grab(write):
+    path = write(plate(head="SPC = 1", bulk="SPC1,1,123456,1,2,5,THRU,99999999"))
+    with pytest.raises(DeckError, match="SPC1 field 8: found '99999999'; expected a THRU range "
                        "that, with the card's other ids, lists at most 10000000"):  # fmt: skip
         read_deck(path)
 
@@ -400,3 +408,11 @@ def test_an_include_name_with_a_nul_character_is_an_error(write):
     path = write(plate(bulk="INCLUDE 'a\0b.inc'"))
     with pytest.raises(DeckError, match=r"INCLUDE: found .*; expected a file name without NUL"):
         read_deck(path)
+
+
+def test_spc1_thru_is_written_back_as_a_range(write, tmp_path):
+    from femcal.deck.writer import write_deck
+
+    deck = read_deck(write(plate(head="SPC = 1", bulk="SPC1,1,3,5,THRU,99999999")))
+    back = read_deck(write_deck(deck, tmp_path / "back.bdf"))
+    assert back.records_of("SPC1")[0].ranges == ((5, 99999999),)

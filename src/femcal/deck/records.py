@@ -149,17 +149,32 @@ class SpointCard:
 
 @dataclass(frozen=True)
 class Spc1Card:
-    """SPC1 SID C G1 G2 ... (or G1 THRU G2): components C of the grids in set SID."""
+    """SPC1 SID C G1 G2 ... or SID C G1 THRU G2: components C of the grids in set SID.
+
+    ``ids`` are the grids listed one by one (each must exist); ``ranges`` the (G1, G2) of
+    the THRU form, kept unexpanded: as in NASTRAN (QRG SPC1), the points of a THRU range
+    need not exist, and those that do are the ones constrained.
+    """
 
     sid: int
     components: int
     ids: tuple[int, ...]
+    ranges: tuple[tuple[int, int], ...] = ()
 
     @classmethod
     def parse(cls, f: list[str], errors: ErrorList) -> Spc1Card:
         c = Cursor(f, errors)
         sid = c.int(0, required=True)
         comp = c.comp(1, required=True)
+        ranges = []
+        body = f[2:]
+        if len([x for x in body if x]) == 3 and body[1:2] == ["THRU"] and all(
+                is_int_text(x) for x in (body[0], body[2])):  # fmt: skip
+            a, b = int(body[0]), int(body[2])
+            if not (0 < a <= b < INT_LIMIT):
+                errors.append((4, body[2], f"G2 >= G1 = {a}, G1 > 0"))
+            ranges.append((a, b))
+            return cls(sid, comp, (), tuple(ranges))
         k, ids = c.ids_from(2)
         if k < c.n:
             errors.append((k, c.text(k), "a grid id or THRU"))
@@ -168,7 +183,10 @@ class Spc1Card:
         return cls(sid, comp, tuple(ids))
 
     def to_fields(self) -> list:
-        return [self.sid, self.components, *self.ids]
+        out: list = [self.sid, self.components, *self.ids]
+        for a, b in self.ranges:
+            out += [a, "THRU", b]
+        return out
 
 
 @dataclass(frozen=True)

@@ -154,6 +154,10 @@ def _fixed_dofs(deck: Deck, model: Model, sets: set[int]) -> np.ndarray:
         if r.sid in sets:
             for g in r.ids:
                 fix(g, r.components)
+            for a, b in r.ranges:  # the THRU form: the grids of the range that exist
+                lo, hi = np.searchsorted(model.node_ids, [a, b + 1])
+                for g in model.node_ids[lo:hi]:
+                    fix(int(g), r.components)
     t = deck.tables.get("SPC")
     if t is not None:
         c = t.columns
