@@ -359,3 +359,18 @@ def test_every_format_gives_back_what_it_was_given(tmp_path, data, suffix):
     np.testing.assert_allclose(back.frequency_hz, data.frequency_hz, rtol=1e-5 if uff else 0)
     np.testing.assert_allclose(back.H, data.H, rtol=1e-11 if uff else 0, atol=0)
     assert back.quantity == data.quantity and len(back.outputs) == len(data.outputs)
+
+
+def test_sensor_files_that_break_are_errors_naming_file_and_line(tmp_path):
+    from femcal.errors import ConfigError
+    from femcal.testdata.points import read_points
+
+    short = tmp_path / "short.csv"
+    short.write_text("label,grid,directions\nA,1\n")
+    with pytest.raises(ConfigError, match=f"{short}:2: a short row; expected label, grid and "
+                       "directions"):  # fmt: skip
+        read_points(short)
+    latin = tmp_path / "latin.csv"
+    latin.write_bytes("label,grid,directions\n\xe9,1,3\n".encode("latin-1"))
+    with pytest.raises(ConfigError, match=f"{latin}: not UTF-8 text"):
+        read_points(latin)

@@ -16,6 +16,8 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
+from ..errors import ConfigError
+
 
 def read_points(path: str | Path) -> list[tuple[str, int, int]]:
     """(label, grid, direction) rows of a sensors or inputs CSV (``directions`` 123 expands
@@ -23,30 +25,43 @@ def read_points(path: str | Path) -> list[tuple[str, int, int]]:
 
     Raises
     ------
-    ValueError
-        Naming the file and line of a missing column or a field that is not a number.
+    ConfigError
+        Naming the file and line of a missing column, a short row, a field that is not a
+        number or text that is not UTF-8 (a ValueError too).
     """
+    try:
+        with open(path, newline="", encoding="utf-8") as fh:
+            return _points(path, csv.DictReader(fh))
+    except UnicodeDecodeError as e:
+        raise ConfigError(f"{path}: not UTF-8 text (byte {e.start}): expected a CSV table of "
+                          "label, grid and directions") from None  # fmt: skip
+    except csv.Error as e:
+        raise ConfigError(f"{path}: {e}: expected a CSV table") from None
+
+
+def _points(path: str | Path, reader: csv.DictReader) -> list[tuple[str, int, int]]:
+    fields = reader.fieldnames or []
+    dir_col = "directions" if "directions" in fields else "direction"
+    missing = [c for c in ("label", "grid", dir_col) if c not in fields]
+    if missing:
+        raise ConfigError(f"{path}:1: missing column(s) {', '.join(missing)}; expected "
+                          "label, grid and directions (or direction)")  # fmt: skip
     out = []
-    with open(path, newline="") as fh:
-        reader = csv.DictReader(fh)
-        fields = reader.fieldnames or []
-        dir_col = "directions" if "directions" in fields else "direction"
-        missing = [c for c in ("label", "grid", dir_col) if c not in fields]
-        if missing:
-            raise ValueError(f"{path}:1: missing column(s) {', '.join(missing)}; expected "
-                             "label, grid and directions (or direction)")  # fmt: skip
-        for row in reader:
-            line = reader.line_num
-            try:
-                g = int(row["grid"])
-                text = row[dir_col].strip()
-                codes = [int(c) for c in text] if dir_col == "directions" else [int(text)]
-            except (TypeError, ValueError):
-                raise ValueError(f"{path}:{line}: grid {row['grid']!r} and {dir_col} "
-                                 f"{row[dir_col]!r} must be integers") from None  # fmt: skip
-            if not codes or any(not 1 <= abs(c) <= 6 for c in codes):
-                raise ValueError(f"{path}:{line}: {dir_col} {text!r}: expected codes 1-6")
-            out += [(row["label"], g, c) for c in codes]
+    for row in reader:
+        line = reader.line_num
+        if any(row[c] is None for c in ("label", "grid", dir_col)):
+            raise ConfigError(f"{path}:{line}: a short row; expected label, grid and "
+                              f"{dir_col}")  # fmt: skip
+        try:
+            g = int(row["grid"])
+            text = row[dir_col].strip()
+            codes = [int(c) for c in text] if dir_col == "directions" else [int(text)]
+        except ValueError:
+            raise ConfigError(f"{path}:{line}: grid {row['grid']!r} and {dir_col} "
+                              f"{row[dir_col]!r} must be integers") from None  # fmt: skip
+        if not codes or any(not 1 <= abs(c) <= 6 for c in codes):
+            raise ConfigError(f"{path}:{line}: {dir_col} {text!r}: expected codes 1-6")
+        out += [(row["label"], g, c) for c in codes]
     return out
 
 
@@ -63,7 +78,7 @@ def channel_names(path: str | Path) -> dict[str, str]:
 
     Raises
     ------
-    ValueError
+    ConfigError
         As :func:`read_points`.
     """
     out = {}
