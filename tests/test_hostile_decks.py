@@ -416,3 +416,18 @@ def test_spc1_thru_is_written_back_as_a_range(write, tmp_path):
     deck = read_deck(write(plate(head="SPC = 1", bulk="SPC1,1,3,5,THRU,99999999")))
     back = read_deck(write_deck(deck, tmp_path / "back.bdf"))
     assert back.records_of("SPC1")[0].ranges == ((5, 99999999),)
+
+
+def test_a_negative_ply_thickness_is_an_error(write):
+    # fuzz seed 203162: PCOMP ply T = -1.e30 gave NaN stiffness
+    path = write(plate(bulk="PCOMP,6\n,1,0.1\n,1,-1.e30"))
+    with pytest.raises(DeckError, match=r"PCOMP field 3: found '-1\.e30'; expected a ply "
+                       r"thickness > 0"):  # fmt: skip
+        read_deck(path)
+
+
+def test_a_stiffness_that_overflows_is_an_error(write):
+    # every value in range, their products beyond double precision
+    path = write(plate(E="1.7+308"))
+    with pytest.raises(SolverError, match="K holds entries beyond double precision"):
+        solve_normal_modes(load_model(path))

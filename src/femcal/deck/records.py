@@ -472,6 +472,8 @@ class PcompCard:
                 errors.append(
                     (k0 + 1, c.text(k0 + 1), "a thickness (blank only after a ply that has one)")
                 )
+            elif not t > 0:
+                errors.append((k0 + 1, c.text(k0 + 1), "a ply thickness > 0"))
             theta = c.real(k0 + 2, 0.0)
             sout = c.word(k0 + 3, "NO")
             if sout not in ("YES", "NO"):

@@ -78,6 +78,16 @@ def _to_lambda(f_hz: float) -> float:
     return (2.0 * np.pi * f_hz) ** 2
 
 
+def check_finite(K: sp.spmatrix, M: sp.spmatrix) -> None:
+    """Raise :class:`SolverError` when K or M holds an infinite or NaN entry: values of the
+    deck each within range whose products overflow (a modulus near 1e308 times a thickness)."""
+    for name, A in (("K", K), ("M", M)):
+        if not np.isfinite(A.data if sp.issparse(A) else A).all():
+            raise SolverError(f"{name} holds entries beyond double precision: a value of the "
+                              "deck (a modulus, thickness, area or mass near 1e300?) or their "
+                              "product overflows")  # fmt: skip
+
+
 def problem_scale(K: sp.spmatrix, M: sp.spmatrix) -> float:
     """The eigenproblem's scale (rad^2/s^2): the median of K_ii / M_ii over the DOF with both
     positive, else the ratio of the traces. Scaling K or M (another unit system) scales it as
@@ -141,6 +151,7 @@ def solve_modes(
     n = K.shape[0]
     if n == 0:
         raise SolverError("the model has no free DOF after constraints")
+    check_finite(K, M)
     if not np.any(M.diagonal() != 0):
         raise SolverError("the model has no mass on its free DOF, so it has no normal modes: "
                           "expected a density (MAT1 RHO ...), a non-structural mass or mass "

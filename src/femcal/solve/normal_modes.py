@@ -14,7 +14,7 @@ from ..assembly.constraints import Reduction, autospc, build_reduction
 from ..errors import FemcalWarning, ModelError
 from ..model.analysis import EigenRequest
 from ..model.model import Model
-from .eigen import EigenResult, solve_modes
+from .eigen import EigenResult, check_finite, solve_modes
 
 #: The SOL numbers of a normal modes solution (SOL 3 is its rigid-format number); None for a
 #: bulk-data file or a model built in code.
@@ -95,6 +95,7 @@ def solve_normal_modes(
                          "model)")  # fmt: skip
     req = request or model.eigen.request()
     mats = matrices or assemble(model, Options())
+    check_finite(mats.K, mats.M)
     say(f"assembled K and M: {model.n_dof} DOF, {mats.K.nnz} nonzeros in K")
     red = build_reduction(model)
     K_aa, M_aa = red.reduce(mats.K), red.reduce(mats.M)
