@@ -115,5 +115,19 @@ def main(argv: Sequence[str] | None = None) -> int:
             signal.signal(signal.SIGTERM, previous)
 
 
+def entry() -> None:
+    """The ``femcal`` command: :func:`main`, then exit with its status. After an interruption
+    the process ends at once (``os._exit``): a Ctrl-C that lands inside the standard
+    library's process pools can leave one of their locks held, and the interpreter's own
+    exit (which joins the pools' threads) would then wait forever. femcal's files are whole
+    or absent by then, and the workers end with their parent."""
+    status = main()
+    if status == EXIT_INTERRUPTED:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(status)
+    sys.exit(status)
+
+
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    entry()
