@@ -941,3 +941,18 @@ def test_a_damping_that_asks_for_too_many_frequencies_is_refused(study):
     with pytest.raises(ConfigError, match=r"zeta0 = 1e-09 and 3 samples per bandwidth over "
                        r"10-350 Hz ask for 5.\d+e\+09 frequencies, more than 100000"):  # fmt: skip
         prepare_case(setup, np.arange(len(params)), cfg, lambda _m: None)
+
+
+def test_integers_beyond_64_bits_in_the_tomls_are_config_errors(tmp_path):
+    # TOML integers have no bound: math.isfinite and np.isfinite raised on them
+    from femcal.calibrate.config import read_config
+    from femcal.errors import ConfigError
+
+    for name in ("d.bdf", "p.toml", "t.npz"):
+        (tmp_path / name).write_text("")
+    cfg = tmp_path / "cal.toml"
+    cfg.write_text('[model]\ndeck = "d.bdf"\nparameters = "p.toml"\n[test]\nfrf = "t.npz"\n'
+                   "[calibration]\nband = [10.0, 100.0]\nzeta0 = 0.02\n"
+                   f"seed = {10**400}\n")  # fmt: skip
+    with pytest.raises(ConfigError, match="seed = 1000"):
+        read_config(cfg)

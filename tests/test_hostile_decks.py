@@ -61,6 +61,16 @@ def test_a_misspelt_case_control_command_is_an_error_that_suggests_the_command(w
     assert "did you mean SPC?" in str(e.value)
 
 
+def test_an_unknown_command_unlike_any_that_changes_the_modes_warns(write):
+    # MBDEXPORT (MSC's flexible-body export) was once missing from the list; commands femcal
+    # does not know and that look like none of METHOD, SPC, MPC ... are read past with a word
+    path = write(plate(head="MBDEXPORT RECURDYN FLEXBODY=YES\nFROBNICATE = 3"))
+    with pytest.warns(FemcalWarning, match=f"{path}:5: case control command FROBNICATE is not "
+                      "one femcal knows; it is left alone"):  # fmt: skip
+        deck = read_deck(path)
+    assert deck.case.value("METHOD") == "1"
+
+
 def test_abbreviated_and_unused_case_control_commands_still_read(write):
     deck = read_deck(write(plate(head="DISP = ALL\nSPCF(PLOT) = ALL\nECHO = NONE\nMEFFMASS = YES")))
     assert deck.case.value("DISPLACEMENT") == "ALL"
@@ -243,17 +253,22 @@ def test_a_deck_past_the_size_limit_is_an_error(write):
 
 
 def test_temporary_files_of_killed_writers_are_removed_by_the_next_writer(tmp_path):
+    from femcal.atomic import _host
+
     target = tmp_path / "modes.npz"
     dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
                           capture_output=True, text=True, check=True).stdout.strip()  # fmt: skip
-    stale = tmp_path / f".modes.npz.{dead}.abc123.npz"
-    live = tmp_path / f".modes.npz.{os.getppid()}.abc123.npz"  # a running process's
-    stale.write_text("half")
-    live.write_text("busy")
+    host = _host()
+    stale = tmp_path / f".modes.npz.{host}.{dead}.abc123xy.npz"
+    live = tmp_path / f".modes.npz.{host}.{os.getppid()}.abc123xy.npz"  # a running process's
+    other_host = tmp_path / f".modes.npz.elsewhere.{dead}.abc123xy.npz"  # a shared folder's
+    other_target = tmp_path / f".modes.npz.2024.{host}.{dead}.abc123xy.npz"  # modes.npz.2024's
+    for f in (stale, live, other_host, other_target):
+        f.write_text("part")
     assert remove_stale_temporaries(target) == [stale]
-    assert live.exists()
     write_lines(tmp_path / "other.txt", ["x"])
-    assert sorted(p.name for p in tmp_path.iterdir()) == [live.name, "other.txt"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        [live.name, other_host.name, other_target.name, "other.txt"])
 
 
 # ----------------------------------------------------------------- the command line
@@ -364,8 +379,11 @@ def test_mat1_whose_e_and_g_give_no_poisson_ratio_is_an_error(write):
     # fuzz seed 104066: E = 210000, G = -0., NU blank -> NU = E / (2 G) - 1 = -inf, NaN in K
     path = write(plate().replace("MAT1,1,7.+4,,.33,2.7-9", "MAT1,1,7.+4,-0.,,2.7-9"))
     with pytest.raises(ModelError, match=r"MAT1 1: E = 70000 and G = -0 without NU give NU = E / "
-                       r"\(2 G\) - 1 = -inf; expected a Poisson's ratio in \(-1, 0.5\]"):  # fmt: skip
+                       r"\(2 G\) - 1 = -inf; expected G other than 0, or NU"):  # fmt: skip
         load_model(path)
+    # a finite NU outside (-1, 0.5] is a stick model's E and G, which rods and bars use as given
+    load_model(write(plate().replace("MAT1,1,7.+4,,.33,2.7-9", "MAT1,1,2.1+5,2.+4,,7.85-9"),
+                     "stick.bdf"))
 
 
 def test_bars_of_a_material_without_shear_modulus_are_an_error_naming_them(write):

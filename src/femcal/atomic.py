@@ -3,28 +3,38 @@
 from __future__ import annotations
 
 import os
+import re
+import socket
 import tempfile
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
 
+def _host() -> str:
+    """This machine's name as it goes into a file name."""
+    return re.sub(r"[^A-Za-z0-9-]", "-", socket.gethostname()) or "host"
+
+
 def _temporary_prefix(path: Path, pid: int) -> str:
-    return f".{path.name}.{pid}."
+    return f".{path.name}.{_host()}.{pid}."
 
 
 def remove_stale_temporaries(path: Path) -> list[Path]:
-    """Remove the temporary files that writers of ``path`` killed before they finished
-    (SIGKILL, power loss) left beside it: those whose process no longer runs. Returns the
-    files removed."""
+    """Remove the temporary files that writers of ``path`` on this machine killed before they
+    finished (SIGKILL, power loss) left beside it: names of exactly the form the writer gives
+    them (``.NAME.HOST.PID.XXXXXXXX.SUFFIX``), with this machine's name and the id of a
+    process that no longer runs. Another machine's writer on a shared folder, or another
+    target's temporaries, are left alone. Returns the files removed."""
+    pattern = re.compile(rf"^\.{re.escape(path.name)}\.{re.escape(_host())}\.(\d+)\."
+                         rf"[a-z0-9_]{{8}}{re.escape(path.suffix)}$")  # fmt: skip
     removed = []
-    head = f".{path.name}."
     try:
-        candidates = [p for p in path.parent.iterdir() if p.name.startswith(head)]
+        candidates = list(path.parent.iterdir())
     except OSError:
         return removed
     for p in candidates:
-        pid_text = p.name[len(head):].split(".", 1)[0]
-        if not pid_text.isdigit() or _alive(int(pid_text)):
+        m = pattern.match(p.name)
+        if m is None or _alive(int(m.group(1))):
             continue
         try:
             p.unlink()

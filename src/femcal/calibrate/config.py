@@ -303,13 +303,19 @@ def _is_number(value: object) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool)
 
 
+def _finite(value: float) -> bool:
+    """A finite float, or an integer within 64 bits (TOML integers have no bound, and
+    ``math.isfinite`` overflows on one past double precision)."""
+    return abs(value) < 2**63 if isinstance(value, int) else math.isfinite(value)
+
+
 def _number(section: dict, key: str, default, kind, where: str):
     """section[key] (or default) as a finite int or float; ConfigError naming the key
     otherwise (a string or boolean is not a number; a float is a whole number only if it
     has no fraction)."""
     value = section.get(key, default)
     what = "a whole number" if kind is int else "a number"
-    if not _is_number(value) or not math.isfinite(value):
+    if not _is_number(value) or not _finite(value):
         raise ConfigError(f"{where} {key} = {value!r}: expected {what}")
     if kind is int and isinstance(value, float) and not value.is_integer():
         raise ConfigError(f"{where} {key} = {value!r}: expected {what}")
@@ -328,7 +334,7 @@ def _setting(section: dict, key: str, where: str, default=None):
 def _band(v, where: str) -> tuple[float, float]:
     """A frequency band [f_lo, f_hi] in Hz, 0 < f_lo < f_hi, both finite."""
     if (not isinstance(v, list) or len(v) != 2 or not all(_is_number(x) for x in v)
-            or not all(math.isfinite(x) for x in v)):  # fmt: skip
+            or not all(_finite(x) for x in v)):  # fmt: skip
         raise ConfigError(f"{where}: expected [f_lo, f_hi] in Hz, found {v!r}")
     lo, hi = float(v[0]), float(v[1])
     if not 0 < lo < hi:
@@ -632,7 +638,7 @@ def check_config(cfg: Config) -> None:
         value = getattr(cfg, key)
         if key == "noise_sigma" and value is None:
             continue
-        if (not _is_number(value) or not math.isfinite(value)
+        if (not _is_number(value) or not _finite(value)
                 or (s.kind is int and not float(value).is_integer()) or not s.accepts(value)):
             raise ConfigError(f"{where} {key} = {value!r}: expected {s.expected}")
     for key, choices in CHOICES.items():

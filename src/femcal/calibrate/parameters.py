@@ -28,6 +28,7 @@ in the value), which :mod:`femcal.calibrate.derivatives` uses for exact derivati
 
 from __future__ import annotations
 
+import math
 import os
 import tomllib
 from collections.abc import Sequence
@@ -178,13 +179,19 @@ PARAMETER_KEYS = ("name", "description", "card", "id", "field", "nominal", "lowe
                   "lower_rel", "upper_rel", "confidence")
 
 
+#: TOML integers have no bound; femcal's fit in 64 bits.
+INT_LIMIT = 2**63
+
+
 def _value(item: dict, key: str, kind, where: str):
     """item[key] as a finite int or float; ConfigError naming the parameter and key otherwise
     (a string or boolean is not a number, a float not an id)."""
     value = item[key]
     what = "a whole number" if kind is int else "a number"
-    if (isinstance(value, bool) or not isinstance(value, int | float)
-            or (kind is int and isinstance(value, float)) or not np.isfinite(value)):  # fmt: skip
+    in_range = isinstance(value, int | float) and (
+        abs(value) < INT_LIMIT if isinstance(value, int) else math.isfinite(value))
+    if (isinstance(value, bool) or not in_range
+            or (kind is int and isinstance(value, float))):  # fmt: skip
         raise ConfigError(f"{where}: {key} = {value!r}: expected {what}")
     return kind(value)
 

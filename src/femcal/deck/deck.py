@@ -30,34 +30,38 @@ CASE_COMMANDS = (
 )  # fmt: skip
 
 #: Every other case-control command of MSC and Simcenter Nastran (Quick Reference Guides):
-#: read and left alone, as they do not change the normal modes. A command in neither list
-#: is an error (a misspelt ``SCP = 1`` would otherwise drop the constraints without a word).
+#: read and left alone, as they do not change the normal modes. A command in neither list is
+#: an error when it looks like one that changes them (:data:`MODAL_COMMANDS`: a misspelt
+#: ``SCP = 1`` would otherwise drop the constraints without a word) and a warning otherwise
+#: (no hand-kept list of two vendors' commands is ever complete).
 OTHER_CASE_COMMANDS = (
     "A2GG", "ACFPMRESULT", "ACINTENSITY", "ACORDCHK", "ACPOWER", "ACTIVAT", "ADACT", "ADAMSMNF",
     "ADAPT", "ADMRECVR", "AECONFIG", "AEROF", "AESYMXY", "AESYMXZ", "AEUXREF", "ALOAD", "APRES",
-    "APRESSURE", "ASPCFRC", "AUXCASE", "AUXMODEL", "AXISYMMETRIC", "BC", "BCHANGE", "BCMOVE",
-    "BCONTACT", "BCRESULTS", "BCSET", "BEGIN", "BGRESULTS", "BGSET", "BOLTID", "BOLTLD",
-    "BOLTRESULTS", "BOUTPUT", "CAMPBELL", "CKGAP", "CLOAD", "CMETHOD", "CMSENERGY", "CSMSET",
-    "CSSCHD", "CYCLIC", "CZRESULTS", "DATAREC", "DEACTEL", "DEFORM", "DESGLB", "DESMOD", "DESOBJ",
-    "DESSUB", "DESVAR", "DIVERG", "DMIGNAME", "DRSPAN", "DSAPRT", "DSCOEFFICIENT", "DSYM", "DTEMP",
-    "EBDSET", "ECHOOFF", "ECHOON", "EDE", "EFFMASS", "EFLUX", "ELAR", "ELFORCE", "ELSDCON",
-    "ELSENS", "ELSTRESS", "ELSTRN", "ELSUM", "ENTHALPY", "EQUILIBRIUM", "ERP", "ERPREF", "EXCLUDE",
-    "EXPORTLID", "FATIGUE", "FLSFSEL", "FLSPOUT", "FLSTCNT", "FLUX", "FMETHOD", "FRF", "GCRSLT",
-    "GKRESULTS", "GPKE", "GPRSORT", "GPSDCON", "GPSTRAIN", "GPSTRESS", "GROUNDCHECK", "GSTRAIN",
-    "GSTRESS", "HADAPART", "HARMONICS", "HDOT", "HOUTPUT", "HTFLOW", "IC", "INCLUDE", "INPOWER",
+    "APRESSURE", "ASPCFRC", "ATVOUT", "AUXCASE", "AUXMODEL", "AXISYMMETRIC", "BC", "BCHANGE",
+    "BCMOVE", "BCONTACT", "BCRESULTS", "BCSET", "BEGIN", "BGRESULTS", "BGSET", "BOLTID", "BOLTLD",
+    "BOLTRESULTS", "BOUTPUT", "CAMPBELL", "CKGAP", "CLOAD", "CMETHOD", "CMSENERGY", "CRSTRN",
+    "CSMSET", "CSSCHD", "CYCLIC", "CZRESULTS", "DATAREC", "DEACTEL", "DEFORM", "DESGLB", "DESMOD",
+    "DESOBJ", "DESSUB", "DESVAR", "DIVERG", "DMIGNAME", "DRSPAN", "DSAPRT", "DSCOEFFICIENT", "DSYM",
+    "DTEMP", "EBDSET", "ECHOOFF", "ECHOON", "EDE", "EFFMASS", "EFLUX", "ELAR", "ELFORCE", "ELSDCON",
+    "ELSENS", "ELSTRESS", "ELSTRN", "ELSUM", "ENDSTEP", "ENDSUBCASE", "ENTHALPY", "EQUILIBRIUM",
+    "ERP", "ERPREF", "EXCLUDE", "EXPORTLID", "FATIGUE", "FLSFSEL", "FLSPOUT", "FLSTCNT", "FLUX",
+    "FMETHOD", "FRF", "GCRSLT", "GCRSTRN", "GELSTRN", "GKRESULTS", "GLOBAL", "GPKE", "GPLSTRN",
+    "GPRSORT", "GPSDCON", "GPSTRAIN", "GPSTRESS", "GROUNDCHECK", "GSTRAIN", "GSTRESS", "GTHSTRN",
+    "HADAPART", "HARMONICS", "HDOT", "HOUTPUT", "HTFLOW", "IC", "INCLUDE", "INITS", "INPOWER",
     "INTENSITY", "IRLOAD", "JINTEG", "K42GG", "KPR", "LINE", "LOADSET", "MASSSET", "MASTER",
-    "MAXLINES", "MAXMIN", "MCFRACTION", "MEFFMASS", "MFLUID", "MODALEKE", "MODALKE", "MODALSE",
-    "MODCON", "MODES", "MODESELECT", "MODSEL", "MODTRAK", "MONITOR", "MONVAR", "MPRES", "NLARCL",
-    "NLCNTL", "NLIC", "NLLOAD", "NLOPRM", "NLPARM", "NLSTRESS", "NONLINEAR", "NOUTPUT", "NSM",
-    "OFREQUENCY", "OLOAD", "OMODES", "OPRESSURE", "OSTNINI", "OTEMP", "OTIME", "OUTRCV", "P2G",
-    "PAGE", "PARTN", "PEAKOUT", "PFGRID", "PFMODE", "PFPANEL", "PLOTID", "POST", "PRESSURE",
-    "PRETENSION", "PSDF", "RANDOM", "RANDVAR", "RCROSS", "REPCASE", "RGYRO", "RIGID", "RMAXMIN",
-    "RMETHOD", "RSMETHOD", "RSVCOMP", "SACCELERATION", "SDISPLACEMENT", "SEALL", "SEDR", "SEDV",
-    "SEEXCLUDE", "SEFINAL", "SEKREDUCE", "SELGENERATE", "SELREDUCE", "SEMGENERATE", "SEMREDUCE",
-    "SEQDEP", "SERESP", "SETMC", "SETMCNAME", "SETS", "SHELLTHK", "SKIP", "SKIPOFF", "SKIPON",
-    "SMETHOD", "SOLUTION", "STATSUB", "STRFIELD", "SUBCOM", "SUPER", "SURFACE", "SVECTOR",
-    "SVELOCITY", "SYM", "SYMCOM", "TFL", "THERMAL", "TSTEPNL", "TSTRU", "VATV", "VOLUME", "VUGRID",
-    "WEIGHTCHECK", "XTITLE", "YTITLE",
+    "MAXLINES", "MAXMIN", "MBDEXPORT", "MBDRECVR", "MCFRACTION", "MEFFMASS", "MFLUID", "MODALEKE",
+    "MODALKE", "MODALSE", "MODCON", "MODES", "MODESELECT", "MODSEL", "MODTRAK", "MONITOR", "MONVAR",
+    "MPRES", "NLARCL", "NLCNTL", "NLIC", "NLLOAD", "NLOPRM", "NLPARM", "NLRESTART", "NLSTRESS",
+    "NONLINEAR", "NOUTPUT", "NSM", "OFREQUENCY", "OLOAD", "OMODES", "OPRESSURE", "OSTNINI", "OTEMP",
+    "OTIME", "OUTRCV", "P2G", "PAGE", "PARTN", "PEAKOUT", "PFGRID", "PFMODE", "PFPANEL", "PLOTID",
+    "PLSTRN", "POST", "PRESSURE", "PRETENSION", "PSDF", "RANDOM", "RANDVAR", "RCROSS", "REPCASE",
+    "RGYRO", "RIGID", "RMAXMIN", "RMETHOD", "RSMETHOD", "RSVCOMP", "SACCELERATION", "SDISPLACEMENT",
+    "SEALL", "SEDR", "SEDV", "SEEXCLUDE", "SEFINAL", "SEKREDUCE", "SELGENERATE", "SELOAD",
+    "SELREDUCE", "SEMGENERATE", "SEMREDUCE", "SEQDEP", "SERESP", "SETMC", "SETMCNAME", "SETS",
+    "SHELLTHK", "SKIP", "SKIPOFF", "SKIPON", "SMETHOD", "SOLUTION", "STATSUB", "STEP", "STRFIELD",
+    "SUBCOM", "SUBSTEP", "SUPER", "SURFACE", "SVECTOR", "SVELOCITY", "SYM", "SYMCOM", "TFL",
+    "THERMAL", "THSTRN", "TSTEPNL", "TSTRU", "VATV", "VOLUME", "VUGRID", "WEIGHTCHECK", "XTITLE",
+    "YTITLE",
 )  # fmt: skip
 
 
@@ -71,12 +75,18 @@ def is_case_command(word: str) -> bool:
     return False
 
 
-def nearest_case_command(word: str) -> str | None:
-    """The command a misspelt ``word`` most likely meant (difflib), or None."""
+#: The case-control commands that change the normal modes femcal computes.
+MODAL_COMMANDS = ("METHOD", "SPC", "MPC", "SUPORT1", "AUTOSPC", "K2GG", "M2GG", "B2GG",
+                  "K2PP", "M2PP", "B2PP", "K42GG", "SUBCASE", "EXTSEOUT")  # fmt: skip
+
+
+def nearest_case_command(word: str, among: tuple[str, ...] | None = None) -> str | None:
+    """The command a misspelt ``word`` most likely meant (difflib), among ``among`` (default
+    every known command), or None."""
     import difflib
 
-    got = difflib.get_close_matches(word.upper(), (*CASE_COMMANDS, *OTHER_CASE_COMMANDS),
-                                    n=1, cutoff=0.6)  # fmt: skip
+    choices = among if among is not None else (*CASE_COMMANDS, *OTHER_CASE_COMMANDS)
+    got = difflib.get_close_matches(word.upper(), choices, n=1, cutoff=0.6)
     return got[0] if got else None
 
 

@@ -17,13 +17,21 @@ import itertools
 import os
 import re
 import stat
+import warnings
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import TextIO
 
-from ..errors import DeckError, DeckIssue
+from ..errors import DeckError, DeckIssue, FemcalWarning
 from .cards import CARDS, UNSUPPORTED_STRUCTURAL, CardDef
-from .deck import Deck, RecordList, canonical_case_key, is_case_command, nearest_case_command
+from .deck import (
+    MODAL_COMMANDS,
+    Deck,
+    RecordList,
+    canonical_case_key,
+    is_case_command,
+    nearest_case_command,
+)
 from .fastlane import FastGroup, split_block
 from .records import RawCard
 from .spec import CHUNK, FAST_FAILURES, Layout, Table
@@ -312,11 +320,17 @@ class _Reader:
             return
         word = _CASE_WORD.match(text)
         if word and not is_case_command(word.group(1)):
-            near = nearest_case_command(word.group(1))
-            hint = f" (did you mean {near}?)" if near else ""
-            self.error(self.pending_case_file, self.pending_case_line, "CASE CONTROL",
-                       f"a case control command{hint}", found=word.group(1),
-                       name="command")  # fmt: skip
+            modal = nearest_case_command(word.group(1), MODAL_COMMANDS)
+            if modal:  # SCP for SPC: the answer would change without a word
+                self.error(self.pending_case_file, self.pending_case_line, "CASE CONTROL",
+                           f"a case control command (did you mean {modal}?)",
+                           found=word.group(1), name="command")  # fmt: skip
+            else:
+                where = self.deck.where(self.pending_case_file, self.pending_case_line)
+                warnings.warn(FemcalWarning(
+                    f"{where}: case control command {word.group(1)} is not one femcal knows; "
+                    "it is left alone (it does not look like one that changes the normal "
+                    "modes)"), stacklevel=2)  # fmt: skip
             return
         m = _CASE_CMD.match(text)
         if not m:

@@ -57,8 +57,8 @@ RANGE_CHECKS: tuple[RangeCheck, ...] = (
     RangeCheck("MAT1", "nu", _poisson, "a Poisson's ratio in (-1, 0.5]"),
     RangeCheck("MAT1", "rho", _at_least(0.0), _NON_NEGATIVE + " (a mass density)"),
     RangeCheck("MAT2", "rho", _at_least(0.0), _NON_NEGATIVE + " (a mass density)"),
-    RangeCheck("MAT8", "e1", _above(0.0), "a real > 0"),
-    RangeCheck("MAT8", "e2", _above(0.0), "a real > 0"),
+    RangeCheck("MAT8", "e1", lambda v: _blank(v) | (v != 0), "a real other than 0"),
+    RangeCheck("MAT8", "e2", lambda v: _blank(v) | (v != 0), "a real other than 0"),
     RangeCheck("MAT8", "rho", _at_least(0.0), _NON_NEGATIVE + " (a mass density)"),
     RangeCheck("MAT9", "rho", _at_least(0.0), _NON_NEGATIVE + " (a mass density)"),
     RangeCheck("PSHELL", "t", _at_least(0.0), _NON_NEGATIVE + " (a thickness)"),
@@ -105,16 +105,18 @@ def check_values(deck: Deck, add: Callable[[str, list[int], list[tuple[int, int]
 
 
 def _check_derived_poisson(t: Table, add, limit: int) -> None:
-    """MAT1 with E and G and no NU: NU = E / (2 G) - 1 must be a Poisson's ratio too (G = 0
-    would give an infinite one, and NaN stiffness)."""
+    """MAT1 with E and G and no NU: NU = E / (2 G) - 1 must be a number (G = 0 gives an
+    infinite one, and NaN stiffness in the shells and solids that use it). A finite NU
+    outside (-1, 0.5] is left alone: rods, bars and beams use E and G as given, and stick
+    models set them apart on purpose."""
     E, G, nu = t.columns["e"], t.columns["g"], t.columns["nu"]
     both = ~np.isnan(E) & ~np.isnan(G) & np.isnan(nu)
     with np.errstate(divide="ignore", invalid="ignore"):
         derived = np.where(both, E / (2.0 * G) - 1.0, 0.0)
-    rows = np.flatnonzero(both & ~((derived > -1.0) & (derived <= 0.5)))
+    rows = np.flatnonzero(both & ~np.isfinite(derived))
     for i in rows[:limit]:
         add(f"MAT1 {int(t.columns['mid'][i])}: E = {E[i]:g} and G = {G[i]:g} without NU give "
-            f"NU = E / (2 G) - 1 = {derived[i]:g}; expected a Poisson's ratio in (-1, 0.5]",
+            f"NU = E / (2 G) - 1 = {derived[i]:g}; expected G other than 0, or NU",
             [int(t.columns["mid"][i])], [(int(t.file[i]), int(t.line[i]))])  # fmt: skip
 
 
