@@ -449,3 +449,14 @@ def test_a_stiffness_that_overflows_is_an_error(write):
     path = write(plate(E="1.7+308"))
     with pytest.raises(SolverError, match="K holds entries beyond double precision"):
         solve_normal_modes(load_model(path))
+
+
+def test_bulk_cards_and_executive_statements_in_case_control_are_errors(write):
+    # a line left on the wrong side of BEGIN BULK or CEND would otherwise be dropped
+    path = write(plate(head="CBAR,1,1,1,2,0.,0.,1.\nSOL 101"))
+    with pytest.raises(DeckError) as e:
+        read_deck(path)
+    assert f"{path}:4: CASE CONTROL command: found 'CBAR'; expected a case control command (a " \
+           "bulk data card belongs after BEGIN BULK)" in str(e.value)
+    assert f"{path}:5: CASE CONTROL command: found 'SOL'; expected a case control command " \
+           "(executive control belongs before CEND)" in str(e.value)

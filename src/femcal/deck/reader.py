@@ -321,7 +321,11 @@ class _Reader:
         word = _CASE_WORD.match(text)
         if word and not is_case_command(word.group(1)):
             modal = nearest_case_command(word.group(1), MODAL_COMMANDS)
-            if modal:  # SCP for SPC: the answer would change without a word
+            misplaced = _misplaced(word.group(1))
+            if misplaced:  # a bulk card or an executive statement in case control
+                self.error(self.pending_case_file, self.pending_case_line, "CASE CONTROL",
+                           misplaced, found=word.group(1), name="command")  # fmt: skip
+            elif modal:  # SCP for SPC: the answer would change without a word
                 self.error(self.pending_case_file, self.pending_case_line, "CASE CONTROL",
                            f"a case control command (did you mean {modal}?)",
                            found=word.group(1), name="command")  # fmt: skip
@@ -676,6 +680,23 @@ def _as_written(issues: list[DeckIssue]) -> list[DeckIssue]:
             i = dataclasses.replace(i, found=original[at : at + len(i.found)])
         out.append(i)
     return out
+
+
+#: Executive control statements (they end at CEND).
+_EXECUTIVE = frozenset({"SOL", "CEND", "ID", "TIME", "DIAG", "APP", "COMPILE", "ALTER",
+                        "NASTRAN", "INIT", "ASSIGN", "GEOMCHECK", "DOMAINSOLVER"})
+
+
+def _misplaced(word: str) -> str:
+    """What a case-control line that starts with ``word`` was meant to be, when it is a bulk
+    data card or an executive statement (a line left before BEGIN BULK or after CEND):
+    the error's "expected" text, ``""`` otherwise."""
+    up = word.upper()
+    if up in CARDS or up in UNSUPPORTED_STRUCTURAL or up == "ENDDATA":
+        return "a case control command (a bulk data card belongs after BEGIN BULK)"
+    if up in _EXECUTIVE:
+        return "a case control command (executive control belongs before CEND)"
+    return ""
 
 
 def _is_card_name(name: str) -> bool:
