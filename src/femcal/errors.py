@@ -35,6 +35,12 @@ class FRFError(FemcalError, ValueError):
     ValueError for bad input keep doing so."""
 
 
+class TimeDataError(FemcalError, ValueError):
+    """Time histories that cannot be used: a file that breaks its format (RPC III header
+    keywords, data size) or data that break what a time history is. The message names the
+    file, the keyword or channel, and what was expected."""
+
+
 class ResourceError(FemcalError):
     """A request would need more memory (or another resource) than the machine has; raised
     before allocating."""
