@@ -9,7 +9,7 @@ import pytest
 import scipy.signal as ss
 
 from femcal.errors import TimeDataError
-from femcal.testdata.signal import cross_spectra, h1
+from femcal.testdata.signal import average_cycles, bandpass, cross_spectra, detrend, h1
 
 FS = 512.0
 
@@ -78,3 +78,28 @@ def test_bad_arguments_are_errors():
         h1(x, x[:, :50], 0.01, 20)
     with pytest.raises(TimeDataError, match=r"overlap 1\.0"):
         h1(x, x, 0.01, 20, overlap=1.0)
+
+
+def test_cycle_averaging_keeps_the_cycle_and_divides_the_noise():
+    rng = np.random.default_rng(5)
+    period, cycles = 256, 30
+    cycle = rng.standard_normal((2, period))
+    record = np.tile(cycle, cycles) + 0.5 * rng.standard_normal((2, period * cycles))
+    mean = average_cycles(record, period)
+    residual = (mean - cycle).std()
+    assert residual == pytest.approx(0.5 / np.sqrt(cycles), rel=0.1)
+    np.testing.assert_allclose(average_cycles(np.tile(cycle, cycles), period), cycle)
+    with pytest.raises(TimeDataError, match="7680 samples are not whole cycles of 250"):
+        average_cycles(record, 250)
+
+
+def test_detrend_removes_a_line_and_bandpass_passes_the_band_with_zero_phase():
+    t = np.arange(8192) / FS
+    inband = np.sin(2 * np.pi * 10.0 * t + 0.3)
+    record = inband + 0.2 * np.sin(2 * np.pi * 150.0 * t) + 3.0 + 0.5 * t
+    clean = bandpass(detrend(record), 1 / FS, 0.5, 30.0, order=200)
+    middle = slice(1000, -1000)  # away from the ends' transients
+    np.testing.assert_allclose(clean[0, middle], inband[middle], atol=0.02)  # no phase lag
+    assert np.abs(detrend(3.0 + 0.5 * t)).max() < 1e-9
+    with pytest.raises(TimeDataError, match=r"band 0\.5-300 Hz"):
+        bandpass(record, 1 / FS, 0.5, 300.0)

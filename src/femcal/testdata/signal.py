@@ -1,5 +1,7 @@
-"""Spectra and FRF estimates from time histories: Welch's averaged, windowed, overlapping
-segments (Bendat and Piersol, Random Data, 4th ed., ch. 11), the MIMO H1 estimator with
+"""Time-history processing as the rig test was processed, and spectra and FRF estimates:
+averaging the repeated cycles of a periodic drive, removing the trend, a zero-phase FIR
+band-pass (the study: 0.5-30 Hz, order 20), then Welch's averaged, windowed, overlapping
+segments (Bendat and Piersol, Random Data, 4th ed., ch. 11) and the MIMO H1 estimator with
 ordinary and multiple coherence (ch. 7 and 9).
 
 With inputs x (n_in channels) and outputs y (n_out channels), the one-sided cross-spectral
@@ -15,6 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.signal as ss
 
 from ..errors import TimeDataError
 
@@ -56,6 +59,55 @@ class FRFEstimate:
     multiple_coherence: np.ndarray
     coherence: np.ndarray
     segments: int
+
+
+def average_cycles(values: np.ndarray, period: int) -> np.ndarray:
+    """The mean cycle (channels, period) of ``values`` (channels, n) that repeat a periodic
+    drive every ``period`` samples: the noise falls by the square root of the cycles.
+
+    Raises
+    ------
+    TimeDataError
+        For a period below 2 samples or one that does not divide the record into whole
+        cycles (trim the record to whole cycles first: a partial cycle is not dropped
+        silently).
+    """
+    values = np.atleast_2d(values)
+    n = values.shape[1]
+    if period < 2 or n % period:
+        raise TimeDataError(f"{n} samples are not whole cycles of {period}: expected a "
+                            f"period of 2 or more samples that divides the record "
+                            f"({n // max(period, 1)} cycles and {n % max(period, 1)} samples "
+                            "over)")  # fmt: skip
+    return values.reshape(values.shape[0], n // period, period).mean(axis=1)
+
+
+def detrend(values: np.ndarray) -> np.ndarray:
+    """``values`` (channels, n) less each channel's least-squares straight line."""
+    return ss.detrend(np.atleast_2d(values), axis=1, type="linear")
+
+
+def bandpass(values: np.ndarray, dt: float, f_lo: float, f_hi: float,
+             order: int = 20) -> np.ndarray:  # fmt: skip
+    """Zero-phase FIR band-pass of ``values`` (channels, n): a Hamming-window FIR of
+    ``order`` (taps order + 1) run forwards and backwards (filtfilt), so its gain is the
+    square of the FIR's and its phase zero.
+
+    Raises
+    ------
+    TimeDataError
+        For a band not inside (0, Nyquist), or a record too short for the filter.
+    """
+    nyq = 0.5 / dt
+    if not 0 < f_lo < f_hi < nyq:
+        raise TimeDataError(f"band {f_lo:g}-{f_hi:g} Hz: expected 0 < f_lo < f_hi below the "
+                            f"Nyquist frequency {nyq:g} Hz")  # fmt: skip
+    values = np.atleast_2d(values)
+    taps = ss.firwin(order + 1, [f_lo, f_hi], pass_zero=False, fs=1.0 / dt)
+    if values.shape[1] <= 3 * len(taps):
+        raise TimeDataError(f"{values.shape[1]} samples: a band-pass of order {order} needs "
+                            f"more than {3 * len(taps)}")  # fmt: skip
+    return ss.filtfilt(taps, [1.0], values, axis=1)
 
 
 def _segments(v: np.ndarray, length: int, step: int) -> np.ndarray:
