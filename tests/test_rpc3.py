@@ -123,3 +123,22 @@ def test_missing_keywords_and_bad_values_are_named(tmp_path):
         write_rpc3(tmp_path / "nan.rsp", TimeData(0.01, np.array([[0.0, np.nan]]), ("a",),
                                                   ("",)))  # fmt: skip
     assert not (tmp_path / "nan.rsp").exists()
+
+
+def test_timedata_info_prints_and_writes_each_channel(tmp_path, capsys):
+    import json
+
+    from femcal.cli import main
+
+    data = TimeData(0.5, np.array([[0.0, 2.0, -2.0, 0.0], [1.0, 1.0, 1.0, 1.0]]), ("a", "b"),
+                    ("mm", "N"))  # fmt: skip
+    path = write_rpc3(tmp_path / "x.tim", data)
+    assert main(["timedata", "info", str(path), "--json", str(tmp_path / "s.json")]) == 0
+    out = capsys.readouterr().out
+    assert "2 channels x 4 samples, dt = 0.5 s (2 Hz), 2 s" in out
+    s = json.loads((tmp_path / "s.json").read_text())
+    assert s["dt"] == 0.5 and s["n_samples"] == 4
+    assert s["channels"][0] == {"name": "a", "unit": "mm", "max": 2.0, "min": -2.0,
+                                "mean": 0.0, "rms": pytest.approx(np.sqrt(2.0))}  # fmt: skip
+    assert main(["timedata", "info", str(tmp_path / "s.json")]) == 2
+    assert "suffix .json; expected an RPC III file (.rsp, .tim, .drv)" in capsys.readouterr().err

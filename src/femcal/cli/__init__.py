@@ -12,7 +12,7 @@ from contextlib import contextmanager
 
 from .. import __version__
 from ..errors import FemcalError
-from . import calibrate, frf, identify, info, model, solve, synth
+from . import calibrate, frf, identify, info, model, solve, synth, timedata
 
 _COMMANDS = {
     "info": info,
@@ -22,6 +22,7 @@ _COMMANDS = {
     "identify": identify,
     "calibrate": calibrate,
     "model": model,
+    "timedata": timedata,
 }
 
 
