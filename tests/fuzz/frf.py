@@ -284,16 +284,21 @@ def _bad_array(rng: np.random.Generator, value: np.ndarray, name: str) -> tuple[
     return f"{name} a number", np.float64(7.0)
 
 
+def _spoil_one(rng: np.random.Generator, arrays: dict[str, np.ndarray]) -> str:
+    """Remove one of ``arrays`` (one time in ten) or make it wrong, in place; says which."""
+    key = sorted(arrays)[int(rng.integers(len(arrays)))]
+    if rng.random() < 0.1:
+        del arrays[key]
+        return f"{key} removed"
+    what, arrays[key] = _bad_array(rng, arrays[key], key)
+    return what
+
+
 def _npz(rng: np.random.Generator, raw: bytes) -> Mutation:
     """An array of the NPZ made wrong (or removed)."""
     with np.load(io.BytesIO(raw)) as z:
         arrays = {k: z[k] for k in z.files}
-    key = sorted(arrays)[int(rng.integers(len(arrays)))]
-    if rng.random() < 0.1:
-        del arrays[key]
-        what = f"{key} removed"
-    else:
-        what, arrays[key] = _bad_array(rng, arrays[key], key)
+    what = _spoil_one(rng, arrays)
     buf = io.BytesIO()
     np.savez(buf, **arrays)
     return what, buf.getvalue()
@@ -304,12 +309,7 @@ def _mat(rng: np.random.Generator, raw: bytes) -> Mutation:
     import scipy.io
 
     z = {k: v for k, v in scipy.io.loadmat(io.BytesIO(raw)).items() if not k.startswith("__")}
-    key = sorted(z)[int(rng.integers(len(z)))]
-    if rng.random() < 0.1:
-        del z[key]
-        what = f"{key} removed"
-    else:
-        what, z[key] = _bad_array(rng, z[key], key)
+    what = _spoil_one(rng, z)
     buf = io.BytesIO()
     scipy.io.savemat(buf, z, do_compression=bool(rng.random() < 0.5))
     return what, buf.getvalue()

@@ -25,9 +25,7 @@ def output_folder(path: Path | None, option: str) -> Path | None:
     if it is an existing file (or under one)."""
     if path is None:
         return None
-    for p in (path, *path.parents):
-        if p.exists():
-            if not p.is_dir():
-                raise UsageError(f"{option} {path}: expected a folder, but {p} is a file")
-            return path
+    blocker = path if path.exists() and not path.is_dir() else file_in_the_way(path)
+    if blocker is not None:
+        raise UsageError(f"{option} {path}: expected a folder, but {blocker} is a file")
     return path
