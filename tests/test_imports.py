@@ -148,6 +148,7 @@ LAYERS = (
     ("femcal.correlate",),
     ("femcal.identify",),
     ("femcal.calibrate",),
+    ("femcal.rig",),
     ("femcal.io", "femcal.viz"),
     ("femcal.jobs", "femcal.examples", "femcal.cli", "femcal.__main__"),
 )
