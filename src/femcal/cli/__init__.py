@@ -12,13 +12,14 @@ from contextlib import contextmanager
 
 from .. import __version__
 from ..errors import FemcalError
-from . import calibrate, frf, identify, info, model, solve, synth, timedata
+from . import calibrate, frf, identify, info, model, solve, synth, synth_rig, timedata
 
 _COMMANDS = {
     "info": info,
     "solve": solve,
     "frf": frf,
     "synth-test": synth,
+    "synth-rig-test": synth_rig,
     "identify": identify,
     "calibrate": calibrate,
     "model": model,

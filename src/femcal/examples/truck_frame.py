@@ -637,15 +637,16 @@ def hammer_inputs(f: _Frame) -> list[tuple[str, int, int]]:
     return [("hammer_Y", g_y, 2), ("hammer_Z", g_z, 3)]
 
 
-def rig_sensors(f: _Frame) -> list[tuple[str, int]]:
-    """One triaxial accelerometer near each actuator (label, GRID): on the rig bracket's
-    plate about 100 mm from the attachment, or on the rail web 100 mm ahead of the
-    longitudinal one; with the battery box, one more at its centre of gravity."""
+def rig_sensors(f: _Frame) -> list[tuple[str, int, str]]:
+    """One accelerometer near each actuator, measuring along its stroke (label, GRID,
+    signed direction code): on the rig bracket's plate about 100 mm from the attachment, or
+    on the rail web 100 mm ahead of the longitudinal one; with the battery box, a triaxial
+    one at its centre of gravity (directions ``123``)."""
     d = f.dims
     yb = d.half_width + (8.0 + SHELLS[10][1]) / 2
     X = np.asarray(f.mesh.xyz)
     out = []
-    for label, g, comp, _sign in f.inputs:
+    for label, g, comp, sign in f.inputs:
         p = X[g - 1]
         if comp == 3:
             target = (p[0], np.sign(p[1]) * yb, p[2] + 150.0)
@@ -653,9 +654,9 @@ def rig_sensors(f: _Frame) -> list[tuple[str, int]]:
             target = (p[0], -yb, p[2] + 100.0)
         else:
             target = (d.length - 100.0, d.half_width, 0.0)
-        out.append((f"S_{label}", _nearest_node(f, *target)))
+        out.append((f"S_{label}", _nearest_node(f, *target), str(comp * sign)))
     if "battery" in f.labels:
-        out.append(("S_battery", f.labels["battery"]))
+        out.append(("S_battery", f.labels["battery"], "123"))
     return out
 
 
@@ -672,9 +673,10 @@ def write_frame(variant: str, out_dir) -> list:
 
     hammer: ``hammer_frame.bdf``, ``.params.toml`` (the 30 calibration parameters),
     ``.sensors.csv`` (24 positions x 3 directions) and ``.inputs.csv`` (2 hammer impacts);
-    rig, rig-battery: ``rig_frame[_battery].bdf``, ``.sensors.csv`` (7 triaxial sensors near
-    the actuators, plus the battery box) and ``.inputs.csv`` (the 7 actuators). An input's
-    direction is the basic axis 1, 2, 3, negative for the minus direction.
+    rig, rig-battery: ``rig_frame[_battery].bdf``, ``.sensors.csv`` (7 accelerometers near
+    the actuators along their strokes, plus a triaxial one on the battery box) and
+    ``.inputs.csv`` (the 7 actuators). A direction is the basic axis 1, 2, 3, negative for
+    the minus direction.
     """
     from pathlib import Path
 
@@ -691,13 +693,14 @@ def write_frame(variant: str, out_dir) -> list:
     paths = [write_lines(out_dir / f"{stem}.bdf", deck_lines(f, title))]
     if variant == "hammer":
         paths.append(write_lines(out_dir / f"{stem}.params.toml", params_toml(parameters())))
-        where, inputs = sensors(f), hammer_inputs(f)
+        where = [(lab, g, "123") for lab, g in sensors(f)]
+        inputs = hammer_inputs(f)
     else:
         where = rig_sensors(f)
         inputs = [(lab, g, comp * sign) for lab, g, comp, sign in f.inputs]
     rows = ["label,grid,x,y,z,directions"]
-    rows += [f"{lab},{g},{X[g - 1][0]:g},{X[g - 1][1]:g},{X[g - 1][2]:g},123"
-             for lab, g in where]  # fmt: skip
+    rows += [f"{lab},{g},{X[g - 1][0]:g},{X[g - 1][1]:g},{X[g - 1][2]:g},{dirs}"
+             for lab, g, dirs in where]  # fmt: skip
     paths.append(write_lines(out_dir / f"{stem}.sensors.csv", rows))
     rows = ["label,grid,x,y,z,direction"]
     rows += [f"{lab},{g},{X[g - 1][0]:g},{X[g - 1][1]:g},{X[g - 1][2]:g},{c}"

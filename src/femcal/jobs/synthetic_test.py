@@ -84,21 +84,15 @@ class SynthTest:
     settings: SynthSettings
 
 
-def hidden_frame(deck_path: str | Path, params_path: str | Path, settings: SynthSettings,
-                 rng: np.random.Generator):  # fmt: skip
-    """The "real" frame: the deck with hidden parameter values drawn from ``rng`` and the
-    cross support, solved to ``settings.modes_to``.
-
-    Returns
-    -------
-    (model, modes, truth): the model with the hidden values, its modes
-    (:class:`femcal.solve.normal_modes.Modes`) and per parameter a dict (name, card, id, field,
-    nominal, true, p). With ``rng = np.random.default_rng(settings.seed)`` this is the frame behind
-    :func:`make_hammer_test`'s data (it draws the parameters first).
+def hidden_values(model, params_path: str | Path, spread: float, rng: np.random.Generator,
+                  given: dict[str, float] | None = None):  # fmt: skip
+    """The model with hidden parameter values, and per parameter a dict (name, card, id,
+    field, nominal, true, p).
 
     The parameter file is read as a calibration reads it
     (:func:`femcal.calibrate.parameters.read_parameters`: any parameter field, bounds
-    absolute or relative, the nominal the deck's), and each hidden value is drawn uniformly
+    absolute or relative, the nominal the deck's). Each hidden value is ``given[name]``
+    when ``given`` names the parameter (as a truth file records it), else drawn uniformly
     within ``spread`` times its bounds around the nominal, so it lies within them.
 
     Raises
@@ -107,28 +101,69 @@ def hidden_frame(deck_path: str | Path, params_path: str | Path, settings: Synth
         Naming the parameter file and parameter (a ValueError too), for a file a
         calibration would refuse: bounds inverted, equal or not holding the nominal, an
         unknown key or field, a card not in the deck.
+    ValueError
+        For a given value that is not finite and positive, or a parameter ``given`` lacks
+        (when ``given`` is not None).
     """
-    s = settings
-    model = load_model(deck_path)
     params = read_parameters(params_path, model)  # checked: bounds hold the deck's nominal
     truth, values = [], []
     for par in params:
-        # within spread times the bounds around the nominal: inside the bounds, as
-        # p_lower <= 0 <= p_upper and spread <= 1
-        rel = float(rng.uniform(s.spread * par.p_lower, s.spread * par.p_upper))
-        values.append(par.value(rel))
+        if given is not None:
+            if par.name not in given:
+                raise ValueError(f"{params_path}: parameter {par.name!r} has no hidden value "
+                                 "in the truth file; expected one for every parameter")
+            value = float(given[par.name])
+            if not (np.isfinite(value) and value > 0):
+                raise ValueError(f"hidden value of {par.name!r}: {value!r}; expected a "
+                                 "positive number")  # fmt: skip
+            rel = value / par.nominal - 1.0
+        else:
+            # within spread times the bounds around the nominal: inside the bounds, as
+            # p_lower <= 0 <= p_upper and spread <= 1
+            rel = float(rng.uniform(spread * par.p_lower, spread * par.p_upper))
+            value = par.value(rel)
+        values.append(value)
         truth.append({"name": par.name, "card": par.card, "id": par.id, "field": par.field,
-                      "nominal": par.nominal, "true": values[-1], "p": rel})  # fmt: skip
-    model = with_values(model, params, np.array(values))
-    mats = assemble(model, Options())
+                      "nominal": par.nominal, "true": value, "p": rel})  # fmt: skip
+    return with_values(model, params, np.array(values)), truth
+
+
+def with_cross_support(model, mats, support_x: float, stiffness: float):
+    """The matrices with the cross support the FE model lacks: rotational springs of
+    ``stiffness`` (N mm/rad) about X and Z at the rail webs' mid-height nodes nearest
+    (``support_x``, +-430, 0) mm."""
     K = mats.K.copy()
-    for side in (1.0, -1.0):  # the cross support: rotational springs at the rail webs
-        target = np.array([s.support_x, side * 430.0, 0.0])
+    for side in (1.0, -1.0):
+        target = np.array([support_x, side * 430.0, 0.0])
         node = int(np.argmin(np.linalg.norm(model.xyz - target, axis=1)))
         for comp in (3, 5):  # R1 and R3 (0-based 3 and 5)
             d = int(model.dof_start[node]) + comp
-            K[d, d] = K[d, d] + s.support_stiffness
-    mats = replace(mats, K=K.tocsr())
+            K[d, d] = K[d, d] + stiffness
+    return replace(mats, K=K.tocsr())
+
+
+def hidden_frame(deck_path: str | Path, params_path: str | Path, settings: SynthSettings,
+                 rng: np.random.Generator):  # fmt: skip
+    """The "real" frame: the deck with hidden parameter values drawn from ``rng``
+    (:func:`hidden_values`) and the cross support (:func:`with_cross_support`), solved to
+    ``settings.modes_to``.
+
+    Returns
+    -------
+    (model, modes, truth): the model with the hidden values, its modes
+    (:class:`femcal.solve.normal_modes.Modes`) and per parameter a dict (name, card, id, field,
+    nominal, true, p). With ``rng = np.random.default_rng(settings.seed)`` this is the frame behind
+    :func:`make_hammer_test`'s data (it draws the parameters first).
+
+    Raises
+    ------
+    ConfigError
+        As :func:`hidden_values`.
+    """
+    s = settings
+    model, truth = hidden_values(load_model(deck_path), params_path, s.spread, rng)
+    mats = with_cross_support(model, assemble(model, Options()), s.support_x,
+                              s.support_stiffness)  # fmt: skip
     modes, _ = solve_normal_modes(model, matrices=mats,
                             request=EigenRequest(v2=s.modes_to, nd=None))  # fmt: skip
     return model, modes, truth

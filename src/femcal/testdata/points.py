@@ -6,7 +6,8 @@
     L01,39,50,430,127.5,123
 
 ``directions`` lists direction codes (1-3 translations along X, Y, Z, 4-6 rotations; 123
-is a triaxial sensor), or a ``direction`` column gives one signed code. A channel's label
+is a triaxial sensor) or gives one signed code (``-1``: along -X), or a ``direction``
+column gives one signed code. A channel's label
 is ``GRID:+X`` (:func:`point_label`); :func:`channel_names` gives each channel the sensor's
 own name, for pictures and reports.
 """
@@ -55,7 +56,8 @@ def _points(path: str | Path, reader: csv.DictReader) -> list[tuple[str, int, in
         try:
             g = int(row["grid"])
             text = row[dir_col].strip()
-            codes = [int(c) for c in text] if dir_col == "directions" else [int(text)]
+            signed = dir_col == "direction" or text[:1] in ("+", "-")
+            codes = [int(text)] if signed else [int(c) for c in text]
         except ValueError:
             raise ConfigError(f"{path}:{line}: grid {row['grid']!r} and {dir_col} "
                               f"{row[dir_col]!r} must be integers") from None  # fmt: skip

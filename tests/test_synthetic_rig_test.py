@@ -1,0 +1,136 @@
+"""The synthetic rig test: its time histories, processed as the study did, give the rig
+frame's FRFs as ``femcal frf`` computes them, and its files read back."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from femcal.cli import main
+from femcal.jobs.synthetic_rig_test import RigTestSettings, make_rig_test, read_truth
+from femcal.testdata.formats import read_frf
+from femcal.testdata.formats.rpc3 import read_rpc3
+from femcal.testdata.points import read_points
+from femcal.testdata.signal import frf
+
+from .conftest import ROOT
+
+FRAME = ROOT / "models" / "truck_frame"
+DECK, PARAMS = FRAME / "rig_frame.bdf", FRAME / "hammer_frame.params.toml"
+ACTUATORS, SENSORS = FRAME / "rig_frame.inputs.csv", FRAME / "rig_frame.sensors.csv"
+
+
+@pytest.fixture(scope="module")
+def nominal_test():
+    """The deck itself on the rig: no hidden values, no cross support, 2 % damping."""
+    settings = RigTestSettings(spread=0.0, support_stiffness=0.0, damping=(0.02, 0.02),
+                               period_s=32.0, cycles=8, noise=0.02)  # fmt: skip
+    return make_rig_test(DECK, PARAMS, ACTUATORS, SENSORS, settings)
+
+
+def test_channels_are_the_studys(nominal_test):
+    d = nominal_test.data
+    acts = [lab for lab, _, _ in read_points(ACTUATORS)]
+    assert d.names[:7] == tuple(f"{a}:displacement" for a in acts)
+    assert d.names[7:14] == tuple(f"{a}:force" for a in acts)
+    assert d.names[14:] == ("S_V_front_left:+Z", "S_V_front_right:+Z", "S_V_rear_left:+Z",
+                            "S_V_rear_right:+Z", "S_L_front:+Y", "S_L_rear:+Y",
+                            "S_X_rear:-X")  # fmt: skip
+    assert d.units[:14] == ("mm",) * 7 + ("N",) * 7 and set(d.units[14:]) == {"mm/s^2"}
+    assert d.n_samples == 8 * 32 * 512
+    # the drives are periodic: every cycle of the LVDTs is the drive plus noise
+    cycles = d.values[:7].reshape(7, 8, -1)
+    noise = cycles - nominal_test.drive[:, None, :]
+    assert np.allclose(noise.std(axis=(1, 2)), 0.02 * 0.2, rtol=0.05)
+
+
+def test_h1_of_the_rig_test_is_the_rig_frames_frf(nominal_test, tmp_path):
+    """H1 of the accelerations on the actuator displacements, against ``femcal frf`` of the
+    deck with a force at each actuator's frame grid: moving a column's grounded end by s
+    loads the frame with k s, so H1 = k x accelerance."""
+    d = nominal_test.data
+    est = frf(d.values[:7], d.values[14:], d.dt, segment=4096, estimator="H1")
+    f = est.frequency_hz
+    lines = np.flatnonzero((f >= 2.0) & (f <= 38.0))
+    out = tmp_path / "rig.npz"
+    sensors = read_points(SENSORS)
+    acts = read_points(ACTUATORS)
+    args = ["frf", str(DECK), "--freq", f"{f[lines[0]]}:{f[lines[-1]] + 1e-6}:{f[1]}",
+            "--damping", "0.02", "--quantity", "accelerance", "--residual",
+            "--modes-to", "200", "--out", str(out)]  # fmt: skip
+    for _, g, c in acts:
+        args += ["--input", f"{g}:{abs(c)}"]
+    for _, g, c in sensors:
+        args += ["--output", f"{g}:{abs(c)}"]
+    assert main(args) == 0
+    ref = read_frf(out).H  # per N, in the grids' +axes
+    k = np.array([a.stiffness for a in nominal_test.plant.actuators])
+    sign_in = np.sign([c for _, _, c in acts])
+    sign_out = np.sign([c for _, _, c in sensors])
+    expected = ref * (k * sign_in)[None, :, None] * sign_out[:, None, None]
+    H = est.H[:, :, lines]
+    assert np.allclose(f[lines], read_frf(out).frequency_hz)
+    coherent = est.multiple_coherence[:, lines] > 0.95
+    err = np.abs(H - expected) / np.abs(expected).max(axis=1, keepdims=True)
+    good = np.broadcast_to(coherent[:, None, :], err.shape)
+    assert coherent.mean() > 0.7
+    assert np.median(err[good]) < 0.05
+    # and the diagonal (each sensor on its own actuator) closely
+    diag = np.abs(H[np.arange(7), np.arange(7)] - expected[np.arange(7), np.arange(7)])
+    diag /= np.abs(expected[np.arange(7), np.arange(7)])
+    assert np.median(diag[coherent]) < 0.05
+
+
+def test_truth_file_gives_the_hidden_values(tmp_path):
+    truth = tmp_path / "t.toml"
+    truth.write_text('support_x_mm = 2000.0\n[[parameter]]\nname = "p1"\ntrue = 7.5\n')
+    values, settings = read_truth(truth)
+    assert values == {"p1": 7.5} and settings == {"support_x_mm": 2000.0}
+    with pytest.raises(ValueError, match="'p2' has no hidden value"):
+        make_rig_test(DECK, PARAMS, ACTUATORS, SENSORS, truth_path=truth)
+    truth.write_text('[[parameter]]\nname = "p1"\ntrue = "x"\n')
+    with pytest.raises(ValueError, match=r"\[\[parameter\]\] 1: expected a name and a numeric"):
+        read_truth(truth)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"period_s": 0.01}, "period_s"),
+    ({"drive_band": (30.0, 10.0)}, "drive_band"),
+    ({"drive_band": (1.0, 300.0)}, "Nyquist"),
+    ({"cycles": 0}, "cycles"),
+    ({"noise": -1.0}, "noise"),
+])  # fmt: skip
+def test_bad_settings_are_named(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        RigTestSettings(**kwargs)
+
+
+def test_command_writes_rpc_files_that_read_back(tmp_path, capsys):
+    out = tmp_path / "rig"
+    assert main(["synth-rig-test", str(DECK), "--params", str(PARAMS), "--actuators",
+                 str(ACTUATORS), "--sensors", str(SENSORS), "--period", "4", "--cycles", "2",
+                 "--out", str(out)]) == 0  # fmt: skip
+    data = read_rpc3(out / "rig_test.rsp")
+    drive = read_rpc3(out / "rig_test.drv")
+    assert data.n_channels == 21 and data.n_samples == 2 * 4 * 512
+    assert drive.n_channels == 7 and drive.n_samples == 4 * 512
+    # 16-bit integers: within half a step of the drive's peak / 32767
+    step = np.abs(drive.values).max(axis=1, keepdims=True) / 32767
+    first = data.values[:7, : drive.n_samples]
+    assert (np.abs(first - drive.values) < 0.02 * 0.2 * 6 + step).all()  # noise 2 % of RMS
+    values, _ = read_truth(out / "rig_test.truth.toml")
+    assert len(values) == 30
+    assert main(["synth-rig-test", str(DECK), "--params", str(PARAMS), "--actuators",
+                 str(ACTUATORS), "--sensors", str(SENSORS), "--period", "0.001",
+                 "--out", str(out)]) == 2  # fmt: skip
+    assert "period_s = 0.001: expected a positive period" in capsys.readouterr().err
+
+
+def test_sensor_files_give_triaxial_or_one_signed_direction(tmp_path):
+    path = tmp_path / "s.csv"
+    path.write_text("label,grid,x,y,z,directions\nA,1,0,0,0,123\nB,2,0,0,0,-1\nC,3,0,0,0,2\n")
+    assert read_points(path) == [("A", 1, 1), ("A", 1, 2), ("A", 1, 3), ("B", 2, -1),
+                                 ("C", 3, 2)]  # fmt: skip
+    path.write_text("label,grid,x,y,z,directions\nB,2,0,0,0,-12\n")
+    with pytest.raises(ValueError, match=r"s.csv:2: directions '-12': expected codes 1-6"):
+        read_points(path)
