@@ -374,3 +374,21 @@ def test_sensor_files_that_break_are_errors_naming_file_and_line(tmp_path):
     latin.write_bytes("label,grid,directions\n\xe9,1,3\n".encode("latin-1"))
     with pytest.raises(ConfigError, match=f"{latin}: not UTF-8 text"):
         read_points(latin)
+
+
+@pytest.mark.parametrize("suffix", [".npz", ".mat"])
+def test_coherence_of_estimated_frfs_round_trips(tmp_path, suffix):
+    from dataclasses import replace
+
+    from femcal.testdata.formats import read_frf, write_frf
+
+    data = FRFData.from_labels([1.0, 2.0, 3.0], np.ones((2, 1, 3)) * (1 + 2j), ["1:3", "2:3"],
+                               ["5:3"], "accelerance", "mm/s^2/N")  # fmt: skip
+    assert read_frf(write_frf(tmp_path / f"a{suffix}", data)).coherence is None
+    coh = np.array([[0.5, 1.0, 0.25], [0.9, 0.2, 0.0]])
+    back = read_frf(write_frf(tmp_path / f"b{suffix}", replace(data, coherence=coh)))
+    assert np.array_equal(back.coherence, coh)
+    with pytest.raises(FRFError, match=r"coherence has shape \(3,\); expected \(n_out"):
+        replace(data, coherence=np.ones(3))
+    with pytest.raises(FRFError, match=r"outside \[0, 1\]"):
+        replace(data, coherence=coh * 3)

@@ -47,6 +47,9 @@ class FRFData:
     outputs, inputs : channels (n_out,), (n_in,).
     quantity : receptance, mobility or accelerance.
     units : of H, e.g. ``mm/N`` (free text).
+    coherence : (n_out, n_freq) multiple coherence of each output in [0, 1] (the share of
+        its power the inputs explain), when the FRFs were estimated from time histories;
+        None otherwise.
     """
 
     frequency_hz: np.ndarray
@@ -55,6 +58,7 @@ class FRFData:
     inputs: tuple[Channel, ...]
     quantity: str = "receptance"
     units: str = ""
+    coherence: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         """Check the shapes, the quantity and the frequency axis (FRFError naming what is
@@ -68,6 +72,14 @@ class FRFData:
                 f"H has shape {H.shape}; expected (n_out, n_in, n_freq) = "
                 f"({len(self.outputs)}, {len(self.inputs)}, {len(f)})"
             )
+        if self.coherence is not None:
+            c = np.asarray(self.coherence)
+            if c.shape != (H.shape[0], H.shape[2]):
+                raise FRFError(f"the coherence has shape {c.shape}; expected (n_out, n_freq) = "
+                               f"({H.shape[0]}, {H.shape[2]})")  # fmt: skip
+            if c.dtype.kind not in "iuf" or not ((c >= 0) & (c <= 1)).all():
+                raise FRFError("the coherence holds values outside [0, 1]; expected a "
+                               "multiple coherence of each output at each frequency")
         if self.quantity not in QUANTITIES:
             raise FRFError(f"quantity must be one of {', '.join(QUANTITIES)}, "
                            f"not {self.quantity!r}")  # fmt: skip

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import os
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -17,16 +18,18 @@ from .registry import Format, register
 def write_mat(path: str | os.PathLike[str], data: FRFData) -> Path:
     """MATLAB .mat (version 5, scipy.io) with the NPZ's variables: ``frequency_hz`` (1 x
     n_freq), ``H`` (n_out x n_in x n_freq complex), ``output_labels`` and ``input_labels``
-    (cell arrays of char), ``quantity`` and ``units``."""
+    (cell arrays of char), ``quantity`` and ``units``, and ``coherence`` (n_out x n_freq)
+    when the data have one."""
     import scipy.io
 
     def dump(tmp: str) -> None:
         cells = lambda chs: np.array([c.label for c in chs], dtype=object)  # noqa: E731
+        extra = {} if data.coherence is None else {"coherence": np.asarray(data.coherence)}
         scipy.io.savemat(tmp, {
             "frequency_hz": np.asarray(data.frequency_hz, float)[None, :],
             "H": np.asarray(data.H, complex), "output_labels": cells(data.outputs),
             "input_labels": cells(data.inputs), "quantity": data.quantity,
-            "units": data.units,
+            "units": data.units, **extra,
         }, do_compression=True)  # fmt: skip
 
     return write_atomic(path, dump)
@@ -64,8 +67,18 @@ def read_mat(path: str | os.PathLike[str], *, quantity: str | None = None) -> FR
         raise FRFError(f"{path}: H has shape {H.shape}; expected (outputs, inputs, "
                        f"frequencies) = {shape}")  # fmt: skip
     texts = {k: str(z[k]) if np.size(z[k]) else "" for k in ("quantity", "units") if k in z}
-    return frf_of(str(path), f, H.reshape(shape), outs, ins, texts["quantity"],
+    data = frf_of(str(path), f, H.reshape(shape), outs, ins, texts["quantity"],
                   texts.get("units", ""))  # fmt: skip
+    if "coherence" not in z:
+        return data
+    coherence = np.asarray(z["coherence"])
+    if coherence.size != shape[0] * shape[2]:
+        raise FRFError(f"{path}: coherence has shape {coherence.shape}; expected (outputs, "
+                       f"frequencies) = ({shape[0]}, {shape[2]})")  # fmt: skip
+    try:
+        return replace(data, coherence=coherence.reshape(shape[0], shape[2]))
+    except FRFError as e:
+        raise FRFError(f"{path}: {e}") from None
 
 
 register(Format("mat", "frf", (".mat",), read_mat, write_mat,

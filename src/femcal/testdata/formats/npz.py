@@ -1,10 +1,12 @@
 """FRF data as NumPy NPZ: ``frequency_hz``, ``H``, ``output_labels``, ``input_labels``,
-``quantity`` and ``units``."""
+``quantity`` and ``units``, and ``coherence`` (n_out, n_freq) for FRFs estimated from time
+histories."""
 
 from __future__ import annotations
 
 import os
 import zipfile
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -16,13 +18,15 @@ from .registry import Format, register
 
 def write_npz(path: str | os.PathLike[str], data: FRFData) -> Path:
     """NPZ with keys ``frequency_hz``, ``H``, ``input_labels``, ``output_labels``,
-    ``quantity`` and ``units``."""
+    ``quantity`` and ``units``, and ``coherence`` when the data have one."""
 
     def dump(tmp: str) -> None:
+        extra = {} if data.coherence is None else {"coherence": data.coherence}
         np.savez(tmp, frequency_hz=data.frequency_hz, H=data.H,
                  output_labels=np.array([c.label for c in data.outputs]),
                  input_labels=np.array([c.label for c in data.inputs]),
-                 quantity=np.array(data.quantity), units=np.array(data.units))  # fmt: skip
+                 quantity=np.array(data.quantity), units=np.array(data.units),
+                 **extra)  # fmt: skip
 
     return write_atomic(path, dump)
 
@@ -32,7 +36,7 @@ _KEYS = ("frequency_hz", "H", "output_labels", "input_labels", "quantity")
 
 
 def read_npz(path: str | os.PathLike[str]) -> FRFData:
-    """Read what :func:`write_npz` writes (``units`` optional).
+    """Read what :func:`write_npz` writes (``units`` and ``coherence`` optional).
 
     Raises
     ------
@@ -53,7 +57,7 @@ def read_npz(path: str | os.PathLike[str]) -> FRFData:
             raise FRFError(f"{path}: missing {', '.join(missing)}; expected the arrays "
                            f"{', '.join(_KEYS)} (and units)")  # fmt: skip
         arrays = {}
-        for key in (*_KEYS, "units"):
+        for key in (*_KEYS, "units", "coherence"):
             if key not in z.files:
                 continue
             try:  # members are read (and decompressed) only now
@@ -62,8 +66,14 @@ def read_npz(path: str | os.PathLike[str]) -> FRFData:
                 raise FRFError(f"{path}: array {key!r} cannot be read ({type(e).__name__}: "
                                f"{e}); the archive is damaged") from e  # fmt: skip
     text = {k: _text(arrays[k], k, path) for k in ("quantity", "units") if k in arrays}
-    return frf_of(str(path), arrays["frequency_hz"], arrays["H"], arrays["output_labels"],
+    data = frf_of(str(path), arrays["frequency_hz"], arrays["H"], arrays["output_labels"],
                   arrays["input_labels"], text["quantity"], text.get("units", ""))  # fmt: skip
+    if "coherence" not in arrays:
+        return data
+    try:
+        return replace(data, coherence=arrays["coherence"])
+    except FRFError as e:
+        raise FRFError(f"{path}: {e}") from None
 
 
 def _text(value: np.ndarray, key: str, path: str | os.PathLike[str]) -> str:
