@@ -1,0 +1,95 @@
+"""Time histories of a known rig (the small frame on six displacement-driven actuators) to
+FRF data, as the study processed its rig test: cycle averaging, detrending, band-pass and
+Welch H1, against the plant's exact frequency response."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from femcal.errors import TimeDataError
+from femcal.model.build import load_model
+from femcal.rig.plant import build_plant
+from femcal.rig.simulate import periodic_response
+from femcal.testdata.estimate import FRFSettings, channel_labels, estimate_frfs
+from femcal.testdata.timedata import TimeData
+
+from .rig_decks import ACTUATORS, SENSORS, small_rig_deck
+
+DT = 1 / 512
+PERIOD = 16384  # 32 s
+
+
+@pytest.fixture(scope="module")
+def rig(tmp_path_factory):
+    """The plant, and 6 cycles of periodic random drives and responses with 3 % noise."""
+    deck = small_rig_deck(tmp_path_factory.mktemp("est") / "rig.bdf")
+    plant = build_plant(load_model(deck), ACTUATORS, SENSORS, modes_to=300.0, damping=0.03)
+    rng = np.random.default_rng(7)
+    f = np.fft.rfftfreq(PERIOD, DT)
+    lines = (f >= 1) & (f <= 120)
+    S = np.zeros((len(ACTUATORS), len(f)), complex)
+    S[:, lines] = np.exp(2j * np.pi * rng.uniform(size=(len(ACTUATORS), int(lines.sum()))))
+    drive = np.fft.irfft(S, PERIOD, axis=1)
+    cycle = periodic_response(plant, drive, DT)
+    values = np.tile(cycle, (1, 6))
+    values += 0.03 * values.std(axis=1, keepdims=True) * rng.standard_normal(values.shape)
+    values += np.linspace(0, 1e-3, values.shape[1])  # a drift to detrend
+    data = TimeData(DT, values, plant.outputs, plant.output_units)
+    return plant, data
+
+
+def test_h1_of_cycle_averaged_data_is_the_exact_frf(rig):
+    plant, data = rig
+    ins = [f"{a}:displacement" for a, _, _ in ACTUATORS]
+    outs = list(data.names[12:])
+    result = estimate_frfs(data, ins, outs, FRFSettings(period_s=None, segment_s=2.0,
+                                                        band=(2.0, 100.0)))  # fmt: skip
+    frf = result.frf
+    assert frf.quantity == "accelerance" and frf.units == "mm/s^2/mm"
+    assert frf.frequency_hz[0] >= 2.0 and frf.frequency_hz[-1] <= 100.0
+    exact = plant.frf(frf.frequency_hz)[12:]
+    strong = np.abs(exact) > 0.1 * np.abs(exact).max(axis=1, keepdims=True)
+    err = np.abs(frf.H - exact) / np.abs(exact)
+    assert np.median(err[strong]) < 0.03
+    assert frf.coherence.shape == (len(outs), len(frf.frequency_hz))
+    assert np.median(frf.coherence) > 0.95
+    # averaging the 6 cycles first leaves one cycle: fewer segments, the noise down by 6^0.5
+    avg = estimate_frfs(data, ins, outs, FRFSettings(period_s=32.0, segment_s=2.0,
+                                                     band=(2.0, 100.0)))  # fmt: skip
+    assert avg.cycles == 6 and avg.x.shape[1] == PERIOD
+    assert np.median(avg.frf.coherence) > np.median(frf.coherence)
+
+
+def test_force_outputs_and_mixed_units_and_bad_periods(rig):
+    _, data = rig
+    ins = [f"{a}:displacement" for a, _, _ in ACTUATORS]
+    forces = estimate_frfs(data, ins, [f"{a}:force" for a, _, _ in ACTUATORS])
+    assert forces.frf.quantity == "receptance" and forces.frf.units == "N/mm"
+    with pytest.raises(TimeDataError, match="different units"):
+        estimate_frfs(data, ins, ["A_z1:force", "S3:+Z"])
+    with pytest.raises(TimeDataError, match="not whole cycles"):
+        estimate_frfs(data, ins, ["S3:+Z"], FRFSettings(period_s=31.0))
+    with pytest.raises(TimeDataError, match="whole number of samples"):
+        estimate_frfs(data, ins, ["S3:+Z"], FRFSettings(period_s=1.0001))
+    with pytest.raises(TimeDataError, match="no channel 'nope'"):
+        estimate_frfs(data, ins, ["nope"])
+    with pytest.raises(TimeDataError, match="given more than once"):
+        estimate_frfs(data, ins, ins[:1])
+    with pytest.raises(TimeDataError, match="longer than the averaged cycle"):
+        estimate_frfs(data, ins, ["S3:+Z"], FRFSettings(period_s=32.0, segment_s=64.0))
+    with pytest.raises(TimeDataError, match="estimator 'H3'"):
+        FRFSettings(estimator="H3")
+
+
+def test_channel_names_become_grid_labels_through_position_files(tmp_path):
+    sensors = tmp_path / "s.csv"
+    sensors.write_text("label,grid,x,y,z,directions\nS1,16799,0,0,0,3\nS2,55,0,0,0,123\n")
+    acts = tmp_path / "a.csv"
+    acts.write_text("label,grid,x,y,z,direction\nV1,17547,0,0,0,3\nX1,17559,0,0,0,-1\n")
+    names = ["S1:+Z", "S2:-Y", "V1:displacement", "X1:force"]
+    assert channel_labels(names) == names
+    assert channel_labels(names, [sensors, acts]) == ["16799:+Z", "55:-Y", "17547:+Z",
+                                                      "17559:-X"]  # fmt: skip
+    with pytest.raises(TimeDataError, match="channel 'S9:\\+Z': the position files place"):
+        channel_labels(["S9:+Z"], [sensors])
