@@ -134,3 +134,46 @@ def test_sensor_files_give_triaxial_or_one_signed_direction(tmp_path):
     path.write_text("label,grid,x,y,z,directions\nB,2,0,0,0,-12\n")
     with pytest.raises(ValueError, match=r"s.csv:2: directions '-12': expected codes 1-6"):
         read_points(path)
+
+
+SHIPPED = FRAME / "rig_test.rsp"
+
+
+def test_the_shipped_rig_test_is_what_its_command_makes():
+    from femcal.jobs.synthetic_rig_test import read_truth
+
+    shipped = read_rpc3(SHIPPED)
+    assert SHIPPED.stat().st_size < 10e6
+    _, made = read_truth(FRAME / "rig_test.truth.toml")
+    settings = RigTestSettings(period_s=68.0, cycles=4)
+    again = make_rig_test(DECK, PARAMS, ACTUATORS, SENSORS, settings,
+                          truth_path=FRAME / "hammer_test.truth.toml")  # fmt: skip
+    assert shipped.names == again.data.names and shipped.units == again.data.units
+    step = np.abs(again.data.values).max(axis=1, keepdims=True) / 32767  # 16-bit storage
+    assert (np.abs(shipped.values - again.data.values) <= 0.5 * step * (1 + 1e-6)).all()
+    assert made["support_x_mm"] == again.support_x
+
+
+def test_identification_of_the_shipped_rig_test_finds_the_rig_frames_modes(tmp_path):
+    """H1 of the 7 accelerations on the 7 actuator displacements (16 s segments), identified
+    in two parts: every mode of the hidden frame in 2-39 Hz within 0.5 %."""
+    import json
+    import tomllib
+
+    from femcal.testdata.estimate import FRFSettings, estimate_frfs
+    from femcal.testdata.formats import write_frf
+
+    data = read_rpc3(SHIPPED)
+    result = estimate_frfs(data, list(data.names[:7]), list(data.names[14:]),
+                           FRFSettings(segment_s=16.0, band=(0.5, 40.0)),
+                           points=[SENSORS, ACTUATORS])  # fmt: skip
+    assert [c.label for c in result.frf.inputs][-1] == "17559:-X"
+    npz = write_frf(tmp_path / "rig_h1.npz", result.frf)
+    summary = tmp_path / "identify.json"
+    assert main(["identify", str(npz), "--band", "2", "39", "--split", "25", "--json",
+                 str(summary)]) == 0  # fmt: skip
+    found = np.array([p["frequency_hz"] for p in json.loads(summary.read_text())["poles"]])
+    with open(FRAME / "rig_test.truth.toml", "rb") as fh:
+        truth = np.array(tomllib.load(fh)["modes"]["frequency_hz"])
+    for f in truth[(truth > 2) & (truth < 39)]:
+        assert np.abs(found / f - 1).min() < 0.005, (f, found)

@@ -56,6 +56,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "channel, as rig controllers write)")  # fmt: skip
 
 
+def _command(args: argparse.Namespace) -> str:
+    """The command line that makes the same test (paths as given)."""
+    parts = ["femcal synth-rig-test", str(args.deck), "--params", str(args.params),
+             "--actuators", str(args.actuators), "--sensors", str(args.sensors)]
+    if args.truth is not None:
+        parts += ["--truth", str(args.truth)]
+    parts += ["--seed", str(args.seed), "--rate", f"{args.rate:g}", "--period", f"{args.period:g}",
+              "--cycles", str(args.cycles), "--band", f"{args.band[0]:g}", f"{args.band[1]:g}",
+              "--rms", f"{args.rms:g}", "--noise", f"{args.noise:g}", "--modes-to",
+              f"{args.modes_to:g}"] + (["--floats"] if args.floats else [])
+    return " ".join([*parts, "--out", str(args.out), "--name", args.name])
+
+
 def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
 
@@ -80,9 +93,10 @@ def run(args: argparse.Namespace) -> int:
     d = test.data
     units = (test.plant.input_units,) * len(test.plant.inputs)
     drive = TimeData(d.dt, test.drive, test.plant.inputs, units)
+    truth = rig_truth_toml(test, _command(args))
     paths = [write_rpc3(stem.with_suffix(".rsp"), d, data_type=kind),
              write_rpc3(stem.with_suffix(".drv"), drive, data_type=kind, time_type="DRIVE"),
-             write_lines(stem.with_suffix(".truth.toml"), rig_truth_toml(test))]  # fmt: skip
+             write_lines(stem.with_suffix(".truth.toml"), truth)]  # fmt: skip
     for p in paths:
         progress(f"wrote {p}")
     print(f"{d.n_channels} channels x {d.n_samples} samples at {1 / d.dt:g} Hz "

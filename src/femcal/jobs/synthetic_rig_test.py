@@ -199,11 +199,13 @@ def make_rig_test(deck_path: str | Path, params_path: str | Path, actuators_path
     return RigTest(data, drive, plant, truth, s, support_x, support_k)
 
 
-def rig_truth_toml(test: RigTest) -> list[str]:
-    """The hidden truth as TOML lines (settings, modes and damping, parameters)."""
+def rig_truth_toml(test: RigTest, command: str = "") -> list[str]:
+    """The hidden truth as TOML lines (settings, modes and damping, parameters), with the
+    command that made the test as a comment when given."""
     s = test.settings
+    made = [f"# made by: {command}"] if command else []
     lines = ["# The hidden truth behind the synthetic rig test: for tests only, not for the",
-             "# calibration (which must find it from the data).", "",
+             "# calibration (which must find it from the data).", *made, "",
              f"seed = {s.seed}", f"spread = {s.spread!r}",
              f"support_x_mm = {test.support_x!r}",
              f"support_stiffness_nmm_per_rad = {test.support_stiffness!r}",
