@@ -141,4 +141,5 @@ def test_timedata_info_prints_and_writes_each_channel(tmp_path, capsys):
     assert s["channels"][0] == {"name": "a", "unit": "mm", "max": 2.0, "min": -2.0,
                                 "mean": 0.0, "rms": pytest.approx(np.sqrt(2.0))}  # fmt: skip
     assert main(["timedata", "info", str(tmp_path / "s.json")]) == 2
-    assert "suffix .json; expected an RPC III file (.rsp, .tim, .drv)" in capsys.readouterr().err
+    assert ("unknown time-history file type '.json'; expected .rsp, .tim, .drv, .csv, .npz"
+            in capsys.readouterr().err)  # fmt: skip

@@ -1,5 +1,7 @@
-"""``femcal timedata info FILE [--json OUT]``: what a time-history file (MTS RPC III: .rsp,
-.tim, .drv) holds: step, length and every channel's name, unit and range."""
+"""``femcal timedata info FILE [--json OUT]``: what a time-history file holds (MTS RPC III
+.rsp, .tim, .drv; CSV with a time column; NPZ: the formats registered for time histories,
+read by :func:`femcal.testdata.formats.read_time_data`): step, length and every channel's
+name, unit and range."""
 
 from __future__ import annotations
 
@@ -10,36 +12,19 @@ from pathlib import Path
 import numpy as np
 
 from ..atomic import write_lines
-from ..errors import TimeDataError
-from ..testdata.formats.rpc3 import read_rpc3
+from ..testdata.formats import formats, read_time_data, suffixes
 from ..testdata.timedata import TimeData
-
-#: Suffixes of RPC III time histories (response, time history, drive).
-RPC3_SUFFIXES = (".rsp", ".tim", ".drv")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("timedata", help="time histories (RPC III): summaries",
-                       description="Time-history files of a rig test (MTS RPC III: .rsp, .tim, "
-                       ".drv).")  # fmt: skip
+    kinds = "; ".join(f"{f.description} ({', '.join(f.suffixes)})" for f in formats("time"))
+    p = sub.add_parser("timedata", help="time histories (RPC III, CSV, NPZ): summaries",
+                       description=f"Time-history files of a rig test: {kinds}.")  # fmt: skip
     tsub = p.add_subparsers(dest="action", required=True, metavar="ACTION")
     info = tsub.add_parser("info", help="step, length and each channel's name, unit and range")
-    info.add_argument("file", type=Path, help="RPC III file (.rsp, .tim, .drv)")
+    info.add_argument("file", type=Path,
+                      help=f"time-history file ({', '.join(suffixes('time'))})")  # fmt: skip
     info.add_argument("--json", type=Path, metavar="OUT", help="also write the summary as JSON")
-
-
-def read_time_data(path: Path) -> TimeData:
-    """A time-history file by its suffix.
-
-    Raises
-    ------
-    TimeDataError
-        For a suffix femcal does not read time data from, or a file that breaks its format.
-    """
-    if path.suffix.lower() in RPC3_SUFFIXES:
-        return read_rpc3(path)
-    raise TimeDataError(f"{path}: suffix {path.suffix or '(none)'}; expected an RPC III file "
-                        f"({', '.join(RPC3_SUFFIXES)})")  # fmt: skip
 
 
 def summary(data: TimeData) -> dict:

@@ -2,8 +2,11 @@
 writer under its suffixes (as meshio's formats do), and :func:`read` / :func:`write` pick
 them by a file's suffix.
 
-A format holds one kind of data: ``"frf"`` (:class:`~femcal.testdata.data.FRFData`) for now;
-time histories register under their own kind.
+A format holds one kind of data: ``"frf"`` (:class:`~femcal.testdata.data.FRFData`) or
+``"time"`` (:class:`~femcal.testdata.timedata.TimeData`). The kinds are apart: a suffix names
+one format of each kind (``.csv`` is the long-format FRF CSV for FRFs and the time-column CSV
+for time histories), and the reader of a kind raises that kind's error
+(:class:`~femcal.errors.FRFError`, :class:`~femcal.errors.TimeDataError`).
 """
 
 from __future__ import annotations
@@ -15,8 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from ...errors import FemcalError, message
-from ..data import FRFError
+from ...errors import FemcalError, FRFError, TimeDataError, message
 
 
 @dataclass(frozen=True)
@@ -25,8 +27,8 @@ class Format:
 
     Attributes
     ----------
-    name : short name (``"uff"``).
-    kind : the data it holds (``"frf"``).
+    name : short name (``"uff"``), one per kind.
+    kind : the data it holds (``"frf"``, ``"time"``).
     suffixes : file suffixes, lower case with the dot (``(".uff", ".unv")``).
     read : path -> data. write : (path, data) -> the path written, or None if the format is
         read only.
@@ -41,9 +43,18 @@ class Format:
     description: str = ""
 
 
-_FORMATS: dict[str, Format] = {}
+#: The formats by (kind, name), in registration order.
+_FORMATS: dict[tuple[str, str], Format] = {}
 #: How messages name each kind of data.
-_WHAT = {"frf": "FRF"}
+_WHAT = {"frf": "FRF", "time": "time-history"}
+#: The error each kind's readers raise (FRFError for a kind without its own).
+_ERRORS: dict[str, type[FemcalError]] = {"frf": FRFError, "time": TimeDataError}
+
+
+def error_of(kind: str) -> type[FemcalError]:
+    """The error class of ``kind``'s data (:class:`~femcal.errors.FRFError` for ``"frf"``,
+    :class:`~femcal.errors.TimeDataError` for ``"time"``); both are ValueErrors too."""
+    return _ERRORS.get(kind, FRFError)
 
 
 def register(fmt: Format) -> None:
@@ -59,7 +70,7 @@ def register(fmt: Format) -> None:
                       and f.name != fmt.name), None)  # fmt: skip
         if other is not None:
             raise ValueError(f"suffix {s} is already the {other.name} format's")
-    _FORMATS[fmt.name] = fmt
+    _FORMATS[(fmt.kind, fmt.name)] = fmt
 
 
 def formats(kind: str) -> list[Format]:
@@ -94,16 +105,17 @@ def format_of(path: str | os.PathLike[str], kind: str, *, writing: bool = False)
 def read(path: str | os.PathLike[str], kind: str) -> object:
     """Read a file of ``kind`` by its suffix.
 
-    The readers raise :class:`~femcal.testdata.data.FRFError` (a ValueError) for a file
-    that is not what its suffix says, naming the file and what is wrong; a KeyError or
-    ValueError that a reader lets through is passed on as an FRFError naming the file too,
-    so that no reader's slip shows the user a bare message.
+    The readers raise the kind's error (:func:`error_of`: :class:`~femcal.errors.FRFError`
+    for ``"frf"``, :class:`~femcal.errors.TimeDataError` for ``"time"``, both ValueErrors)
+    for a file that is not what its suffix says, naming the file and what is wrong; a
+    KeyError or ValueError that a reader lets through is passed on as the kind's error naming
+    the file too, so that no reader's slip shows the user a bare message.
 
     Raises
     ------
-    FRFError
-        For an unknown suffix, or a file that is not what its suffix says (naming the file
-        and what is wrong).
+    FRFError or TimeDataError
+        (as the kind says) For an unknown suffix, or a file that is not what its suffix says
+        (naming the file and what is wrong).
     FileNotFoundError
         For a file that does not exist.
     """
@@ -111,27 +123,28 @@ def read(path: str | os.PathLike[str], kind: str) -> object:
 
     path = Path(path)
     what = _WHAT.get(kind, kind)
+    error = error_of(kind)
     try:
         fmt = format_of(path, kind)
     except ValueError as e:
-        raise FRFError(str(e)) from None
+        raise error(str(e)) from None
     if not path.is_file():
         if path.is_dir():
             raise IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR), str(path))
         raise FileNotFoundError(errno.ENOENT, os.strerror(errno.ENOENT), str(path))
     try:
         return fmt.read(path)
-    except FRFError as e:
+    except error as e:
         if str(path) in str(e):
             raise
-        raise FRFError(f"{path}: {e}") from e
+        raise error(f"{path}: {e}") from e
     except FemcalError:
         raise
     except (KeyError, ValueError) as e:
         msg = message(e)
-        raise FRFError(msg if str(path) in msg else f"{path}: {msg}") from e
+        raise error(msg if str(path) in msg else f"{path}: {msg}") from e
     except (OSError, EOFError, zipfile.BadZipFile, MatReadError) as e:
-        raise FRFError(f"{path}: not a readable {path.suffix} {what} file ({e})") from e
+        raise error(f"{path}: not a readable {path.suffix} {what} file ({e})") from e
 
 
 def write(path: str | os.PathLike[str], data: object, kind: str) -> Path:
@@ -139,7 +152,14 @@ def write(path: str | os.PathLike[str], data: object, kind: str) -> Path:
 
     Raises
     ------
+    FRFError or TimeDataError
+        (as the kind says; both ValueErrors) For a suffix no format of that kind writes,
+        listing those that would do.
     ValueError
-        For a suffix no format of that kind writes, or data the format cannot hold.
+        For data the format cannot hold (mostly the kind's error, naming what is wrong).
     """
-    return format_of(path, kind, writing=True).write(Path(path), data)
+    try:
+        fmt = format_of(path, kind, writing=True)
+    except ValueError as e:
+        raise error_of(kind)(str(e)) from None
+    return fmt.write(Path(path), data)

@@ -18,6 +18,10 @@ The layout (MTS, RPC III data file format):
 Writing: the keywords a lab's tools expect, floats or short integers scaled to the channel's
 largest magnitude (within half a step of the value), groups padded to full size, written
 whole or not at all.
+
+The format is registered for time histories (kind ``"time"``) under .rsp, .tim and .drv, so
+:func:`femcal.testdata.formats.read_time_data` and ``write_time_data`` take these files by
+suffix (the writer with its defaults: 32-bit floats).
 """
 
 from __future__ import annotations
@@ -32,6 +36,7 @@ import numpy as np
 from ...atomic import write_atomic
 from ...errors import TimeDataError
 from ..timedata import TimeData
+from .registry import Format, register
 
 RECORD, BLOCK = 128, 512
 KEY_BYTES = 32
@@ -266,3 +271,7 @@ def _record(key: str, value: str) -> bytes:
         raise TimeDataError(f"RPC III record {key} = {value!r}: a keyword holds at most 32 "
                             "characters, a value 96")  # fmt: skip
     return k.ljust(KEY_BYTES, b"\0") + v.ljust(RECORD - KEY_BYTES, b"\0")
+
+
+register(Format("rpc3", "time", (".rsp", ".tim", ".drv"), read_rpc3, write_rpc3,
+                "MTS RPC III"))  # fmt: skip
