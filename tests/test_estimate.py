@@ -93,3 +93,68 @@ def test_channel_names_become_grid_labels_through_position_files(tmp_path):
                                                       "17559:-X"]  # fmt: skip
     with pytest.raises(TimeDataError, match="channel 'S9:\\+Z': the position files place"):
         channel_labels(["S9:+Z"], [sensors])
+
+
+# ----------------------------------------------------------------------------- command line
+
+def _rig_test_args():
+    from .conftest import ROOT
+
+    frame = ROOT / "models" / "truck_frame"
+    acts = ["V_front_left", "V_front_right", "V_rear_left", "V_rear_right", "L_front",
+            "L_rear", "X_rear"]  # fmt: skip
+    outs = ["S_V_front_left:+Z", "S_V_front_right:+Z", "S_V_rear_left:+Z",
+            "S_V_rear_right:+Z", "S_L_front:+Y", "S_L_rear:+Y", "S_X_rear:-X"]  # fmt: skip
+    return frame, [f"{a}:displacement" for a in acts], outs
+
+
+def test_timedata_frf_writes_labelled_frfs_with_coherence(tmp_path, capsys):
+    from femcal.cli import main
+    from femcal.testdata.formats import read_frf
+
+    frame, ins, outs = _rig_test_args()
+    out = tmp_path / "h1.npz"
+    assert main(["timedata", "frf", str(frame / "rig_test.rsp"), "--inputs", *ins,
+                 "--outputs", *outs, "--band", "0.5", "40", "--segment", "8", "--period",
+                 "68", "--points", str(frame / "rig_frame.sensors.csv"),
+                 str(frame / "rig_frame.inputs.csv"), "--out", str(out),
+                 "--pictures", str(tmp_path / "pics")]) == 0  # fmt: skip
+    text = capsys.readouterr().out
+    assert "7 outputs x 7 inputs" in text and "4 cycles averaged" in text
+    frf = read_frf(out)
+    assert frf.outputs[0].label == "16799:+Z" and frf.inputs[-1].label == "17559:-X"
+    assert frf.coherence is not None and np.median(frf.coherence) > 0.95
+    assert frf.frequency_hz[0] >= 0.5 and frf.frequency_hz[-1] <= 40
+    for name in ("input_psd", "singular_values", "coherence", "frf"):
+        assert (tmp_path / "pics" / f"{name}.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--outputs", "nope"], "no channel 'nope'"),
+    (["--outputs", "S_X_rear:-X", "--period", "67"], "not whole cycles"),
+    (["--outputs", "S_X_rear:-X", "--estimator", "H7"], "estimator 'H7'"),
+    (["--outputs", "S_X_rear:-X", "--out", "x.txt"], "unknown FRF file type '.txt'"),
+    (["--outputs", "S_X_rear:-X", "--points", "missing.csv"], "missing.csv"),
+])  # fmt: skip
+def test_timedata_frf_refuses_bad_requests_in_one_line(tmp_path, capsys, extra, message):
+    from femcal.cli import main
+
+    frame, ins, _ = _rig_test_args()
+    args = ["timedata", "frf", str(frame / "rig_test.rsp"), "--inputs", *ins,
+            "--out", str(tmp_path / "h.npz")]  # fmt: skip
+    assert main(args + extra) == 2
+    err = capsys.readouterr().err
+    assert message in err.strip().splitlines()[-1] and "Traceback" not in err
+
+
+def test_timedata_plot_draws_time_psd_and_frf_pictures(tmp_path):
+    from femcal.cli import main
+
+    frame, ins, outs = _rig_test_args()
+    assert main(["timedata", "plot", str(frame / "rig_test.rsp"), "--seconds", "5",
+                 "--inputs", *ins[:2], "--outputs", *outs[:3], "--band", "0.5", "40",
+                 "--out", str(tmp_path)]) == 0  # fmt: skip
+    for name in ("time", "psd", "input_psd", "singular_values", "coherence", "frf"):
+        assert (tmp_path / f"{name}.png").stat().st_size > 10_000
+    assert main(["timedata", "plot", str(frame / "rig_test.rsp"), "--inputs", *ins[:2],
+                 "--out", str(tmp_path)]) == 2  # fmt: skip
