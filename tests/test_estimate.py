@@ -158,3 +158,17 @@ def test_timedata_plot_draws_time_psd_and_frf_pictures(tmp_path):
         assert (tmp_path / f"{name}.png").stat().st_size > 10_000
     assert main(["timedata", "plot", str(frame / "rig_test.rsp"), "--inputs", *ins[:2],
                  "--out", str(tmp_path)]) == 2  # fmt: skip
+
+
+def test_resampled_channels_give_the_same_frfs_below_the_new_nyquist(rig):
+    plant, data = rig
+    ins = [f"{a}:displacement" for a, _, _ in ACTUATORS]
+    outs = list(data.names[12:])
+    settings = FRFSettings(segment_s=2.0, band=(2.0, 60.0), rate_hz=256.0)
+    result = estimate_frfs(data, ins, outs, settings)
+    assert result.x.shape[1] == data.n_samples // 2
+    exact = plant.frf(result.frf.frequency_hz)[12:]
+    strong = np.abs(exact) > 0.1 * np.abs(exact).max(axis=1, keepdims=True)
+    assert np.median((np.abs(result.frf.H - exact) / np.abs(exact))[strong]) < 0.03
+    with pytest.raises(TimeDataError, match="rate"):
+        FRFSettings(rate_hz=-1.0)

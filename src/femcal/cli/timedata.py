@@ -96,13 +96,16 @@ def _estimate_options(p: argparse.ArgumentParser) -> None:
                    "band (the study: 0.5 30)")  # fmt: skip
     p.add_argument("--order", type=int, default=d.order,
                    help=f"order of the band-pass FIR (default {d.order})")
+    p.add_argument("--rate", type=float, metavar="HZ",
+                   help="resample the channels to HZ first (anti-alias filtered)")
 
 
 def _settings(args: argparse.Namespace) -> FRFSettings:
     return FRFSettings(period_s=args.period, segment_s=args.segment, overlap=args.overlap,
                        band=tuple(args.band) if args.band else None, order=args.order,
                        estimator=getattr(args, "estimator", "H1"),
-                       detrend=not getattr(args, "no_detrend", False))  # fmt: skip
+                       detrend=not getattr(args, "no_detrend", False),
+                       rate_hz=args.rate)  # fmt: skip
 
 
 def summary(data: TimeData) -> dict:

@@ -3,7 +3,7 @@ output channels by name, average the repeated cycles of a periodic drive, remove
 channel's trend, band-pass both sides with the same zero-phase FIR, estimate the FRFs by
 Welch averaging (H1, H2 or Hv) with their coherences, and keep the band as femcal FRF data
 (:class:`~femcal.testdata.data.FRFData`, with the multiple coherence) that identification
-and calibration take.
+and calibration take; the channels may be resampled to another rate first.
 
 Channel labels: a channel's name is its label unless position files say where it is. A
 sensors or actuators CSV (:mod:`femcal.testdata.points`) maps ``LABEL:+Z`` (a sensor and a
@@ -48,6 +48,8 @@ class FRFSettings:
     order : of the band-pass FIR (the study: 20).
     estimator : "H1", "H2" or "Hv".
     detrend : remove each channel's straight line first.
+    rate_hz : resample the channels to this rate first (anti-alias filtered; the ratio to
+        the file's rate a fraction of whole numbers up to 1000); None keeps the file's.
     """
 
     period_s: float | None = None
@@ -57,6 +59,7 @@ class FRFSettings:
     order: int = 20
     estimator: str = "H1"
     detrend: bool = True
+    rate_hz: float | None = None
 
     def __post_init__(self) -> None:
         """Check the settings (TimeDataError naming the one that is wrong)."""
@@ -69,6 +72,8 @@ class FRFSettings:
         if self.band is not None and not (len(self.band) == 2
                                           and 0 < self.band[0] < self.band[1]):  # fmt: skip
             raise TimeDataError(f"band {self.band!r}: expected 0 < F1 < F2 in Hz")
+        if self.rate_hz is not None and not (np.isfinite(self.rate_hz) and self.rate_hz > 0):
+            raise TimeDataError(f"rate {self.rate_hz!r} Hz: expected a positive rate")
         if not (isinstance(self.order, int) and self.order >= 2):
             raise TimeDataError(f"band-pass order {self.order!r}: expected 2 or more")
         if self.estimator.lower() not in {e.lower() for e in ESTIMATORS}:
@@ -180,28 +185,32 @@ def estimate_frfs(data: TimeData, inputs: Sequence[str], outputs: Sequence[str],
     in_unit, out_unit = _common_unit(data, ins, "input"), _common_unit(data, outs, "output")
     out_labels = channel_labels(outputs, points)
     in_labels = channel_labels(inputs, points)
-    x, y = data.values[ins], data.values[outs]
+    x, y, dt = data.values[ins], data.values[outs], data.dt
+    if s.rate_hz is not None:
+        x, new_dt = signal.resample(x, dt, 1.0 / s.rate_hz)
+        y, _ = signal.resample(y, dt, 1.0 / s.rate_hz)
+        dt = new_dt
     cycles = 1
     if s.period_s is not None:
-        period = s.period_s / data.dt
+        period = s.period_s / dt
         if abs(period - round(period)) > 1e-6 * period:
             raise TimeDataError(f"period {s.period_s:g} s is {period:.6g} samples of "
-                                f"{data.dt:g} s; expected a whole number of samples")  # fmt: skip
+                                f"{dt:g} s; expected a whole number of samples")  # fmt: skip
         n_period = round(period)
-        cycles = data.n_samples // n_period
+        cycles = x.shape[1] // n_period
         x, y = signal.average_cycles(x, n_period), signal.average_cycles(y, n_period)
     if s.detrend:
         x, y = signal.detrend(x), signal.detrend(y)
     if s.band is not None:
-        x = signal.bandpass(x, data.dt, *s.band, order=s.order)
-        y = signal.bandpass(y, data.dt, *s.band, order=s.order)
-    segment = round(s.segment_s / data.dt)
+        x = signal.bandpass(x, dt, *s.band, order=s.order)
+        y = signal.bandpass(y, dt, *s.band, order=s.order)
+    segment = round(s.segment_s / dt)
     if segment > x.shape[1]:
         raise TimeDataError(f"segment {s.segment_s:g} s ({segment} samples) is longer than "
                             f"the {'averaged cycle' if cycles > 1 else 'record'} "
                             f"({x.shape[1]} samples)")  # fmt: skip
     full = s.estimator.upper() == "H2" and len(ins) > 1
-    spectra = signal.cross_spectra(x, y, data.dt, segment, s.overlap, full_outputs=full)
+    spectra = signal.cross_spectra(x, y, dt, segment, s.overlap, full_outputs=full)
     est = signal.frf_from_spectra(spectra, s.estimator)
     f = est.frequency_hz
     lo, hi = s.band if s.band is not None else (0.0, np.inf)
