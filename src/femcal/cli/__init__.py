@@ -12,7 +12,7 @@ from contextlib import contextmanager
 
 from .. import __version__
 from ..errors import FemcalError
-from . import calibrate, frf, identify, info, model, solve, synth, synth_rig, timedata
+from . import calibrate, frf, identify, info, model, rig, solve, synth, synth_rig, timedata
 
 _COMMANDS = {
     "info": info,
@@ -24,6 +24,7 @@ _COMMANDS = {
     "calibrate": calibrate,
     "model": model,
     "timedata": timedata,
+    "rig": rig,
 }
 
 

@@ -18,6 +18,7 @@ from ..calibrate.config import Config, Configuration
 from ..calibrate.modelform import NOISE_FACTOR
 from ..calibrate.parameters import Parameter
 from ..calibrate.result import CalibrationResult, CaseResult, Cycle
+from .html import html_figure, html_number, html_table
 
 
 def calibrated_deck_name(conf: Configuration, cfg: Config) -> str:
@@ -281,20 +282,7 @@ def write_calibrated_deck(deck_path: str | os.PathLike[str], params: list[Parame
     return write_deck(deck, out)
 
 
-def _table(rows: list[list[str]], head: list[str]) -> str:
-    h = "".join(f"<th>{html.escape(x)}</th>" for x in head)
-    body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>"
-                   for r in rows)  # fmt: skip
-    return f"<table><tr>{h}</tr>{body}</table>"
-
-
-def _f(v, spec: str) -> str:
-    return "-" if v is None else format(v, spec)
-
-
-def _figure(title: str, src: str, caption: str) -> str:
-    return (f"<figure><h3>{html.escape(title)}</h3><img src='{html.escape(src)}'>"
-            f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+_table, _f, _figure = html_table, html_number, html_figure
 
 
 def _model_form_html(form: dict | None) -> str:

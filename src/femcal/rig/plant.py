@@ -310,3 +310,30 @@ def build_plant(model: Model, actuators: Sequence[tuple[str, int, int]],
     zeta = np.broadcast_to(np.asarray(damping, float), omega.shape).copy()
     return RigPlant(omega, zeta, beta, Yd, Ya, D0, D2, tuple(labels), tuple(names),
                     length_unit, tuple(units), tuple(acts))  # fmt: skip
+
+
+def damping_from_modes(plant: RigPlant, frequency_hz: np.ndarray, damping_ratio: np.ndarray,
+                       default: float, tolerance: float = 0.05) -> tuple[np.ndarray, int]:
+    """Modal damping of the plant's modes from identified modes: each plant mode takes the
+    damping of the identified mode nearest in frequency when it lies within ``tolerance``
+    (relative), each identified mode serving at most one plant mode (the nearest); the other
+    modes take ``default``.
+
+    Returns
+    -------
+    (zeta (k,), how many modes took an identified damping)
+    """
+    f_plant = plant.omega / (2 * np.pi)
+    f_id = np.asarray(frequency_hz, float)
+    z_id = np.asarray(damping_ratio, float)
+    zeta = np.full(plant.n_modes, float(default))
+    taken = 0
+    for j in np.argsort(f_id):
+        if not (np.isfinite(f_id[j]) and 0 <= z_id[j] < 1):
+            continue
+        rel = np.abs(f_plant / f_id[j] - 1)
+        r = int(np.argmin(rel)) if len(rel) else -1
+        if r >= 0 and rel[r] <= tolerance and zeta[r] == default:
+            zeta[r] = z_id[j]
+            taken += 1
+    return zeta, taken

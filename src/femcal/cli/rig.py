@@ -1,0 +1,260 @@
+"""``femcal rig ACTION``: the virtual 7-post rig (femcal.rig).
+
+- ``simulate DECK --actuators CSV --sensors CSV --drive DRIVE.rsp --out RESPONSE.rsp
+  [--damping Z | --damping-from MODEL.npz] [--modes-to HZ] [--periodic]``: the frame on its
+  actuators played with a drive file;
+- ``iterate DECK --actuators CSV --sensors CSV --target TARGET.rsp --control CHANNEL...
+  [--plant DECK] [--iterations N] [--gain G] --out DIR``: drives that reproduce a target, as
+  RPC Pro iterates them.
+
+All time data are read and written by suffix (RPC III .rsp/.tim/.drv, CSV, NPZ).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import TimeDataError
+from ..io.identified import read_model
+from ..io.rig import iteration_dict, write_iteration_html, write_iteration_json
+from ..model.build import load_model
+from ..rig.iterate import IterationSettings, frf_on_lines, iterate_drive, measured_frf
+from ..rig.plant import RigPlant, build_plant, damping_from_modes
+from ..rig.simulate import simulate
+from ..testdata.formats import format_of, read_time_data, suffixes, write_time_data
+from ..testdata.points import read_points
+from ..testdata.timedata import TimeData
+from ..viz import rig as pictures
+from .paths import UsageError, file_in_the_way, output_folder
+
+_D = IterationSettings()
+
+
+def _plant_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("deck", type=Path, help="NASTRAN deck of the frame on its oil columns")
+    p.add_argument("--actuators", type=Path, required=True,
+                   help="actuators CSV (label, grid of the oil column's frame end, direction)")
+    p.add_argument("--sensors", type=Path, required=True, help="accelerometers CSV")
+    p.add_argument("--damping", type=float, default=0.02, metavar="Z",
+                   help="modal damping ratio of every mode (default 0.02)")
+    p.add_argument("--damping-from", type=Path, metavar="MODEL.npz",
+                   help="an identified model (femcal identify --out): each mode within 5 %% "
+                   "of an identified one takes its damping, the others --damping")  # fmt: skip
+    p.add_argument("--modes-to", type=float, default=200.0, metavar="HZ",
+                   help="modes kept (default up to 200 Hz; the others enter statically)")
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("rig", help="the virtual 7-post rig: simulate, iterate drives",
+                       description="The frame on its displacement-driven actuators: play a "
+                       "drive file, or iterate drives that reproduce a target.")  # fmt: skip
+    rsub = p.add_subparsers(dest="action", required=True, metavar="ACTION")
+    sim = rsub.add_parser("simulate", help="play a drive file on the frame",
+                          description="Simulate the frame on its actuators driven by a drive "
+                          "file (one channel per actuator, named by its label, in the model's "
+                          "length unit); writes every LVDT, load cell and "
+                          "accelerometer.")  # fmt: skip
+    _plant_options(sim)
+    time_sfx = ", ".join(suffixes("time"))
+    sim.add_argument("--drive", type=Path, required=True, help=f"drive file ({time_sfx})")
+    sim.add_argument("--out", type=Path, required=True, metavar="FILE",
+                     help=f"response file ({time_sfx})")
+    sim.add_argument("--periodic", action="store_true",
+                     help="take the drive as one period of a looped drive (steady state)")
+
+    it = rsub.add_parser("iterate", help="iterate drives to reproduce a target",
+                         description="Find the drives that make the control channels follow "
+                         "a target: the model's FRF inverted (regularised SVD), first drive = "
+                         "inverse x target, then drive += gain x inverse x (target - "
+                         "response), each response played on the plant.")  # fmt: skip
+    _plant_options(it)
+    it.add_argument("--target", type=Path, required=True, help=f"target file ({time_sfx})")
+    it.add_argument("--control", nargs="+", required=True, metavar="CHANNEL",
+                    help="control channels: names in the target file and in the rig's outputs "
+                    "(LABEL:+Z, LABEL:force, LABEL:displacement)")  # fmt: skip
+    it.add_argument("--plant", type=Path, metavar="DECK",
+                    help="the deck that plays the drives (the stand-in for the physical rig; "
+                    "default the model's)")  # fmt: skip
+    it.add_argument("--plant-damping", type=float, metavar="Z",
+                    help="modal damping of the plant (default --damping)")
+    it.add_argument("--frf", choices=("model", "measured"), default="model",
+                    help="invert the model's FRF (default), or the FRF measured by playing "
+                    "noise drives on the plant, as a rig does")  # fmt: skip
+    it.add_argument("--iterations", type=int, default=_D.iterations, metavar="N",
+                    help=f"corrections after the first drive (default {_D.iterations})")
+    it.add_argument("--gain", type=float, default=_D.gain,
+                    help=f"gain of each correction (default {_D.gain:g})")
+    it.add_argument("--rcond", type=float, default=_D.rcond,
+                    help=f"singular values below RCOND x the largest are left out of the "
+                    f"inverse (default {_D.rcond:g})")  # fmt: skip
+    it.add_argument("--band", type=float, nargs=2, default=_D.band, metavar=("F1", "F2"),
+                    help=f"drive band (default {_D.band[0]:g} {_D.band[1]:g} Hz)")
+    it.add_argument("--out", type=Path, required=True, metavar="DIR", help="folder to write")
+
+
+def _say(t0: float, msg: str) -> None:
+    print(f"[{time.perf_counter() - t0:7.1f} s] {msg}", file=sys.stderr, flush=True)
+
+
+def _plant(deck: Path, args: argparse.Namespace, damping: float, t0: float) -> RigPlant:
+    if not (np.isfinite(damping) and 0 <= damping < 1):
+        raise UsageError(f"damping {damping:g}: expected a ratio 0 <= Z < 1 (0.02 is 2 %)")
+    if not (np.isfinite(args.modes_to) and args.modes_to > 0):
+        raise UsageError(f"--modes-to {args.modes_to:g}: expected a frequency above 0 Hz")
+    _say(t0, f"reading {deck}")
+    plant = build_plant(load_model(deck), read_points(args.actuators),
+                        read_points(args.sensors), modes_to=args.modes_to, damping=damping,
+                        progress=lambda m: _say(t0, m))  # fmt: skip
+    if args.damping_from is not None:
+        try:
+            ident = read_model(args.damping_from)
+        except (KeyError, ValueError, OSError) as e:
+            raise UsageError(f"--damping-from {args.damping_from}: {e}") from None
+        zeta, taken = damping_from_modes(plant, ident.frequency_hz, ident.damping_ratio,
+                                         damping)  # fmt: skip
+        plant = plant.with_damping(zeta)
+        _say(t0, f"{taken} of {plant.n_modes} modes take the identified damping")
+    _say(t0, f"{plant.n_modes} modes up to {args.modes_to:g} Hz, {len(plant.inputs)} "
+         f"actuators, {len(plant.outputs)} outputs")  # fmt: skip
+    return plant
+
+
+def _check_file_out(path: Path, option: str) -> None:
+    if path.is_dir():
+        raise UsageError(f"{option} {path}: is a directory; expected a file name")
+    try:
+        format_of(path, "time", writing=True)
+    except ValueError as e:
+        raise UsageError(f"{option} {e}") from None
+    blocked = file_in_the_way(path)
+    if blocked is not None:
+        raise UsageError(f"{option} {path}: {blocked} is a file, not a directory")
+
+
+def drive_channels(data: TimeData, plant: RigPlant, where: Path) -> np.ndarray:
+    """The drive (n_actuators, n) from a file's channels named by the actuators' labels (or
+    ``LABEL:displacement``), in the model's length unit.
+
+    Raises
+    ------
+    TimeDataError
+        Naming the file and the actuator whose channel is missing, or a channel in another
+        unit.
+    """
+    rows = []
+    for label in plant.inputs:
+        for name in (label, f"{label}:displacement"):
+            if name in data.names:
+                c = data.names.index(name)
+                break
+        else:
+            raise TimeDataError(f"{where}: no drive channel for actuator {label!r} (expected a "
+                                f"channel named {label!r}); the channels are "
+                                f"{', '.join(map(repr, data.names))}")  # fmt: skip
+        if data.units[c] not in ("", plant.input_units):
+            raise TimeDataError(f"{where}: channel {data.names[c]!r} is in {data.units[c]!r}; "
+                                f"expected {plant.input_units!r}, the model's length unit")
+        rows.append(data.values[c])
+    return np.vstack(rows)
+
+
+def _simulate(args: argparse.Namespace) -> int:
+    t0 = time.perf_counter()
+    _check_file_out(args.out, "--out")
+    drive_data = read_time_data(args.drive)
+    plant = _plant(args.deck, args, args.damping, t0)
+    drive = drive_channels(drive_data, plant, args.drive)
+    n = drive.shape[1]
+    _say(t0, f"playing {n} samples ({n * drive_data.dt:g} s at {1 / drive_data.dt:g} Hz)")
+    every = max(1, -(-n // 10))
+    y = simulate(plant, drive, drive_data.dt, periodic=args.periodic,
+                 progress=lambda m: None if int(m.split()[1]) % every else _say(t0, m))  # fmt: skip
+    write_time_data(args.out, TimeData(drive_data.dt, y, plant.outputs, plant.output_units))
+    _say(t0, f"wrote {args.out}")
+    width = max(len(n) for n in plant.outputs)
+    print(f"{'channel':<{width}} {'unit':<8} {'rms':>12} {'peak':>12}")
+    for name, unit, v in zip(plant.outputs, plant.output_units, y, strict=True):
+        print(f"{name:<{width}} {unit:<8} {np.sqrt(np.mean(v**2)):12.5g} "
+              f"{np.abs(v).max():12.5g}")  # fmt: skip
+    return 0
+
+
+def _iterate(args: argparse.Namespace) -> int:
+    t0 = time.perf_counter()
+    try:
+        settings = IterationSettings(iterations=args.iterations, gain=args.gain,
+                                     rcond=args.rcond, band=tuple(args.band))  # fmt: skip
+    except ValueError as e:
+        raise UsageError(str(e)) from None
+    output_folder(args.out, "--out")
+    target_data = read_time_data(args.target)
+    model = _plant(args.deck, args, args.damping, t0)
+    plant = model
+    if args.plant is not None or args.plant_damping is not None:
+        deck = args.plant if args.plant is not None else args.deck
+        damping = args.plant_damping if args.plant_damping is not None else args.damping
+        plant = _plant(deck, args, damping, t0)
+        if plant.outputs != model.outputs or plant.inputs != model.inputs:
+            raise UsageError(f"--plant {deck}: its actuators and outputs differ from the "
+                             "model's")  # fmt: skip
+    control = []
+    for name in args.control:
+        if name not in model.outputs:
+            raise UsageError(f"--control {name}: not an output of the rig; expected one of "
+                             f"{', '.join(model.outputs)}")  # fmt: skip
+        control.append(model.outputs.index(name))
+    target = np.vstack([target_data.values[target_data.channel(n)] for n in args.control])
+    dt, n = target_data.dt, target.shape[1]
+    if settings.band[1] >= 0.5 / dt:
+        raise UsageError(f"--band {settings.band[0]:g} {settings.band[1]:g}: above the "
+                         f"target's Nyquist frequency {0.5 / dt:g} Hz")  # fmt: skip
+    if args.frf == "model":
+        H = frf_on_lines(model, control, n, dt, settings.band)
+        how = "the model's FRF"
+    else:
+        _say(t0, "measuring the FRF: noise drives on the plant")
+        H = measured_frf(plant, control, n, dt, settings.band)
+        how = "the FRF measured with noise drives on the plant"
+    result = iterate_drive(plant, H, target, control, dt, settings,
+                           progress=lambda m: _say(t0, m))  # fmt: skip
+    out = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    units = (model.input_units,) * len(model.inputs)
+    write_time_data(out / "drive.rsp", TimeData(dt, result.drive, model.inputs, units))
+    write_time_data(out / "response.rsp",
+                    TimeData(dt, result.response, plant.outputs, plant.output_units))  # fmt: skip
+    names = list(args.control)
+    cunits = [model.output_units[c] for c in control]
+    response = result.response[control]
+    figures = [
+        ("Error at each iteration", "rms_error.png", "RMS of target - response over the "
+         "target's RMS, each control channel, after the first drive (0) and each correction."),
+        ("Target and response", "target_response.png", "The control channels around the "
+         "target's peak after the last step."),
+        ("Target and response: PSDs", "target_response_psd.png", "Welch PSDs (4 s Hann "
+         "segments) of target and response after the last step."),
+    ]  # fmt: skip
+    pictures.error_history(out / figures[0][1], result.rms_error, names)
+    pictures.target_and_response(out / figures[1][1], dt, target, response, names, cunits)
+    pictures.target_and_response_psd(out / figures[2][1], dt, target, response, names, cunits,
+                                     band=settings.band)  # fmt: skip
+    report = iteration_dict(result, plant, settings, target=str(args.target),
+                            model=str(args.deck), plant_deck=str(args.plant or args.deck),
+                            frf=how)  # fmt: skip
+    write_iteration_json(out / "iteration.json", report)
+    write_iteration_html(out / "report.html", report, figures)
+    _say(t0, f"wrote {out}: drive.rsp, response.rsp, iteration.json, report.html, pictures")
+    width = max(len(n) for n in names)
+    print(f"{'control channel':<{width}}  RMS error (% of target) after each step")
+    for k, name in enumerate(names):
+        print(f"{name:<{width}}  " + " ".join(f"{100 * e:7.2f}" for e in result.rms_error[:, k]))
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    return {"simulate": _simulate, "iterate": _iterate}[args.action](args)

@@ -1,0 +1,81 @@
+"""A drive iteration on disk: the JSON summary and the HTML page (RMS error of each control
+channel at each iteration, the drives, the pictures). Files are written atomically."""
+
+from __future__ import annotations
+
+import html
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..atomic import write_lines
+from ..rig.iterate import Iteration, IterationSettings
+from ..rig.plant import RigPlant
+from .html import html_figure, html_table
+
+_STYLE = ("body{font-family:sans-serif;margin:2em;max-width:1400px}"
+          "table{border-collapse:collapse;margin:1em 0}"
+          "td,th{border:1px solid #bbb;padding:3px 8px;text-align:right}th{background:#eee}"
+          "img{max-width:100%;display:block;margin:0.5em 0}"
+          "figcaption{color:#333;font-size:0.95em}")
+
+
+def iteration_dict(result: Iteration, plant: RigPlant, settings: IterationSettings, *,
+                   target: str, model: str, plant_deck: str, frf: str,
+                   uncontrolled: dict[str, float] | None = None) -> dict:  # fmt: skip
+    """The JSON summary: settings, files, per control channel the RMS error (fraction of the
+    target's RMS) after each step, each drive's RMS after each step, and each output's RMS
+    in the last response."""
+    names = [plant.outputs[c] for c in result.control]
+    rms = np.sqrt(np.mean(result.response**2, axis=1))
+    return {
+        "target": target, "model": model, "plant": plant_deck, "frf": frf,
+        "settings": {"iterations": settings.iterations, "gain": settings.gain,
+                     "rcond": settings.rcond, "band_hz": list(settings.band)},
+        "control": [{"channel": n, "rms_error": [float(e) for e in result.rms_error[:, k]]}
+                    for k, n in enumerate(names)],
+        "drives": [{"actuator": a, "unit": plant.input_units,
+                    "rms": [float(v) for v in result.drives[:, j]]}
+                   for j, a in enumerate(plant.inputs)],
+        "response_rms": {n: float(v) for n, v in zip(plant.outputs, rms, strict=True)},
+        "final_rms_error": {"worst": float(result.rms_error[-1].max()),
+                            "median": float(np.median(result.rms_error[-1]))},
+        **({"uncontrolled": uncontrolled} if uncontrolled else {}),
+    }  # fmt: skip
+
+
+def write_iteration_json(path: str | os.PathLike[str], report: dict) -> Path:
+    return write_lines(path, [json.dumps(report, indent=1)])
+
+
+def write_iteration_html(path: str | os.PathLike[str], report: dict,
+                         figures: list[tuple[str, str, str]]) -> Path:  # fmt: skip
+    """The page: what was iterated, the error table (channel x iteration), the drives'
+    RMS, the pictures."""
+    steps = len(report["control"][0]["rms_error"]) if report["control"] else 0
+    head = ["control channel"] + [f"{k}" for k in range(steps)]
+    rows = [[c["channel"], *(f"{100 * e:.2f}" for e in c["rms_error"])]
+            for c in report["control"]]  # fmt: skip
+    drives = [[d["actuator"], *(f"{v:.4g}" for v in d["rms"])] for d in report["drives"]]
+    s = report["settings"]
+    last = report["final_rms_error"]
+    page = f"""<!DOCTYPE html><html><head><meta charset="utf-8">
+<title>femcal drive iteration</title><style>{_STYLE}</style></head><body>
+<h1>femcal drive iteration</h1>
+<p>Target <code>{html.escape(report['target'])}</code>; FRF inverted: {html.escape(report['frf'])}
+of <code>{html.escape(report['model'])}</code>; plant played: <code>{
+html.escape(report['plant'])}</code>. {s['iterations']} corrections with gain {s['gain']:g}, the
+FRF's singular values below {s['rcond']:g} of the largest left out, drives in
+{s['band_hz'][0]:g}-{s['band_hz'][1]:g} Hz.</p>
+<p><b>After the last step the RMS error is {100 * last['worst']:.2f} % of the target's RMS at
+worst, {100 * last['median']:.2f} % median.</b></p>
+<h2>RMS error of each control channel (% of its target's RMS) after each step</h2>
+{html_table(rows, head)}
+<h2>RMS of each drive ({html.escape(report['drives'][0]['unit'] if report['drives'] else '')})
+after each step</h2>
+{html_table(drives, ["actuator"] + [f"{k}" for k in range(steps)])}
+{''.join(html_figure(*f) for f in figures)}
+</body></html>"""
+    return write_lines(path, [page])
