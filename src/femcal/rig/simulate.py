@@ -14,7 +14,8 @@ and ``c1 = (E - 1 - mu T) / (mu^2 T)``,
 
 run as a one-pole filter (:func:`scipy.signal.lfilter`) on ``w = eta - g c1 pi``, mode by
 mode, over blocks of samples, so that the state carries from block to block and only one
-block of modal coordinates is held at a time.
+block of modal inputs and coordinates is held at a time: hours of drive need the drives and
+the outputs in memory, not the modes' histories.
 
 A sampled drive stands for a band-limited one, which the straight lines between samples
 only approximate: their gain at frequency ``f`` falls by ``sinc^2(f T)`` (1.1 % at 30 Hz
@@ -75,18 +76,6 @@ def _derivatives(s: np.ndarray, dt: float, periodic: bool) -> tuple[np.ndarray, 
     return d1, d2
 
 
-def _compensate(p: np.ndarray, periodic: bool) -> np.ndarray:
-    """p (k, n) through the (-1, 14, -1) / 12 filter, held or wrapped at the ends."""
-    if p.shape[1] < 2:
-        return p.copy()
-    if periodic:
-        before, after = p[:, -1:], p[:, :1]
-    else:
-        before, after = p[:, :1], p[:, -1:]
-    padded = np.concatenate([before, p, after], axis=1)
-    return (14 * p - padded[:, :-2] - padded[:, 2:]) / 12
-
-
 def simulate(plant: RigPlant, drive: np.ndarray, dt: float, *, periodic: bool = False,
              progress: Callable[[str], None] | None = None) -> np.ndarray:  # fmt: skip
     """The plant's outputs (n_out, n) for drives ``drive`` (n_in, n) sampled at ``dt`` (s),
@@ -116,19 +105,30 @@ def simulate(plant: RigPlant, drive: np.ndarray, dt: float, *, periodic: bool = 
     c0, c1 = _hold_coefficients(mu, dt)
     gamma, feed = g * (lam * c1 + c0), g * c1
     s1, s2 = _derivatives(s, dt, periodic)
-    # modal inputs of the dynamic remainders (k, n), small beside the outputs
-    p_all = -(plant.beta @ s2 + (2 * z * w)[:, None] * (plant.beta @ s1)) / (w**2)[:, None]
-    p_held = _compensate(p_all, periodic)
     k = plant.n_modes
+    rate = (2 * z * w)[:, None]
+
+    def modal_input(start: int, stop: int) -> tuple[np.ndarray, np.ndarray]:
+        """(raw, held) modal inputs (k, stop - start) of the dynamic remainders: small
+        beside the outputs, made block by block (with one sample either side for the
+        compensating filter) so that only a block of them is held at a time."""
+        idx = np.arange(start - 1, stop + 1)
+        idx = idx % n if periodic else np.clip(idx, 0, n - 1)
+        p = -(plant.beta @ s2[:, idx] + rate * (plant.beta @ s1[:, idx])) / (w**2)[:, None]
+        return p[:, 1:-1], (14 * p[:, 1:-1] - p[:, :-2] - p[:, 2:]) / 12
+
     state = np.zeros(k, complex)
-    if periodic and n:
-        for r in range(k):  # one pass for each mode's state after a period from rest
-            _, zf = ss.lfilter([0, gamma[r]], [1, -lam[r]], p_held[r], zi=[0j])
-            state[r] = zf[0] / (1 - lam[r] ** n)
+    if periodic and n:  # each mode's state after a period from rest, then the steady one
+        for start in range(0, n, BLOCK):
+            _, held = modal_input(start, min(n, start + BLOCK))
+            for r in range(k):
+                _, zf = ss.lfilter([0, gamma[r]], [1, -lam[r]], held[r], zi=[state[r]])
+                state[r] = zf[0]
+        state /= 1 - lam**n
     y = plant.D0 @ s + plant.D2 @ s2
     for start in range(0, n, BLOCK):
         stop = min(n, start + BLOCK)
-        p = p_held[:, start:stop]
+        raw, p = modal_input(start, stop)
         eta = np.empty(p.shape, complex)
         for r in range(k):
             eta[r], zf = ss.lfilter([0, gamma[r]], [1, -lam[r]], p[r], zi=[state[r]])
@@ -136,7 +136,7 @@ def simulate(plant: RigPlant, drive: np.ndarray, dt: float, *, periodic: bool = 
         eta += feed[:, None] * p
         q = 2 * eta.real
         qd = 2 * (mu[:, None] * eta).real
-        qdd = p_all[:, start:stop] - (2 * z * w)[:, None] * qd - (w**2)[:, None] * q
+        qdd = raw - rate * qd - (w**2)[:, None] * q
         y[:, start:stop] += plant.Yd @ q + plant.Ya @ qdd
         if progress is not None:
             progress(f"simulated {stop} of {n} samples")
