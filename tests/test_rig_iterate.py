@@ -159,3 +159,44 @@ def test_rig_commands_name_what_is_wrong(tmp_path, capsys):
     assert main(["rig", "iterate", *args, "--target", str(tmp_path / "d.rsp"), "--control",
                  "S_X_rear:-X", "--gain", "3", "--out", str(tmp_path / "it")]) == 2  # fmt: skip
     assert "gain = 3.0: expected in (0, 1]" in capsys.readouterr().err
+
+
+def test_compare_ranks_the_model_that_is_the_physical_rig_first(tmp_path, capsys):
+    """Two models of the small rig against a target measured on one of them: that one needs
+    the reference drive and predicts the uncontrolled channels; the other does not."""
+    deck = small_rig_deck(tmp_path / "rig.bdf")
+    stiff = tmp_path / "stiff.bdf"
+    stiff.write_text(deck.read_text().replace("PBAR,1,1,400.,20000.", "PBAR,1,1,400.,26000."))
+    for path, rows in ((tmp_path / "a.csv", ACTUATORS), (tmp_path / "s.csv", SENSORS)):
+        path.write_text("label,grid,x,y,z,direction\n"
+                        + "".join(f"{lab},{g},0,0,0,{c}\n" for lab, g, c in rows))  # fmt: skip
+    rng = np.random.default_rng(2)
+    n = round(16 / DT)
+    f = np.fft.rfftfreq(n, DT)
+    band = (f >= 1) & (f <= 80)
+    S = np.zeros((6, len(f)), complex)
+    S[:, band] = np.exp(2j * np.pi * rng.uniform(size=(6, band.sum())))
+    known = np.fft.irfft(S, n, axis=1)
+    labels = tuple(lab for lab, _, _ in ACTUATORS)
+    write_time_data(tmp_path / "known.rsp", TimeData(DT, known, labels, ("mm",) * 6))
+    rig = ["--actuators", str(tmp_path / "a.csv"), "--sensors", str(tmp_path / "s.csv"),
+           "--modes-to", "300"]  # fmt: skip
+    assert main(["rig", "simulate", str(stiff), *rig, "--drive", str(tmp_path / "known.rsp"),
+                 "--periodic", "--out", str(tmp_path / "measured.rsp")]) == 0  # fmt: skip
+    out = tmp_path / "cmp"
+    assert main(["rig", "compare", "--model", f"plain={deck}", "--model", f"stiff={stiff}",
+                 *rig, "--target", str(tmp_path / "measured.rsp"), "--control", "S3:+Z",
+                 "S8:+Y", "S12:+Z", "S11:-X", "A_z1:force", "A_y1:force", "--band", "1", "80",
+                 "--reference-drive", str(tmp_path / "known.rsp"), "--out", str(out)]) == 0  # fmt: skip
+    assert "plain" in capsys.readouterr().out
+    report = json.loads((out / "compare.json").read_text())
+    plain, right = report["models"]
+    assert max(right["control_rms_error"]) < 0.01 and max(plain["control_rms_error"]) < 0.05
+    assert max(right["drive_rms_error"].values()) < 0.01
+    assert max(plain["drive_rms_error"].values()) > 5 * max(right["drive_rms_error"].values())
+    other = "A_z11:force"  # not controlled
+    assert right["uncontrolled_rms_error"][other] < 0.01
+    assert plain["uncontrolled_rms_error"][other] > 5 * right["uncontrolled_rms_error"][other]
+    for name in ("compare.html", "drives_psd.png", "uncontrolled_psd.png", "plain/drive.rsp",
+                 "stiff/response.rsp"):  # fmt: skip
+        assert (out / name).stat().st_size > 1000

@@ -21,7 +21,19 @@ import numpy as np
 
 from ..errors import TimeDataError
 from ..io.identified import read_model
-from ..io.rig import iteration_dict, write_iteration_html, write_iteration_json
+from ..io.rig import (
+    iteration_dict,
+    write_comparison_html,
+    write_iteration_html,
+    write_iteration_json,
+)
+from ..jobs.rig_compare import (
+    calibrated_values,
+    compare_models,
+    comparison_dict,
+    comparison_lines,
+    model_with_values,
+)
 from ..model.build import load_model
 from ..rig.iterate import IterationSettings, frf_on_lines, iterate_drive, measured_frf
 from ..rig.plant import RigPlant, build_plant, damping_from_modes
@@ -95,6 +107,37 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     it.add_argument("--band", type=float, nargs=2, default=_D.band, metavar=("F1", "F2"),
                     help=f"drive band (default {_D.band[0]:g} {_D.band[1]:g} Hz)")
     it.add_argument("--out", type=Path, required=True, metavar="DIR", help="folder to write")
+
+    cmp = rsub.add_parser("compare", help="models on the virtual rig against one target",
+                          description="Iterate each model on itself (the virtual rig) until "
+                          "its control channels follow the target; compare its drives with "
+                          "the reference drive and its other outputs with the target's "
+                          "uncontrolled channels.")  # fmt: skip
+    cmp.add_argument("--model", action="append", required=True, metavar="NAME=DECK",
+                     help="a model to compare (repeat); the first is drawn first")
+    cmp.add_argument("--values", action="append", default=[], metavar="NAME=REPORT.json",
+                     help="give model NAME a calibration's values (femcal calibrate's "
+                     "report.json, matched by parameter name through --params)")  # fmt: skip
+    cmp.add_argument("--params", type=Path, metavar="TOML",
+                     help="the parameters file the calibration used (for --values)")
+    cmp.add_argument("--actuators", type=Path, required=True, help="actuators CSV")
+    cmp.add_argument("--sensors", type=Path, required=True, help="accelerometers CSV")
+    cmp.add_argument("--damping", type=float, default=0.02, metavar="Z",
+                     help="modal damping ratio of every mode (default 0.02)")
+    cmp.add_argument("--modes-to", type=float, default=200.0, metavar="HZ",
+                     help="modes kept (default up to 200 Hz)")
+    cmp.add_argument("--target", type=Path, required=True,
+                     help="the physical rig's measured channels: the control channels and "
+                     "any uncontrolled ones to compare")  # fmt: skip
+    cmp.add_argument("--control", nargs="+", required=True, metavar="CHANNEL",
+                     help="control channels (names in the target and the rig's outputs)")
+    cmp.add_argument("--reference-drive", type=Path, metavar="DRIVE",
+                     help="the drives the physical rig used, to compare the models' with")
+    cmp.add_argument("--iterations", type=int, default=_D.iterations, metavar="N")
+    cmp.add_argument("--gain", type=float, default=_D.gain)
+    cmp.add_argument("--rcond", type=float, default=_D.rcond)
+    cmp.add_argument("--band", type=float, nargs=2, default=_D.band, metavar=("F1", "F2"))
+    cmp.add_argument("--out", type=Path, required=True, metavar="DIR", help="folder to write")
 
 
 def _say(t0: float, msg: str) -> None:
@@ -256,5 +299,105 @@ def _iterate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _pairs(items: list[str], option: str) -> dict[str, str]:
+    out = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep or not name or not value:
+            raise UsageError(f"{option} {item!r}: expected NAME=VALUE")
+        if name in out:
+            raise UsageError(f"{option}: {name!r} given twice")
+        out[name] = value
+    return out
+
+
+def _compare(args: argparse.Namespace) -> int:
+    t0 = time.perf_counter()
+    try:
+        settings = IterationSettings(iterations=args.iterations, gain=args.gain,
+                                     rcond=args.rcond, band=tuple(args.band))  # fmt: skip
+    except ValueError as e:
+        raise UsageError(str(e)) from None
+    decks = _pairs(args.model, "--model")
+    values = _pairs(args.values, "--values")
+    unknown = sorted(set(values) - set(decks))
+    if unknown:
+        raise UsageError(f"--values {unknown[0]}=...: no --model {unknown[0]}=DECK")
+    if values and args.params is None:
+        raise UsageError("--values needs --params (the parameters file of the calibration)")
+    output_folder(args.out, "--out")
+    target = read_time_data(args.target)
+    reference = None
+    if args.reference_drive is not None:
+        ref = read_time_data(args.reference_drive)
+        if abs(ref.dt - target.dt) > 1e-9 * target.dt:
+            raise UsageError(f"--reference-drive {args.reference_drive}: step {ref.dt:g} s, "
+                             f"the target's is {target.dt:g} s")  # fmt: skip
+    models = []
+    for name, deck in decks.items():
+        given = None
+        if name in values:
+            given = calibrated_values(values[name])
+        model = model_with_values(Path(deck), args.params, given)
+        _say(t0, f"model {name}: {deck}" + (f" with the values of {values[name]}"
+                                            if given else ""))  # fmt: skip
+        plant = build_plant(model, read_points(args.actuators), read_points(args.sensors),
+                            modes_to=args.modes_to, damping=args.damping)  # fmt: skip
+        models.append((name, plant))
+    if args.reference_drive is not None:
+        reference = drive_channels(ref, models[0][1], args.reference_drive)
+    runs = compare_models(models, target, args.control, settings, reference_drive=reference,
+                          progress=lambda m: _say(t0, m))  # fmt: skip
+    report = comparison_dict(runs, settings, target=str(args.target), control=args.control)
+    figures = _compare_pictures(args.out, runs, target, args.control, reference, settings)
+    for run in runs:
+        folder = args.out / run.name
+        folder.mkdir(parents=True, exist_ok=True)
+        p = run.plant
+        write_time_data(folder / "drive.rsp", TimeData(target.dt, run.iteration.drive,
+                                                       p.inputs, (p.input_units,) * len(p.inputs)))
+        write_time_data(folder / "response.rsp",
+                        TimeData(target.dt, run.iteration.response, p.outputs, p.output_units))
+    write_iteration_json(args.out / "compare.json", report)
+    write_comparison_html(args.out / "compare.html", report, figures)
+    _say(t0, f"wrote {args.out}: compare.json, compare.html, pictures, each model's drive and "
+         "response")  # fmt: skip
+    for line in comparison_lines(report):
+        print(line)
+    return 0
+
+
+def _compare_pictures(folder: Path, runs, target: TimeData, control: list[str],
+                      reference: np.ndarray | None,
+                      settings: IterationSettings) -> list[tuple[str, str, str]]:  # fmt: skip
+    figures = []
+    others = list(runs[0].channel_error)
+    if others:
+        shown = others[: pictures.MAX_PANELS]
+        series = {"measured": np.vstack([target.values[target.channel(c)] for c in shown])}
+        for run in runs:
+            series[run.name] = run.iteration.response[[run.plant.outputs.index(c)
+                                                       for c in shown]]  # fmt: skip
+        units = [runs[0].plant.output_units[runs[0].plant.outputs.index(c)] for c in shown]
+        pictures.overlay_psd(folder / "uncontrolled_psd.png", target.dt, shown, units, series,
+                             band=settings.band,
+                             title="Uncontrolled channels: measured and each model's")  # fmt: skip
+        figures.append(("Uncontrolled channels", "uncontrolled_psd.png",
+                        "PSDs of the channels nobody controlled: as measured on the physical "
+                        "rig, and as each model predicts them with its own iterated drives."))
+    p = runs[0].plant
+    series = {} if reference is None else {"reference": reference}
+    for run in runs:
+        series[run.name] = run.iteration.drive
+    pictures.overlay_psd(folder / "drives_psd.png", target.dt, list(p.inputs),
+                         [p.input_units] * len(p.inputs), series, band=settings.band,
+                         title="Drives: each model's" + (" and the reference"
+                                                          if reference is not None else ""))
+    figures.append(("Drives", "drives_psd.png", "PSDs of each model's iterated drives"
+                    + (", and of the drives the physical rig used." if reference is not None
+                       else ".")))  # fmt: skip
+    return figures
+
+
 def run(args: argparse.Namespace) -> int:
-    return {"simulate": _simulate, "iterate": _iterate}[args.action](args)
+    return {"simulate": _simulate, "iterate": _iterate, "compare": _compare}[args.action](args)

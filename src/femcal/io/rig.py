@@ -79,3 +79,39 @@ after each step</h2>
 {''.join(html_figure(*f) for f in figures)}
 </body></html>"""
     return write_lines(path, [page])
+
+
+def write_comparison_html(path: str | os.PathLike[str], report: dict,
+                          figures: list[tuple[str, str, str]]) -> Path:  # fmt: skip
+    """The page of a comparison of models on the virtual rig: each model's control error,
+    drive errors against the reference drive, uncontrolled channels' errors, pictures."""
+    models = report["models"]
+    names = [m["name"] for m in models]
+    control = [[c, *(f"{100 * m['control_rms_error'][k]:.2f}" for m in models)]
+               for k, c in enumerate(report["control"])]  # fmt: skip
+    parts = [html_table(control, ["control channel (error %)", *names])]
+    if models and "drive_rms_error" in models[0]:
+        rows = [[a, *(f"{100 * m['drive_rms_error'][a]:.2f}" for m in models)]
+                for a in report["actuators"]]  # fmt: skip
+        parts += ["<h2>Drives: RMS of (model's drive - reference drive) in the band, % of the "
+                  "reference's</h2>", html_table(rows, ["actuator", *names])]
+    others = list(models[0]["uncontrolled_rms_error"]) if models else []
+    if others:
+        rows = [[c, *(f"{100 * m['uncontrolled_rms_error'][c]:.2f}" for m in models)]
+                for c in others]  # fmt: skip
+        parts += ["<h2>Uncontrolled channels: RMS of (predicted - measured), % of the "
+                  "measured RMS</h2>", html_table(rows, ["channel", *names])]
+    s = report["settings"]
+    page = f"""<!DOCTYPE html><html><head><meta charset="utf-8">
+<title>femcal: models on the virtual rig</title><style>{_STYLE}</style></head><body>
+<h1>Models on the virtual rig</h1>
+<p>Target <code>{html.escape(report['target'])}</code>. Each model is its own plant: its FRF
+inverted, its drives iterated on it ({s['iterations']} corrections, gain {s['gain']:g}, band
+{s['band_hz'][0]:g}-{s['band_hz'][1]:g} Hz) until its control channels follow the target. A
+model that stands in for the physical rig needs the rig's drives and predicts what the rig
+measured on the channels nobody controlled.</p>
+<h2>Control channels after the last step (RMS error, % of the target's)</h2>
+{''.join(parts)}
+{''.join(html_figure(*f) for f in figures)}
+</body></html>"""
+    return write_lines(path, [page])

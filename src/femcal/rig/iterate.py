@@ -4,9 +4,10 @@ the control channels follow a target.
 1. The system FRF ``H`` (n_control, n_drives) from the drives to the control channels: from
    a model (:meth:`~femcal.rig.plant.RigPlant.frf`), or measured by playing noise drives on
    the plant and estimating H1 (:func:`measured_frf`).
-2. Its regularised inverse at each line: the SVD ``H = U S V^H``, singular values below
-   ``rcond`` times the largest left out, ``H^+ = V S^-1 U^H`` (Golub and Van Loan, Matrix
-   Computations, 4th ed., sec. 5.5.4); zero outside the drive band.
+2. Its regularised inverse at each line, with each control channel scaled by its target's
+   RMS first (so that channels in N and in mm/s^2 weigh alike): the SVD ``H = U S V^H``,
+   singular values below ``rcond`` times the largest left out, ``H^+ = V S^-1 U^H`` (Golub
+   and Van Loan, Matrix Computations, 4th ed., sec. 5.5.4); zero outside the drive band.
 3. The first drive ``d_0 = H^+ t`` of the target ``t``, line by line over the whole record's
    spectrum, then ``d_{k+1} = d_k + g H^+ (t - r_k)`` with ``r_k`` the plant's response to
    ``d_k``; the RMS error of each control channel relative to its target's RMS is recorded at
@@ -169,9 +170,11 @@ def iterate_drive(plant: RigPlant, H: np.ndarray, target: np.ndarray, control: S
     if H.shape != (len(control), plant.beta.shape[1], n // 2 + 1):
         raise TimeDataError(f"an FRF of shape {H.shape}; expected (control channels, drives, "
                             f"lines) = ({len(control)}, {plant.beta.shape[1]}, {n // 2 + 1})")
-    Hinv = regularised_inverse(H, s.rcond)
     size = np.sqrt(np.mean(target**2, axis=1))
     size = np.where(size > 0, size, 1.0)
+    # each control channel in units of its target's RMS, so that the SVD's threshold does
+    # not depend on the channels' units (a force in N beside an acceleration in mm/s^2)
+    Hinv = regularised_inverse(H / size[:, None, None], s.rcond) / size[None, :, None]
     T = np.fft.rfft(target, axis=1)
     D = np.einsum("iof,of->if", Hinv, T)  # the drive's spectrum
     gain = np.full(T.shape[1], s.gain)

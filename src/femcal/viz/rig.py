@@ -67,22 +67,36 @@ def target_and_response_psd(path: str | os.PathLike[str], dt: float, target: np.
                             units: Sequence[str], *, segment_s: float = 4.0,
                             band: tuple[float, float] | None = None, title: str = ""):  # fmt: skip
     """One panel per control channel: the PSDs of target and response (Welch, Hann)."""
+    return overlay_psd(path, dt, names, units, {"target": target, "response": response},
+                       segment_s=segment_s, band=band,
+                       title=title or "Target and response: power spectral densities")  # fmt: skip
+
+
+def overlay_psd(path: str | os.PathLike[str], dt: float, names: Sequence[str],
+                units: Sequence[str], series: dict[str, np.ndarray], *, segment_s: float = 4.0,
+                band: tuple[float, float] | None = None, title: str = ""):  # fmt: skip
+    """One panel per channel, the PSDs of several versions of it (``series``: label ->
+    (channels, n); the first drawn in black as the reference)."""
     plt = pyplot()
-    segment = min(target.shape[1], max(8, round(segment_s / dt)))
     rows = min(len(names), MAX_PANELS)
-    both = np.vstack([target[:rows], response[:rows]])
-    s = cross_spectra(both, both[:1], dt, segment)
+    labels = list(series)
+    stacked = np.vstack([series[k][:rows] for k in labels])
+    segment = min(stacked.shape[1], max(8, round(segment_s / dt)))
+    s = cross_spectra(stacked, stacked[:1], dt, segment)
     psd = np.einsum("fii->if", s.Gxx).real
     f = s.frequency_hz
     keep = f > 0
     cols = 2 if rows > 1 else 1
-    fig, axes = plt.subplots(-(-rows // cols), cols, figsize=(5.0 * cols, 1.6 + 2.2 *
-                             -(-rows // cols)), squeeze=False, sharex=True)  # fmt: skip
+    n_rows = -(-rows // cols)
+    fig, axes = plt.subplots(n_rows, cols, figsize=(5.0 * cols, 1.6 + 2.2 * n_rows),
+                             squeeze=False, sharex=True)  # fmt: skip
+    styles = [("k", "-", 1.1)] + [(None, "--", 0.9)] * (len(labels) - 1)
     for c in range(rows):
         ax = axes[c // cols, c % cols]
-        ax.semilogy(f[keep], psd[c, keep], color="k", lw=1.0, label="target")
-        ax.semilogy(f[keep], psd[rows + c, keep], color="tab:red", lw=0.8, ls="--",
-                    label="response")  # fmt: skip
+        for m, label in enumerate(labels):
+            color, ls, lw = styles[m]
+            ax.semilogy(f[keep], psd[m * rows + c, keep], color=color, ls=ls, lw=lw,
+                        label=label)  # fmt: skip
         ax.set_title(names[c], fontsize=9, loc="left")
         ax.set_ylabel(f"PSD ({units[c]}²/Hz)" if units[c] else "PSD")
         ax.grid(True, which="both", alpha=0.3)
@@ -91,5 +105,5 @@ def target_and_response_psd(path: str | os.PathLike[str], dt: float, target: np.
     for c in range(rows, axes.size):
         axes[c // cols, c % cols].axis("off")
     axes[0, 0].legend(fontsize=7)
-    fig.suptitle(title or "Target and response: power spectral densities")
+    fig.suptitle(title or "Power spectral densities")
     return save_figure(fig, path)

@@ -1,0 +1,175 @@
+"""The study's question on the virtual rig: which drives would each model need to reproduce a
+target measured on the physical rig, and what would it predict for the channels nobody
+controlled (the battery box)?
+
+Each model is its own plant (the virtual rig): its FRF is inverted and its drives iterated
+on it until its control channels follow the target (:mod:`femcal.rig.iterate`). Its drives
+are then compared with the drives the physical rig used (when known) and its other outputs
+with the target file's other channels (the uncontrolled ones the physical rig measured). A
+model whose drives and uncontrolled responses are closer to the physical rig's stands in for
+it better: the point of calibrating it.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ConfigError, TimeDataError
+from ..model.build import load_model
+from ..model.model import Model
+from ..rig.iterate import Iteration, IterationSettings, frf_on_lines, iterate_drive
+from ..rig.plant import RigPlant
+from ..testdata.timedata import TimeData
+from .synthetic_test import hidden_values
+
+
+@dataclass(frozen=True)
+class ModelOnRig:
+    """One model iterated on itself against the target.
+
+    Attributes
+    ----------
+    name : the model's name.
+    plant : the model on its rig.
+    iteration : its drive iteration.
+    drive_error : (n_drives,) RMS of (drive - reference drive) over the reference's RMS, in
+        the drive band (None without a reference drive).
+    channel_error : each uncontrolled channel the target file holds -> RMS of (response -
+        target) over the target's RMS.
+    """
+
+    name: str
+    plant: RigPlant
+    iteration: Iteration
+    drive_error: np.ndarray | None
+    channel_error: dict[str, float]
+
+
+def _band_rms(x: np.ndarray, dt: float, band: tuple[float, float]) -> np.ndarray:
+    """RMS of each row of x (rows, n) over the lines in ``band`` (Parseval)."""
+    X = np.fft.rfft(x, axis=1)
+    f = np.fft.rfftfreq(x.shape[1], dt)
+    keep = (f >= band[0]) & (f <= band[1])
+    return np.sqrt(2 * np.sum(np.abs(X[:, keep]) ** 2, axis=1)) / x.shape[1]
+
+
+def compare_models(models: Sequence[tuple[str, RigPlant]], target: TimeData,
+                   control: Sequence[str], settings: IterationSettings | None = None, *,
+                   reference_drive: np.ndarray | None = None,
+                   progress: Callable[[str], None] | None = None) -> list[ModelOnRig]:  # fmt: skip
+    """Iterate every model on itself against the target's ``control`` channels and compare
+    (see the module docstring). ``reference_drive`` (n_drives, n): the drives the physical
+    rig used, in the models' actuator order.
+
+    Raises
+    ------
+    TimeDataError
+        For a control channel the target or a model lacks, models with other actuators or
+        outputs, or a reference drive of another shape.
+    """
+    s = settings or IterationSettings()
+    if not models:
+        raise TimeDataError("no model to compare")
+    first = models[0][1]
+    for name, plant in models:
+        if plant.inputs != first.inputs or plant.outputs != first.outputs:
+            raise TimeDataError(f"model {name}: its actuators or outputs differ from model "
+                                f"{models[0][0]}'s; expected the same rig")  # fmt: skip
+    rows = [target.channel(c) for c in control]
+    missing = [c for c in control if c not in first.outputs]
+    if missing:
+        raise TimeDataError(f"control channel(s) {', '.join(missing)}: not outputs of the rig")
+    idx = [first.outputs.index(c) for c in control]
+    values = target.values[rows]
+    n, dt = values.shape[1], target.dt
+    if reference_drive is not None and reference_drive.shape != (len(first.inputs), n):
+        raise TimeDataError(f"a reference drive of shape {reference_drive.shape}; expected "
+                            f"(actuators, samples) = ({len(first.inputs)}, {n})")  # fmt: skip
+    others = [c for c in first.outputs if c in target.names and c not in control]
+    out = []
+    for name, plant in models:
+        if progress is not None:
+            progress(f"model {name}: iterating on itself")
+        H = frf_on_lines(plant, idx, n, dt, s.band)
+        it = iterate_drive(plant, H, values, idx, dt, s,
+                           progress=None if progress is None
+                           else (lambda m, name=name: progress(f"model {name}: {m}")))  # fmt: skip
+        drive_error = None
+        if reference_drive is not None:
+            drive_error = (_band_rms(it.drive - reference_drive, dt, s.band)
+                           / _band_rms(reference_drive, dt, s.band))  # fmt: skip
+        errors = {}
+        for c in others:
+            measured = target.values[target.channel(c)]
+            size = np.sqrt(np.mean(measured**2))
+            diff = it.response[plant.outputs.index(c)] - measured
+            errors[c] = float(np.sqrt(np.mean(diff**2)) / size) if size > 0 else float("nan")
+        out.append(ModelOnRig(name, plant, it, drive_error, errors))
+    return out
+
+
+def calibrated_values(report: str | Path) -> dict[str, float]:
+    """Each parameter's calibrated value (name -> value) from a calibration's report.json.
+
+    Raises
+    ------
+    ConfigError
+        Naming the file: not JSON, or no ``parameters`` list of names and calibrated values.
+    """
+    try:
+        doc = json.loads(Path(report).read_text())
+        return {str(p["name"]): float(p["calibrated"]) for p in doc["parameters"]}
+    except (ValueError, KeyError, TypeError) as e:
+        raise ConfigError(f"{report}: not a calibration report (report.json with parameters, "
+                          f"each with a name and a calibrated value): {e}") from None
+
+
+def model_with_values(deck: Path, params: Path | None, given: dict[str, float] | None) -> Model:
+    """The deck's model, with ``given`` values (name -> value) set through the parameters
+    file ``params`` when given (every parameter of the file must have one)."""
+    model = load_model(deck)
+    if given is None:
+        return model
+    if params is None:
+        raise ConfigError("values for the parameters need the parameters file")
+    return hidden_values(model, params, 0.0, np.random.default_rng(0), given)[0]
+
+
+def comparison_dict(runs: Sequence[ModelOnRig], settings: IterationSettings, *, target: str,
+                    control: Sequence[str]) -> dict:  # fmt: skip
+    """The comparison as JSON: per model the control error after each step, each drive's
+    error against the reference (when known) and each uncontrolled channel's error."""
+    models = []
+    for r in runs:
+        entry = {"name": r.name,
+                 "control_rms_error": [float(v) for v in r.iteration.rms_error[-1]],
+                 "uncontrolled_rms_error": r.channel_error}
+        if r.drive_error is not None:
+            entry["drive_rms_error"] = {a: float(v) for a, v in
+                                        zip(r.plant.inputs, r.drive_error, strict=True)}
+        models.append(entry)
+    return {"target": target, "control": list(control),
+            "settings": {"iterations": settings.iterations, "gain": settings.gain,
+                         "rcond": settings.rcond, "band_hz": list(settings.band)},
+            "actuators": list(runs[0].plant.inputs) if runs else [],
+            "models": models}  # fmt: skip
+
+
+def comparison_lines(report: dict) -> list[str]:
+    """The comparison as console lines: per model the worst control error, the drives'
+    median and worst error and the uncontrolled channels' median and worst error."""
+    lines = [f"{'model':<16} {'control err %':>13} {'drive err % (median, worst)':>28} "
+             f"{'uncontrolled err % (median, worst)':>35}"]
+    for m in report["models"]:
+        d = list(m.get("drive_rms_error", {}).values())
+        u = [v for v in m["uncontrolled_rms_error"].values() if np.isfinite(v)]
+        drive = f"{100 * np.median(d):.2f}, {100 * max(d):.2f}" if d else "-"
+        other = f"{100 * np.median(u):.2f}, {100 * max(u):.2f}" if u else "-"
+        lines.append(f"{m['name']:<16} {100 * max(m['control_rms_error']):13.2f} "
+                     f"{drive:>28} {other:>35}")
+    return lines
