@@ -227,13 +227,17 @@ def _simulate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _iterate(args: argparse.Namespace) -> int:
-    t0 = time.perf_counter()
+def _iteration_settings(args: argparse.Namespace) -> IterationSettings:
     try:
-        settings = IterationSettings(iterations=args.iterations, gain=args.gain,
-                                     rcond=args.rcond, band=tuple(args.band))  # fmt: skip
+        return IterationSettings(iterations=args.iterations, gain=args.gain, rcond=args.rcond,
+                                 band=tuple(args.band))  # fmt: skip
     except ValueError as e:
         raise UsageError(str(e)) from None
+
+
+def _iterate(args: argparse.Namespace) -> int:
+    t0 = time.perf_counter()
+    settings = _iteration_settings(args)
     output_folder(args.out, "--out")
     target_data = read_time_data(args.target)
     model = _plant(args.deck, args, args.damping, t0)
@@ -313,11 +317,7 @@ def _pairs(items: list[str], option: str) -> dict[str, str]:
 
 def _compare(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
-    try:
-        settings = IterationSettings(iterations=args.iterations, gain=args.gain,
-                                     rcond=args.rcond, band=tuple(args.band))  # fmt: skip
-    except ValueError as e:
-        raise UsageError(str(e)) from None
+    settings = _iteration_settings(args)
     decks = _pairs(args.model, "--model")
     values = _pairs(args.values, "--values")
     unknown = sorted(set(values) - set(decks))
