@@ -39,8 +39,9 @@ class ModelOnRig:
     iteration : its drive iteration.
     drive_error : (n_drives,) RMS of (drive - reference drive) over the reference's RMS, in
         the drive band (None without a reference drive).
-    channel_error : each uncontrolled channel the target file holds -> RMS of (response -
-        target) over the target's RMS.
+    channel_error : each uncontrolled channel the target file holds (accelerometers, then
+        load cells; not the LVDTs, which read the drives) -> RMS of (response - target) over
+        the target's RMS.
     """
 
     name: str
@@ -90,7 +91,11 @@ def compare_models(models: Sequence[tuple[str, RigPlant]], target: TimeData,
     if reference_drive is not None and reference_drive.shape != (len(first.inputs), n):
         raise TimeDataError(f"a reference drive of shape {reference_drive.shape}; expected "
                             f"(actuators, samples) = ({len(first.inputs)}, {n})")  # fmt: skip
-    others = [c for c in first.outputs if c in target.names and c not in control]
+    # the uncontrolled channels the physical rig measured: accelerometers first, then load
+    # cells (the LVDTs read the drives, compared above)
+    others = [c for c in first.outputs if c in target.names and c not in control
+              and not c.endswith(":displacement")]  # fmt: skip
+    others.sort(key=lambda c: c.endswith(":force"))
     out = []
     for name, plant in models:
         if progress is not None:
