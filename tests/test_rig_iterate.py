@@ -200,3 +200,63 @@ def test_compare_ranks_the_model_that_is_the_physical_rig_first(tmp_path, capsys
     for name in ("compare.html", "drives_psd.png", "uncontrolled_psd.png", "plain/drive.rsp",
                  "stiff/response.rsp"):  # fmt: skip
         assert (out / name).stat().st_size > 1000
+
+
+def test_correct_steps_a_physical_rig_by_files(tmp_path, capsys):
+    """The physical rig's workflow by files, with rig simulate as the rig (a frame whose
+    second mode lies 4.6 % above the model's, too far for the model's FRF): noise drives
+    played, their FRF estimated (timedata frf), the first drive, then drive/response
+    exchanges with rig correct; the error falls step by step."""
+    deck = small_rig_deck(tmp_path / "rig.bdf")
+    stiff = tmp_path / "stiff.bdf"
+    stiff.write_text(deck.read_text().replace("PBAR,1,1,400.,20000.", "PBAR,1,1,400.,22000."))
+    for path, rows in ((tmp_path / "a.csv", ACTUATORS), (tmp_path / "s.csv", SENSORS)):
+        path.write_text("label,grid,x,y,z,direction\n"
+                        + "".join(f"{lab},{g},0,0,0,{c}\n" for lab, g, c in rows))  # fmt: skip
+    rng = np.random.default_rng(4)
+    labels = tuple(lab for lab, _, _ in ACTUATORS)
+
+    def random_drive(seconds: float, name: str) -> None:
+        n = round(seconds / DT)
+        f = np.fft.rfftfreq(n, DT)
+        S = np.where((f >= 1) & (f <= 80), np.exp(2j * np.pi * rng.uniform(size=(6, len(f)))),
+                     0)  # fmt: skip
+        write_time_data(tmp_path / name, TimeData(DT, np.fft.irfft(S, n, axis=1), labels,
+                                                   ("mm",) * 6))  # fmt: skip
+
+    random_drive(8.0, "known.rsp")
+    random_drive(120.0, "noise.rsp")
+    rig = ["--actuators", str(tmp_path / "a.csv"), "--sensors", str(tmp_path / "s.csv"),
+           "--modes-to", "300"]  # fmt: skip
+    control = ["S3:+Z", "S8:+Y", "S12:+Z", "S11:-X", "A_z1:force", "A_y1:force"]
+    play = ["rig", "simulate", str(stiff), *rig, "--periodic"]
+    assert main([*play, "--drive", str(tmp_path / "known.rsp"), "--out",
+                 str(tmp_path / "target.rsp")]) == 0  # fmt: skip
+    assert main([*play, "--drive", str(tmp_path / "noise.rsp"), "--out",
+                 str(tmp_path / "noise_response.rsp")]) == 0  # fmt: skip
+    noise = read_time_data(tmp_path / "noise_response.rsp")
+    both = TimeData(DT, np.vstack([read_time_data(tmp_path / "noise.rsp").values,
+                                   noise.values]), labels + noise.names,
+                    ("mm",) * 6 + noise.units)  # fmt: skip
+    write_time_data(tmp_path / "noise_test.rsp", both)
+    frfs = []
+    for kind, outs in (("accelerations", control[:4]), ("forces", control[4:])):
+        frfs.append(str(tmp_path / f"{kind}.npz"))  # an FRF file holds one output unit
+        assert main(["timedata", "frf", str(tmp_path / "noise_test.rsp"), "--inputs",
+                     *labels, "--outputs", *outs, "--segment", "4", "--out", frfs[-1]]) == 0
+    step = ["rig", "correct", str(deck), *rig, "--target", str(tmp_path / "target.rsp"),
+            "--control", *control, "--band", "1", "80", "--frf", *frfs]
+    assert main([*step, "--out", str(tmp_path / "d0.rsp")]) == 0
+    errors = []
+    for k in range(4):
+        drive, response = tmp_path / f"d{k}.rsp", tmp_path / f"r{k}.rsp"
+        assert main([*play, "--drive", str(drive), "--out", str(response)]) == 0
+        capsys.readouterr()
+        assert main([*step, "--drive", str(drive), "--response", str(response), "--out",
+                     str(tmp_path / f"d{k + 1}.rsp")]) == 0  # fmt: skip
+        lines = capsys.readouterr().out.splitlines()[1:]
+        errors.append(max(float(line.split()[-1]) for line in lines))
+    assert errors[-1] < errors[0] / 3 and errors[-1] < 2.0, errors
+    assert main([*step, "--drive", str(tmp_path / "d0.rsp"), "--out",
+                 str(tmp_path / "x.rsp")]) == 2  # fmt: skip
+    assert "--drive and --response go together" in capsys.readouterr().err

@@ -35,10 +35,17 @@ from ..jobs.rig_compare import (
     model_with_values,
 )
 from ..model.build import load_model
-from ..rig.iterate import IterationSettings, frf_on_lines, iterate_drive, measured_frf
+from ..rig.iterate import (
+    IterationSettings,
+    correct_drive,
+    frf_on_lines,
+    frf_to_lines,
+    iterate_drive,
+    measured_frf,
+)
 from ..rig.plant import RigPlant, build_plant, damping_from_modes
 from ..rig.simulate import simulate
-from ..testdata.formats import format_of, read_time_data, suffixes, write_time_data
+from ..testdata.formats import format_of, read_frf, read_time_data, suffixes, write_time_data
 from ..testdata.points import read_points
 from ..testdata.timedata import TimeData
 from ..viz import rig as pictures
@@ -107,6 +114,31 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     it.add_argument("--band", type=float, nargs=2, default=_D.band, metavar=("F1", "F2"),
                     help=f"drive band (default {_D.band[0]:g} {_D.band[1]:g} Hz)")
     it.add_argument("--out", type=Path, required=True, metavar="DIR", help="folder to write")
+
+    cor = rsub.add_parser("correct", help="one iteration step for a physical rig",
+                          description="The drive/response exchange of a physical rig: without "
+                          "--drive, the first drive (the model's inverse FRF x the target); "
+                          "with --drive and --response (the control channels measured while "
+                          "--drive played), the next drive = drive + gain x inverse x (target "
+                          "- response).")  # fmt: skip
+    _plant_options(cor)
+    cor.add_argument("--target", type=Path, required=True, help=f"target file ({time_sfx})")
+    cor.add_argument("--control", nargs="+", required=True, metavar="CHANNEL",
+                     help="control channels (names in the target and response files)")
+    cor.add_argument("--frf", type=Path, nargs="+", metavar="FILE",
+                     help="invert these FRFs (femcal timedata frf of noise drives played on "
+                     "the rig: inputs the actuators, LABEL or LABEL:displacement; outputs the "
+                     "control channels, one unit a file) instead of the model's")  # fmt: skip
+    cor.add_argument("--drive", type=Path, help="the drive that was played")
+    cor.add_argument("--response", type=Path, help="the response measured while it played")
+    cor.add_argument("--gain", type=float, default=_D.gain,
+                     help=f"gain of the correction (default {_D.gain:g})")
+    cor.add_argument("--rcond", type=float, default=_D.rcond,
+                     help=f"SVD threshold of the inverse (default {_D.rcond:g})")
+    cor.add_argument("--band", type=float, nargs=2, default=_D.band, metavar=("F1", "F2"),
+                     help=f"drive band (default {_D.band[0]:g} {_D.band[1]:g} Hz)")
+    cor.add_argument("--out", type=Path, required=True, metavar="DRIVE",
+                     help=f"the next drive ({time_sfx})")
 
     cmp = rsub.add_parser("compare", help="models on the virtual rig against one target",
                           description="Iterate each model on itself (the virtual rig) until "
@@ -229,8 +261,8 @@ def _simulate(args: argparse.Namespace) -> int:
 
 def _iteration_settings(args: argparse.Namespace) -> IterationSettings:
     try:
-        return IterationSettings(iterations=args.iterations, gain=args.gain, rcond=args.rcond,
-                                 band=tuple(args.band))  # fmt: skip
+        return IterationSettings(iterations=getattr(args, "iterations", 0), gain=args.gain,
+                                 rcond=args.rcond, band=tuple(args.band))  # fmt: skip
     except ValueError as e:
         raise UsageError(str(e)) from None
 
@@ -301,6 +333,82 @@ def _iterate(args: argparse.Namespace) -> int:
     for k, name in enumerate(names):
         print(f"{name:<{width}}  " + " ".join(f"{100 * e:7.2f}" for e in result.rms_error[:, k]))
     return 0
+
+
+def _channels(data: TimeData, names: list[str], where: Path) -> np.ndarray:
+    try:
+        return np.vstack([data.values[data.channel(n)] for n in names])
+    except TimeDataError as e:
+        raise TimeDataError(f"{where}: {e}") from None
+
+
+def _correct(args: argparse.Namespace) -> int:
+    t0 = time.perf_counter()
+    settings = _iteration_settings(args)
+    if (args.drive is None) != (args.response is None):
+        raise UsageError("--drive and --response go together (the drive played and the "
+                         "response measured); give neither for the first drive")
+    _check_file_out(args.out, "--out")
+    target_data = read_time_data(args.target)
+    target = _channels(target_data, args.control, args.target)
+    dt, n = target_data.dt, target.shape[1]
+    model = _plant(args.deck, args, args.damping, t0)
+    control = [model.outputs.index(c) if c in model.outputs else -1 for c in args.control]
+    if -1 in control:
+        bad = args.control[control.index(-1)]
+        raise UsageError(f"--control {bad}: not an output of the rig; expected one of "
+                         f"{', '.join(model.outputs)}")  # fmt: skip
+    if args.frf is not None:
+        H = _frf_files(args.frf, model, args.control, n, dt, settings.band)
+    else:
+        H = frf_on_lines(model, control, n, dt, settings.band)
+    drive = response = None
+    if args.drive is not None:
+        played, measured = read_time_data(args.drive), read_time_data(args.response)
+        for path, data in ((args.drive, played), (args.response, measured)):
+            if abs(data.dt - dt) > 1e-9 * dt or data.n_samples != n:
+                raise UsageError(f"{path}: {data.n_samples} samples every {data.dt:g} s; "
+                                 f"expected the target's {n} every {dt:g} s")  # fmt: skip
+        drive = drive_channels(played, model, args.drive)
+        response = _channels(measured, args.control, args.response)
+    nxt = correct_drive(H, target, settings.rcond, drive, response, settings.gain)
+    units = (model.input_units,) * len(model.inputs)
+    write_time_data(args.out, TimeData(dt, nxt, model.inputs, units))
+    _say(t0, f"wrote {args.out}")
+    if response is not None:
+        size = np.sqrt(np.mean(target**2, axis=1))
+        err = np.sqrt(np.mean((target - response) ** 2, axis=1)) / np.where(size > 0, size, 1)
+        width = max(len(c) for c in args.control)
+        print(f"{'control channel':<{width}}  RMS error of the response (% of target)")
+        for c, e in zip(args.control, err, strict=True):
+            print(f"{c:<{width}}  {100 * e:7.2f}")
+    return 0
+
+
+def _frf_files(paths: list[Path], model: RigPlant, control: list[str], n: int, dt: float,
+               band: tuple[float, float]) -> np.ndarray:  # fmt: skip
+    """The FRF from the drives to the control channels on the target's lines, each control
+    channel from the first file that has it as an output (an FRF file holds outputs of one
+    unit: accelerations in one, forces in another)."""
+    files = [(path, read_frf(path)) for path in paths]
+    rows = []
+    for name in control:
+        found = [(path, data) for path, data in files
+                 if name in [c.label for c in data.outputs]]  # fmt: skip
+        if not found:
+            raise UsageError(f"--frf: no file has the output {name!r}")
+        path, data = found[0]
+        ins = [c.label for c in data.inputs]
+        cols = []
+        for label in model.inputs:
+            match = [k for k, i in enumerate(ins) if i in (label, f"{label}:displacement")]
+            if not match:
+                raise UsageError(f"--frf {path}: no input for actuator {label!r}; its inputs "
+                                 f"are {', '.join(ins)}")  # fmt: skip
+            cols.append(match[0])
+        o = [c.label for c in data.outputs].index(name)
+        rows.append(frf_to_lines(data.frequency_hz, data.H[[o]][:, cols], n, dt, band)[0])
+    return np.stack(rows)
 
 
 def _pairs(items: list[str], option: str) -> dict[str, str]:
@@ -400,4 +508,6 @@ def _compare_pictures(folder: Path, runs, target: TimeData, control: list[str],
 
 
 def run(args: argparse.Namespace) -> int:
-    return {"simulate": _simulate, "iterate": _iterate, "compare": _compare}[args.action](args)
+    actions = {"simulate": _simulate, "iterate": _iterate, "correct": _correct,
+               "compare": _compare}  # fmt: skip
+    return actions[args.action](args)

@@ -134,16 +134,89 @@ def measured_frf(plant: RigPlant, control: Sequence[int], n: int, dt: float,
     noise *= rms / np.sqrt(np.mean(noise**2, axis=1, keepdims=True))
     response = simulate(plant, noise, dt, periodic=True)[list(control)]
     est = signal.frf(noise, response, dt, round(segment_s / dt))
-    f = np.fft.rfftfreq(n, dt)
-    H = np.zeros((len(control), n_in, len(f)), complex)
-    keep = (f >= band[0]) & (f <= band[1]) & (f > 0)
     good = np.isfinite(est.H).all(axis=(0, 1))
-    fe, He = est.frequency_hz[good], est.H[:, :, good]
-    for o in range(len(control)):
-        for i in range(n_in):
-            H[o, i, keep] = (np.interp(f[keep], fe, He[o, i].real)
-                             + 1j * np.interp(f[keep], fe, He[o, i].imag))  # fmt: skip
-    return H
+    return frf_to_lines(est.frequency_hz[good], est.H[:, :, good], n, dt, band)
+
+
+def frf_to_lines(frequency_hz: np.ndarray, H: np.ndarray, n: int, dt: float,
+                 band: tuple[float, float]) -> np.ndarray:  # fmt: skip
+    """An FRF known at ``frequency_hz`` (H: (n_out, n_in, n_f)) on the lines of a record of
+    ``n`` samples every ``dt``, interpolated linearly in its real and imaginary parts (held
+    within one step beyond its ends); zero outside ``band``.
+
+    Raises
+    ------
+    TimeDataError
+        For a band the FRF does not cover.
+    """
+    f = np.fft.rfftfreq(n, dt)
+    keep = (f >= band[0]) & (f <= band[1]) & (f > 0)
+    step = float(np.median(np.diff(frequency_hz))) if len(frequency_hz) > 1 else 0.0
+    lo, hi = frequency_hz[0] - step - 1e-9, frequency_hz[-1] + step + 1e-9
+    if keep.any() and (f[keep][0] < lo or f[keep][-1] > hi):
+        raise TimeDataError(f"an FRF over {frequency_hz[0]:g}-{frequency_hz[-1]:g} Hz for a "
+                            f"drive band of {band[0]:g}-{band[1]:g} Hz; expected one that "
+                            "covers the band")  # fmt: skip
+    out = np.zeros((H.shape[0], H.shape[1], len(f)), complex)
+    for o in range(H.shape[0]):
+        for i in range(H.shape[1]):
+            out[o, i, keep] = (np.interp(f[keep], frequency_hz, H[o, i].real)
+                               + 1j * np.interp(f[keep], frequency_hz, H[o, i].imag))  # fmt: skip
+    return out
+
+
+def _check(H: np.ndarray, target: np.ndarray, n_control: int, n_drives: int) -> np.ndarray:
+    """The target as a float array, once it fits the control channels and the FRF."""
+    target = np.atleast_2d(np.asarray(target, float))
+    n = target.shape[1]
+    if target.shape[0] != n_control:
+        raise TimeDataError(f"a target of {target.shape[0]} channels for {n_control} "
+                            "control channels; expected one target per control channel")
+    if not np.isfinite(target).all():
+        raise TimeDataError("the target holds NaN or infinite samples")
+    if H.shape != (n_control, n_drives, n // 2 + 1):
+        raise TimeDataError(f"an FRF of shape {H.shape}; expected (control channels, drives, "
+                            f"lines) = ({n_control}, {n_drives}, {n // 2 + 1})")
+    return target
+
+
+def target_inverse(H: np.ndarray, target: np.ndarray, rcond: float) -> tuple[np.ndarray,
+                                                                            np.ndarray]:
+    """(H^+ (n_drives, n_control, n_f), the target's RMS per channel (n_control,)): the
+    inverse with each control channel in units of its target's RMS, so that the SVD's
+    threshold does not depend on the channels' units (a force in N beside an acceleration
+    in mm/s^2)."""
+    size = np.sqrt(np.mean(target**2, axis=1))
+    size = np.where(size > 0, size, 1.0)
+    return regularised_inverse(H / size[:, None, None], rcond) / size[None, :, None], size
+
+
+def correct_drive(H: np.ndarray, target: np.ndarray, rcond: float,
+                  drive: np.ndarray | None = None, response: np.ndarray | None = None,
+                  gain: float = 1.0) -> np.ndarray:  # fmt: skip
+    """One step of the iteration for a rig femcal does not play (the drive/response
+    exchange of a physical rig): the first drive ``H^+ t`` when ``drive`` is None, else
+    ``drive + gain H^+ (t - response)`` with ``response`` (n_control, n) the control
+    channels measured when ``drive`` (n_drives, n) was played.
+
+    Raises
+    ------
+    TimeDataError
+        As :func:`iterate_drive`, or a drive or response of another shape.
+    """
+    target = _check(H, target, H.shape[0], H.shape[1])
+    n = target.shape[1]
+    Hinv, _ = target_inverse(H, target, rcond)
+    if drive is None:
+        return np.fft.irfft(np.einsum("iof,of->if", Hinv, np.fft.rfft(target, axis=1)), n,
+                            axis=1)  # fmt: skip
+    if response is None or drive.shape != (H.shape[1], n) or response.shape != target.shape:
+        raise TimeDataError(f"a drive of shape {np.shape(drive)} and a response of shape "
+                            f"{np.shape(response)}; expected ({H.shape[1]}, {n}) and "
+                            f"{target.shape}: the drive played and the control channels "
+                            "measured, as long as the target")  # fmt: skip
+    E = np.fft.rfft(target - response, axis=1)
+    return drive + gain * np.fft.irfft(np.einsum("iof,of->if", Hinv, E), n, axis=1)
 
 
 def iterate_drive(plant: RigPlant, H: np.ndarray, target: np.ndarray, control: Sequence[int],
@@ -160,21 +233,9 @@ def iterate_drive(plant: RigPlant, H: np.ndarray, target: np.ndarray, control: S
         samples, or an FRF not on the target's lines.
     """
     s = settings or IterationSettings()
-    target = np.atleast_2d(np.asarray(target, float))
+    target = _check(H, target, len(control), plant.beta.shape[1])
     n = target.shape[1]
-    if target.shape[0] != len(control):
-        raise TimeDataError(f"a target of {target.shape[0]} channels for {len(control)} "
-                            "control channels; expected one target per control channel")
-    if not np.isfinite(target).all():
-        raise TimeDataError("the target holds NaN or infinite samples")
-    if H.shape != (len(control), plant.beta.shape[1], n // 2 + 1):
-        raise TimeDataError(f"an FRF of shape {H.shape}; expected (control channels, drives, "
-                            f"lines) = ({len(control)}, {plant.beta.shape[1]}, {n // 2 + 1})")
-    size = np.sqrt(np.mean(target**2, axis=1))
-    size = np.where(size > 0, size, 1.0)
-    # each control channel in units of its target's RMS, so that the SVD's threshold does
-    # not depend on the channels' units (a force in N beside an acceleration in mm/s^2)
-    Hinv = regularised_inverse(H / size[:, None, None], s.rcond) / size[None, :, None]
+    Hinv, size = target_inverse(H, target, s.rcond)
     T = np.fft.rfft(target, axis=1)
     D = np.einsum("iof,of->if", Hinv, T)  # the drive's spectrum
     gain = np.full(T.shape[1], s.gain)
