@@ -53,7 +53,7 @@ bench-identify: setup .venv-ema/.ok
 bench-calibration: setup
 	$(PY) benchmarks/calibration.py
 
-# The long fuzz run: mutated reference decks (10 000), FRF files and calibration configs; prints
+# The long fuzz run: mutated reference decks (10 000), FRF files, calibration configs and RPC III files; prints
 # the outcomes per harness (0 crashes, hangs and wrong answers is the target).
 bench-fuzz: setup
 	$(PY) benchmarks/fuzz.py

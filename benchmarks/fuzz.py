@@ -1,10 +1,12 @@
-"""The long fuzz run: seeded mutations of reference decks, FRF files and calibration configs
-(the harnesses in tests/fuzz/), counted by outcome. The target is 0 crashes (a traceback for
-the user), 0 hangs and 0 wrong answers where an oracle exists (a deck that solves gives the
-same modes written back by femcal).
+"""The long fuzz run: seeded mutations of reference decks, FRF files, calibration configs and
+RPC III time histories (the harnesses in tests/fuzz/), counted by outcome. The target is 0
+crashes (a traceback for the user), 0 hangs and 0 wrong answers where an oracle exists (a deck
+that solves gives the same modes written back by femcal; an RPC III file valid or changed only
+in form reads as the channels its generator wrote, a broken one is refused).
 
-    .venv/bin/python benchmarks/fuzz.py                       # decks 10000, frf 5000, configs 5000
+    .venv/bin/python benchmarks/fuzz.py       # decks 10000, frf 5000, configs 5000, rpc 20000
     .venv/bin/python benchmarks/fuzz.py --part decks --cases 20000 --seed 7
+    .venv/bin/python benchmarks/fuzz.py --part rpc
 
 Prints one row per part and writes every case that is not ``ok`` or a clean error, with the
 seed that rebuilds it, to benchmarks/_work/fuzz/<part>.json.
@@ -29,6 +31,7 @@ PARTS = {
     "decks": ("tests.fuzz.decks", "run_deck_fuzz", 10_000),
     "frf": ("tests.fuzz.frf", "run_frf_fuzz", 5_000),
     "configs": ("tests.fuzz.configs", "run_config_fuzz", 5_000),
+    "rpc": ("tests.fuzz.rpc", "run_rpc_fuzz", 20_000),
 }
 BAD = ("crash", "hang", "wrong")
 

@@ -1,1 +1,1 @@
-"""Fuzz harnesses: seeded mutations of decks, FRF files and calibration configs."""
+"""Fuzz harnesses: seeded mutations of decks, FRF files, calibration configs and RPC III files."""

@@ -39,15 +39,12 @@ from __future__ import annotations
 import argparse
 import io
 import re
-import signal
 import tempfile
-import threading
 import time
 import traceback
 import warnings
 from collections import Counter
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -61,6 +58,8 @@ from femcal.testdata.formats.npz import write_npz
 from femcal.testdata.formats.registry import format_of
 from femcal.testdata.formats.text import write_csv
 from femcal.testdata.formats.uff import write_uff
+
+from .timeout import Timeout, alarm
 
 #: The outcomes of a case, from best to worst.
 OUTCOMES = ("ok", "clean error", "crash", "hang")
@@ -436,32 +435,6 @@ def mutate(rng: np.random.Generator, fmt: str, raw: bytes) -> Mutation:
 # ----------------------------------------------------------------------------- running
 
 
-class _Timeout(BaseException):
-    """Raised by the alarm in the case it interrupts."""
-
-
-@contextmanager
-def _alarm(seconds: float) -> Iterator[list[bool]]:
-    """Interrupt the block after ``seconds`` (main thread only; elsewhere no limit); the
-    yielded list holds True once the time ran out, whatever caught the interruption."""
-    fired = [False]
-    if threading.current_thread() is not threading.main_thread():
-        yield fired
-        return
-
-    def ring(signum: int, frame: object) -> None:
-        fired[0] = True
-        raise _Timeout
-
-    previous = signal.signal(signal.SIGALRM, ring)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
-    try:
-        yield fired
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
-
-
 def _identify(data: FRFData, order: int | None) -> None:
     """A cheap identification over the data's whole band (from its first frequency above
     0): the given order, or automatic orders up to 10; a few alternating steps."""
@@ -479,7 +452,7 @@ def run_case(path: Path, *, order: int | None = None,
     automatic orders): (outcome, error text) as the module docstring defines them."""
     reader = format_of(path, "frf").read
     try:
-        with _alarm(timeout) as fired, warnings.catch_warnings():
+        with alarm(timeout) as fired, warnings.catch_warnings():
             warnings.simplefilter("ignore")
             try:
                 data = reader(path)
@@ -493,7 +466,7 @@ def run_case(path: Path, *, order: int | None = None,
                     return "hang", f"timed out after {timeout:g} s"
                 frames = "".join(traceback.format_tb(e.__traceback__)[-3:])
                 return "crash", f"{type(e).__name__}: {e}\n{frames}"
-    except _Timeout:
+    except Timeout:
         return "hang", f"timed out after {timeout:g} s"
     if fired[0]:
         return "hang", f"timed out after {timeout:g} s"
