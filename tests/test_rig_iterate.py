@@ -260,3 +260,33 @@ def test_correct_steps_a_physical_rig_by_files(tmp_path, capsys):
     assert main([*step, "--drive", str(tmp_path / "d0.rsp"), "--out",
                  str(tmp_path / "x.rsp")]) == 2  # fmt: skip
     assert "--drive and --response go together" in capsys.readouterr().err
+
+
+def test_files_in_other_units_are_converted_and_wrong_kinds_refused(tmp_path, capsys):
+    from femcal.testdata.units import unit_factor
+
+    assert unit_factor("g", "mm/s^2", "x") == pytest.approx(9806.65)
+    assert unit_factor("in", "mm", "x") == pytest.approx(25.4)
+    assert unit_factor("m/s²", "mm/s2", "x") == pytest.approx(1000.0)
+    assert unit_factor("", "mm", "x") == 1.0
+    with pytest.raises(ValueError, match="ch: in 'N', a force; expected a length"):
+        unit_factor("N", "mm", "ch")
+    # the same drive in mm and in inches plays the same
+    t = np.arange(2048) * DT
+    mm = np.zeros((7, len(t)))
+    mm[0] = 0.1 * np.sin(2 * np.pi * 9.0 * t)
+    args = [str(FRAME / "rig_frame.bdf"), "--actuators", str(FRAME / "rig_frame.inputs.csv"),
+            "--sensors", str(FRAME / "rig_frame.sensors.csv")]  # fmt: skip
+    outs = []
+    for unit, scale in (("mm", 1.0), ("in", 1 / 25.4)):
+        write_time_data(tmp_path / f"{unit}.npz", TimeData(DT, mm * scale, LABELS,
+                                                           (unit,) * 7))  # fmt: skip
+        out = tmp_path / f"r_{unit}.npz"
+        assert main(["rig", "simulate", *args, "--drive", str(tmp_path / f"{unit}.npz"),
+                     "--out", str(out)]) == 0  # fmt: skip
+        outs.append(read_time_data(out).values)
+    assert np.allclose(outs[0], outs[1], rtol=1e-9, atol=1e-9 * np.abs(outs[0]).max())
+    write_time_data(tmp_path / "n.npz", TimeData(DT, mm, LABELS, ("N",) * 7))
+    assert main(["rig", "simulate", *args, "--drive", str(tmp_path / "n.npz"), "--out",
+                 str(tmp_path / "x.npz")]) == 2  # fmt: skip
+    assert "channel 'V_front_left': in 'N', a force; expected a length" in capsys.readouterr().err

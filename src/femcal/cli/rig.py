@@ -48,6 +48,7 @@ from ..rig.simulate import simulate
 from ..testdata.formats import format_of, read_frf, read_time_data, suffixes, write_time_data
 from ..testdata.points import read_points
 from ..testdata.timedata import TimeData
+from ..testdata.units import unit_factor
 from ..viz import rig as pictures
 from .paths import UsageError, file_in_the_way, output_folder
 
@@ -213,13 +214,14 @@ def _check_file_out(path: Path, option: str) -> None:
 
 def drive_channels(data: TimeData, plant: RigPlant, where: Path) -> np.ndarray:
     """The drive (n_actuators, n) from a file's channels named by the actuators' labels (or
-    ``LABEL:displacement``), in the model's length unit.
+    ``LABEL:displacement``), converted to the model's length unit (a blank unit is taken to
+    be the model's).
 
     Raises
     ------
     TimeDataError
-        Naming the file and the actuator whose channel is missing, or a channel in another
-        unit.
+        Naming the file and the actuator whose channel is missing, or a channel whose unit
+        is not a length femcal converts.
     """
     rows = []
     for label in plant.inputs:
@@ -231,10 +233,9 @@ def drive_channels(data: TimeData, plant: RigPlant, where: Path) -> np.ndarray:
             raise TimeDataError(f"{where}: no drive channel for actuator {label!r} (expected a "
                                 f"channel named {label!r}); the channels are "
                                 f"{', '.join(map(repr, data.names))}")  # fmt: skip
-        if data.units[c] not in ("", plant.input_units):
-            raise TimeDataError(f"{where}: channel {data.names[c]!r} is in {data.units[c]!r}; "
-                                f"expected {plant.input_units!r}, the model's length unit")
-        rows.append(data.values[c])
+        factor = unit_factor(data.units[c], plant.input_units,
+                             f"{where}: channel {data.names[c]!r}")  # fmt: skip
+        rows.append(data.values[c] * factor)
     return np.vstack(rows)
 
 
@@ -287,7 +288,7 @@ def _iterate(args: argparse.Namespace) -> int:
             raise UsageError(f"--control {name}: not an output of the rig; expected one of "
                              f"{', '.join(model.outputs)}")  # fmt: skip
         control.append(model.outputs.index(name))
-    target = np.vstack([target_data.values[target_data.channel(n)] for n in args.control])
+    target = _channels(target_data, args.control, args.target, model)
     dt, n = target_data.dt, target.shape[1]
     if settings.band[1] >= 0.5 / dt:
         raise UsageError(f"--band {settings.band[0]:g} {settings.band[1]:g}: above the "
@@ -335,11 +336,19 @@ def _iterate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _channels(data: TimeData, names: list[str], where: Path) -> np.ndarray:
-    try:
-        return np.vstack([data.values[data.channel(n)] for n in names])
-    except TimeDataError as e:
-        raise TimeDataError(f"{where}: {e}") from None
+def _channels(data: TimeData, names: list[str], where: Path, plant: RigPlant) -> np.ndarray:
+    """The channels ``names`` of a file (n, samples), each converted to the unit of the rig's
+    output of that name (a blank unit is taken to be the model's)."""
+    rows = []
+    for name in names:
+        try:
+            c = data.channel(name)
+        except TimeDataError as e:
+            raise TimeDataError(f"{where}: {e}") from None
+        to = plant.output_units[plant.outputs.index(name)]
+        rows.append(data.values[c] * unit_factor(data.units[c], to, f"{where}: channel "
+                                                 f"{name!r}"))  # fmt: skip
+    return np.vstack(rows)
 
 
 def _correct(args: argparse.Namespace) -> int:
@@ -350,14 +359,14 @@ def _correct(args: argparse.Namespace) -> int:
                          "response measured); give neither for the first drive")
     _check_file_out(args.out, "--out")
     target_data = read_time_data(args.target)
-    target = _channels(target_data, args.control, args.target)
-    dt, n = target_data.dt, target.shape[1]
     model = _plant(args.deck, args, args.damping, t0)
     control = [model.outputs.index(c) if c in model.outputs else -1 for c in args.control]
     if -1 in control:
         bad = args.control[control.index(-1)]
         raise UsageError(f"--control {bad}: not an output of the rig; expected one of "
                          f"{', '.join(model.outputs)}")  # fmt: skip
+    target = _channels(target_data, args.control, args.target, model)
+    dt, n = target_data.dt, target.shape[1]
     if args.frf is not None:
         H = _frf_files(args.frf, model, args.control, n, dt, settings.band)
     else:
@@ -370,7 +379,7 @@ def _correct(args: argparse.Namespace) -> int:
                 raise UsageError(f"{path}: {data.n_samples} samples every {data.dt:g} s; "
                                  f"expected the target's {n} every {dt:g} s")  # fmt: skip
         drive = drive_channels(played, model, args.drive)
-        response = _channels(measured, args.control, args.response)
+        response = _channels(measured, args.control, args.response, model)
     nxt = correct_drive(H, target, settings.rcond, drive, response, settings.gain)
     units = (model.input_units,) * len(model.inputs)
     write_time_data(args.out, TimeData(dt, nxt, model.inputs, units))
@@ -482,7 +491,7 @@ def _compare_pictures(folder: Path, runs, target: TimeData, control: list[str],
     others = list(runs[0].channel_error)
     if others:
         shown = others[: pictures.MAX_PANELS]
-        series = {"measured": np.vstack([target.values[target.channel(c)] for c in shown])}
+        series = {"measured": _channels(target, shown, Path("target"), runs[0].plant)}
         for run in runs:
             series[run.name] = run.iteration.response[[run.plant.outputs.index(c)
                                                        for c in shown]]  # fmt: skip

@@ -25,6 +25,7 @@ from ..model.model import Model
 from ..rig.iterate import Iteration, IterationSettings, frf_on_lines, iterate_drive
 from ..rig.plant import RigPlant
 from ..testdata.timedata import TimeData
+from ..testdata.units import unit_factor
 from .synthetic_test import hidden_values
 
 
@@ -81,12 +82,20 @@ def compare_models(models: Sequence[tuple[str, RigPlant]], target: TimeData,
         if plant.inputs != first.inputs or plant.outputs != first.outputs:
             raise TimeDataError(f"model {name}: its actuators or outputs differ from model "
                                 f"{models[0][0]}'s; expected the same rig")  # fmt: skip
-    rows = [target.channel(c) for c in control]
+    for c in control:
+        target.channel(c)  # the target has it (else an error naming the channels it has)
     missing = [c for c in control if c not in first.outputs]
     if missing:
         raise TimeDataError(f"control channel(s) {', '.join(missing)}: not outputs of the rig")
     idx = [first.outputs.index(c) for c in control]
-    values = target.values[rows]
+
+    def measured(c: str) -> np.ndarray:
+        """The target's channel ``c`` in the unit of the rig's output of that name."""
+        r = target.channel(c)
+        to = first.output_units[first.outputs.index(c)]
+        return target.values[r] * unit_factor(target.units[r], to, f"target channel {c!r}")
+
+    values = np.vstack([measured(c) for c in control])
     n, dt = values.shape[1], target.dt
     if reference_drive is not None and reference_drive.shape != (len(first.inputs), n):
         raise TimeDataError(f"a reference drive of shape {reference_drive.shape}; expected "
@@ -110,9 +119,9 @@ def compare_models(models: Sequence[tuple[str, RigPlant]], target: TimeData,
                            / _band_rms(reference_drive, dt, s.band))  # fmt: skip
         errors = {}
         for c in others:
-            measured = target.values[target.channel(c)]
-            size = np.sqrt(np.mean(measured**2))
-            diff = it.response[plant.outputs.index(c)] - measured
+            meas = measured(c)
+            size = np.sqrt(np.mean(meas**2))
+            diff = it.response[plant.outputs.index(c)] - meas
             errors[c] = float(np.sqrt(np.mean(diff**2)) / size) if size > 0 else float("nan")
         out.append(ModelOnRig(name, plant, it, drive_error, errors))
     return out
