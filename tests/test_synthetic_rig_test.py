@@ -187,3 +187,38 @@ def test_identification_of_the_shipped_rig_test_finds_the_rig_frames_modes(tmp_p
         truth = np.array(tomllib.load(fh)["modes"]["frequency_hz"])
     for f in truth[(truth > 2) & (truth < 39)]:
         assert np.abs(found / f - 1).min() < 0.005, (f, found)
+
+
+def test_frfs_per_column_force_are_the_decks_force_frfs(nominal_test, tmp_path):
+    """timedata frf --per-force: H1 on the actuator displacements over each oil column's
+    stiffness is the deck's accelerance per newton at the actuators' frame grids, labelled
+    as femcal frf and the calibration label them."""
+    from femcal.testdata.formats import write_time_data
+
+    write_time_data(tmp_path / "rig.rsp", nominal_test.data)
+    acts = [f"{lab}:displacement" for lab, _, _ in read_points(ACTUATORS)]
+    sensors = list(nominal_test.data.names[14:])
+    out = tmp_path / "per_force.npz"
+    assert main(["timedata", "frf", str(tmp_path / "rig.rsp"), "--inputs", *acts,
+                 "--outputs", *sensors, "--segment", "8", "--band", "2", "38", "--points",
+                 str(SENSORS), str(ACTUATORS), "--per-force", str(DECK), "--out",
+                 str(out)]) == 0  # fmt: skip
+    data = read_frf(out)
+    assert data.units == "mm/s^2/N" and data.quantity == "accelerance"
+    assert data.inputs[0].label == "17547:+Z"
+    ref = tmp_path / "ref.npz"
+    f = data.frequency_hz
+    args = ["frf", str(DECK), "--freq", f"{f[0]}:{f[-1] + 1e-6}:{f[1] - f[0]}", "--damping",
+            "0.02", "--quantity", "accelerance", "--residual", "--modes-to", "200", "--out",
+            str(ref)]  # fmt: skip
+    for _, g, c in read_points(ACTUATORS):
+        args += ["--input", f"{g}:{abs(c)}"]
+    for _, g, c in read_points(SENSORS):
+        args += ["--output", f"{g}:{abs(c)}"]
+    assert main(args) == 0
+    signs_in = np.sign([c for _, _, c in read_points(ACTUATORS)])
+    signs_out = np.sign([c for _, _, c in read_points(SENSORS)])
+    expected = read_frf(ref).H * signs_in[None, :, None] * signs_out[:, None, None]
+    good = np.broadcast_to((data.coherence > 0.95)[:, None, :], expected.shape)
+    err = np.abs(data.H - expected) / np.abs(expected).max(axis=1, keepdims=True)
+    assert np.median(err[good]) < 0.05

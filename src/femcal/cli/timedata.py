@@ -22,8 +22,12 @@ from pathlib import Path
 import numpy as np
 
 from ..atomic import write_lines
+from ..model.build import load_model
+from ..rig.plant import column_stiffness
+from ..testdata.data import FRFData
 from ..testdata.estimate import FRFSettings, RigFRF, channel_labels, estimate_frfs
 from ..testdata.formats import format_of, formats, read_time_data, suffixes, write_frf
+from ..testdata.points import read_points
 from ..testdata.signal import ESTIMATORS, cross_spectra, input_condition_number
 from ..testdata.timedata import TimeData
 from ..viz import timedata as pictures
@@ -57,6 +61,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                      help="sensors and actuators files: label the FRFs GRID:AXIS (LABEL:+Z -> "
                      "the sensor's grid; LABEL:displacement|force -> the actuator's grid and "
                      "stroke) so that identify and calibrate place them")  # fmt: skip
+    frf.add_argument("--per-force", type=Path, metavar="DECK",
+                     help="inputs that are actuator displacements (LABEL:displacement, the "
+                     "actuators file among --points): divide each by its oil column's "
+                     "stiffness in DECK, giving FRFs per newton at the actuator's frame grid, "
+                     "as femcal frf and the calibration compute them for the deck")  # fmt: skip
     frf.add_argument("--no-detrend", action="store_true", help="keep each channel's trend")
     frf.add_argument("--out", type=Path, required=True, metavar="FILE",
                      help=f"FRF file ({', '.join(suffixes('frf', writable=True))})")
@@ -172,6 +181,8 @@ def _frf(args: argparse.Namespace) -> int:
          f"{1 / data.dt:g} Hz")  # fmt: skip
     result = estimate_frfs(data, args.inputs, args.outputs, settings, points=args.points)
     frf = result.frf
+    if args.per_force is not None:
+        frf = _per_force(frf, args.per_force, args.inputs, args.points, t0)
     write_frf(args.out, frf)
     _say(t0, f"wrote {args.out}")
     if args.pictures is not None:
@@ -193,6 +204,28 @@ def _frf(args: argparse.Namespace) -> int:
         c = frf.coherence[o]
         print(f"{name:<{width}} {frf.outputs[o].label:<14} {np.median(c):27.3f} {c.min():6.3f}")
     return 0
+
+
+def _per_force(frf: FRFData, deck: Path, inputs: list[str], points: list[Path],
+               t0: float) -> FRFData:  # fmt: skip
+    """The FRFs per newton at each actuator's frame grid: each input column over its oil
+    column's stiffness in ``deck``."""
+    rows = {}
+    for path in points:
+        for label, grid, code in read_points(path):
+            rows.setdefault(label, (label, grid, code))
+    acts = []
+    for name in inputs:
+        label, _, what = name.rpartition(":")
+        if what != "displacement" or label not in rows:
+            raise UsageError(f"--per-force: input {name!r} is not an actuator's displacement "
+                             "(LABEL:displacement with LABEL in an actuators file of --points)")
+        acts.append(rows[label])
+    _say(t0, f"reading {deck} for the oil columns' stiffness")
+    k = column_stiffness(load_model(deck), acts)
+    out_unit = frf.units.rsplit("/", 1)[0]
+    return FRFData(frf.frequency_hz, frf.H / k[None, :, None], frf.outputs, frf.inputs,
+                   frf.quantity, f"{out_unit}/N", frf.coherence)  # fmt: skip
 
 
 def _plot(args: argparse.Namespace) -> int:

@@ -337,3 +337,20 @@ def damping_from_modes(plant: RigPlant, frequency_hz: np.ndarray, damping_ratio:
             zeta[r] = z_id[j]
             taken += 1
     return zeta, taken
+
+
+def column_stiffness(model: Model, actuators: Sequence[tuple[str, int, int]]) -> np.ndarray:
+    """Each actuator's oil-column stiffness along its stroke (n,), from the deck (see
+    :func:`find_actuators`): what turns an FRF per drive displacement into one per newton
+    at the actuator's frame grid, ``H / k``, as the deck with a force there computes it.
+
+    Raises
+    ------
+    ModelError
+        As :func:`find_actuators`.
+    """
+    from ..assembly.constraints import build_reduction
+
+    K = sp.csr_matrix(assemble(model, Options()).K)
+    return np.array([a.stiffness for a in
+                     find_actuators(model, actuators, K, build_reduction(model).spc)])  # fmt: skip
