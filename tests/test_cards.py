@@ -36,13 +36,25 @@ def test_cquad4_pid_defaults_to_eid_and_theta_or_mcid(write):
 
 
 def test_cquad4_thickness_continuation(write):
+    """The continuation as the Quick Reference Guide lays it out: field 2 blank, TFLAG in
+    field 3, T1-T4 in fields 4-7 (pyNastran reads it so too)."""
     q = one(
         write,
         "CQUAD4  1       1       1       2       3       4\n"
-        "                        1       .1      .2      .3      .4\n",
+        "                1       .1      .2      .3      .4\n",
         "CQUAD4",
     )
     assert (q["tflag"], q["t1"], q["t4"]) == (1, 0.1, 0.4)
+
+
+def test_ctria3_thickness_continuation(write):
+    t = one(
+        write,
+        "CTRIA3  1       1       1       2       3       0.      .05\n"
+        "                0       .1      .2      .3\n",
+        "CTRIA3",
+    )
+    assert (t["zoffs"], t["tflag"], t["t1"], t["t3"]) == (0.05, 0, 0.1, 0.3)
 
 
 def test_pshell_defaults(write):

@@ -15,15 +15,17 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from . import records as rec
+from .legacy import FIELD_REWRITES
 from .spec import Layout
 
 # -------------------------------------------------------------------------- layouts
 
+# the continuation: field 2 blank, TFLAG in field 3, T1-T4 (T1-T3) in fields 4-7 (QRG)
 _SHELL_Q4 = (
-    "eid:I! pid:I=@eid g1:I! g2:I! g3:I! g4:I! theta|mcid:RI zoffs:R _ "
+    "eid:I! pid:I=@eid g1:I! g2:I! g3:I! g4:I! theta|mcid:RI zoffs:R "
     "_ tflag:I t1:R t2:R t3:R t4:R"
 )
-_SHELL_T3 = "eid:I! pid:I=@eid g1:I! g2:I! g3:I! theta|mcid:RI zoffs:R _ _ _ tflag:I t1:R t2:R t3:R"
+_SHELL_T3 = "eid:I! pid:I=@eid g1:I! g2:I! g3:I! theta|mcid:RI zoffs:R _ _ tflag:I t1:R t2:R t3:R"
 _ORIENT = "x1|g0:RI x2:R x3:R"
 _W = "w1a:R=0. w2a:R=0. w3a:R=0. w1b:R=0. w2b:R=0. w3b:R=0."
 
@@ -146,21 +148,37 @@ RECORDS: dict[str, Callable[[list[str], list], object]] = {
     "EIGRL": rec.EigrlCard.parse,
 }
 
+def _unsupported(reason: str, names: tuple[str, ...]) -> dict[str, str]:
+    return dict.fromkeys(names, reason)
+
+
 #: Cards that change a SOL 103 answer and that femcal does not model yet.
-UNSUPPORTED_STRUCTURAL: dict[str, str] = {
-    name: "an element femcal cannot model yet"
-    for name in (
-        "CGAP", "CBUSH1D", "CBUSH2D", "CFAST", "CWELD", "CSEAM", "CBEND", "GENEL",
-        "CQUADX", "CTRIAX", "CTRIAX6", "CQUADX4", "CQUADX8", "CTRIAX3", "CTRAX3", "CTRAX6",
-        "CQUAD", "CTRIA", "CCONEAX", "CRAC2D", "CRAC3D", "CHACAB", "CHACBR", "CIFHEX",
-        "CIFPENT", "CIFQUAD", "CIFQDX", "CMASS5", "CELAS5", "CONM3",
-    )
-}  # fmt: skip
+UNSUPPORTED_STRUCTURAL: dict[str, str] = _unsupported("an element femcal cannot model yet", (
+    "CGAP", "CBUSH1D", "CBUSH2D", "CFAST", "CWELD", "CSEAM", "CBEND", "GENEL",
+    "CQUADX", "CTRIAX", "CTRIAX6", "CQUADX4", "CQUADX8", "CTRIAX3", "CTRAX3", "CTRAX6",
+    "CQUAD", "CTRIA", "CCONEAX", "CRAC2D", "CRAC3D", "CHACAB", "CHACBR", "CIFHEX",
+    "CIFPENT", "CIFQUAD", "CIFQDX", "CMASS5", "CELAS5", "CONM3",
+))  # fmt: skip
+UNSUPPORTED_STRUCTURAL.update(_unsupported("a rigid element femcal cannot model yet", (
+    "RBE1", "RROD", "RSPLINE", "RTRPLT", "RBAR1", "RTRPLT1", "RJOINT", "RSSCON",
+)))  # fmt: skip
+# Elements of COSMIC NASTRAN (NASTRAN-95, the public NASTRAN of 1990s decks) gone from current
+# NASTRAN, its hydroelastic fluid elements and the user-written dummy elements CDUMi: kept as
+# unknown cards they would leave their stiffness and mass out of the model without a word.
+# Names from NASTRAN-95's element table (mis/sdr2e.f).
+UNSUPPORTED_STRUCTURAL.update(_unsupported("an element of older NASTRAN (COSMIC) femcal cannot "
+                                           "model", (
+    "CTWIST", "CTRIA1", "CTRIA2", "CTRBSC", "CTRPLT", "CTRPLT1", "CTRMEM", "CTRSHL",
+    "CTRIM6", "CQDPLT", "CQDMEM", "CQDMEM1", "CQDMEM2", "CQUAD1", "CQUAD2", "CQUADTS",
+    "CTRIATS", "CTRIARG", "CTRAPRG", "CTORDRG", "CTRIAAX", "CTRAPAX", "CWEDGE", "CHEXA1",
+    "CHEXA2", "CIHEX1", "CIHEX2", "CIHEX3", "CIS2D8", "CELBOW",
+)))  # fmt: skip
+UNSUPPORTED_STRUCTURAL.update(_unsupported("a hydroelastic fluid element femcal cannot model", (
+    "CFLUID2", "CFLUID3", "CFLUID4", "CFLMASS", "CAXIF2", "CAXIF3", "CAXIF4", "CSLOT3",
+    "CSLOT4",
+)))  # fmt: skip
 UNSUPPORTED_STRUCTURAL.update(
-    {
-        name: "a rigid element femcal cannot model yet"
-        for name in ("RBE1", "RROD", "RSPLINE", "RTRPLT", "RBAR1", "RTRPLT1", "RJOINT", "RSSCON")
-    }
+    {f"CDUM{i}": "a user-written dummy element femcal cannot model" for i in range(1, 10)}
 )
 UNSUPPORTED_STRUCTURAL.update(
     {
@@ -178,17 +196,24 @@ UNSUPPORTED_STRUCTURAL.update(
 
 @dataclass(frozen=True)
 class CardDef:
-    """How one card name is read: a fixed layout (table rows) or a record parser."""
+    """How one card name is read: a fixed layout (table rows) or a record parser.
+
+    ``rewrite(name, fields)``, where a card has one, turns older field conventions NASTRAN
+    still reads into their current form before the layout types the fields
+    (:mod:`femcal.deck.legacy`); it returns the problems it found.
+    """
 
     name: str
     layout: Layout | None
     record: Callable[[list[str], list], object] | None
     multi: tuple[int, int, int] | None = None
+    rewrite: Callable[[str, list[str]], list[tuple[int, str, str]]] | None = None
 
 
 CARDS: dict[str, CardDef] = {}
 for _name, _text in LAYOUTS.items():
-    CARDS[_name] = CardDef(_name, Layout(_name, _text), None, MULTI_ENTRY.get(_name))
+    CARDS[_name] = CardDef(_name, Layout(_name, _text), None, MULTI_ENTRY.get(_name),
+                           FIELD_REWRITES.get(_name))  # fmt: skip
 for _name, _fn in RECORDS.items():
     CARDS[_name] = CardDef(_name, None, _fn)
 SUPPORTED = frozenset(CARDS)

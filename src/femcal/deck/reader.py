@@ -5,6 +5,9 @@ Bulk data formats: small field (8 characters), large field (16, name ending in `
 (expanded to 8-column stops); lower case; ``$`` comments (also after data); continuations
 by a ``+`` or ``*`` in column 1, or a blank first field. Continuation lines belong to the
 card right before them; their column-1 labels are not matched (as in current NASTRAN).
+Older field conventions that NASTRAN still reads (the integer orientation flag in CBAR field
+9, ...) are turned into their current form before a card's fields are typed
+(:mod:`femcal.deck.legacy`).
 
 Every problem found is collected with file:line, card and field, and raised together as
 one :class:`~femcal.errors.DeckError`.
@@ -586,7 +589,25 @@ class _Reader:
                 if len(pending) >= CHUNK:
                     table.flush()
 
-            return row
+            rewrite = d.rewrite
+            if rewrite is None:
+                return row
+
+            def rewritten(fields: list[str]) -> None:
+                # Older field conventions in their current form first (femcal.deck.legacy).
+                # The fast lane never takes these cards' rewritten fields: it leaves every
+                # non-blank word field (OFFT) to this reader.
+                errors = rewrite(name, fields)
+                if not errors:
+                    row(fields)
+                    return
+                rest = list(fields)
+                for k, _, _ in errors:
+                    rest[k] = ""
+                layout.parse_checked(rest, errors)  # the card's other problems too
+                self._report(d, name, sorted(errors, key=lambda e: e[0]))
+
+            return rewritten
 
         shared, width, per_card = d.multi
 
