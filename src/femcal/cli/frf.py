@@ -20,8 +20,8 @@ from ..response.frf import modal_frf, point_matrix, residual_flexibility
 from ..response.modal import QUANTITIES
 from ..solve.normal_modes import solve_normal_modes
 from ..testdata.data import FRFData
-from ..testdata.formats import format_of, write_frf
-from .paths import file_in_the_way
+from ..testdata.formats import write_frf
+from .paths import UsageError, output_file
 
 
 def _point(text: str) -> tuple[int, int]:
@@ -147,15 +147,10 @@ def _check(args: argparse.Namespace) -> str | None:
         return f"--damping {args.damping:g}: expected a damping ratio 0 <= Z < 1 (0.02 is 2 %)"
     if args.modes_to is not None and not (np.isfinite(args.modes_to) and args.modes_to > 0):
         return f"--modes-to {args.modes_to:g}: expected a frequency above 0 Hz"
-    if args.out.is_dir():
-        return f"--out {args.out}: is a directory; expected a file name"
-    blocked = file_in_the_way(args.out)
-    if blocked is not None:
-        return f"--out {args.out}: {blocked} is a file, not a directory"
     try:
-        format_of(args.out, "frf", writing=True)
-    except ValueError as e:
-        return f"--out {e}"
+        output_file(args.out, "--out", "frf")
+    except UsageError as e:
+        return str(e)
     n = grid.count()
     check_memory(float(n) * (_BYTES * len(args.output) * len(args.input) + 8),
                  f"--freq {grid} ({_count(n)} frequencies) for {len(args.output)} outputs x "

@@ -29,3 +29,21 @@ def output_folder(path: Path | None, option: str) -> Path | None:
     if blocker is not None:
         raise UsageError(f"{option} {path}: expected a folder, but {blocker} is a file")
     return path
+
+
+def output_file(path: Path, option: str, kind: str) -> Path:
+    """``path`` if a file of test data of ``kind`` (``"frf"``, ``"time"``) can be written
+    there: a :class:`UsageError` naming ``option`` for a folder, a suffix no format of that
+    kind writes, or a file where a parent folder should be."""
+    from ..testdata.formats import format_of
+
+    if path.is_dir():
+        raise UsageError(f"{option} {path}: is a directory; expected a file name")
+    try:
+        format_of(path, kind, writing=True)
+    except ValueError as e:
+        raise UsageError(f"{option} {e}") from None
+    blocked = file_in_the_way(path)
+    if blocked is not None:
+        raise UsageError(f"{option} {path}: {blocked} is a file, not a directory")
+    return path

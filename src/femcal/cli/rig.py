@@ -45,12 +45,12 @@ from ..rig.iterate import (
 )
 from ..rig.plant import RigPlant, build_plant, damping_from_modes
 from ..rig.simulate import simulate
-from ..testdata.formats import format_of, read_frf, read_time_data, suffixes, write_time_data
+from ..testdata.formats import read_frf, read_time_data, suffixes, write_time_data
 from ..testdata.points import read_points
 from ..testdata.timedata import TimeData
 from ..testdata.units import unit_factor
 from ..viz import rig as pictures
-from .paths import UsageError, file_in_the_way, output_folder
+from .paths import UsageError, output_file, output_folder
 
 _D = IterationSettings()
 
@@ -200,18 +200,6 @@ def _plant(deck: Path, args: argparse.Namespace, damping: float, t0: float) -> R
     return plant
 
 
-def _check_file_out(path: Path, option: str) -> None:
-    if path.is_dir():
-        raise UsageError(f"{option} {path}: is a directory; expected a file name")
-    try:
-        format_of(path, "time", writing=True)
-    except ValueError as e:
-        raise UsageError(f"{option} {e}") from None
-    blocked = file_in_the_way(path)
-    if blocked is not None:
-        raise UsageError(f"{option} {path}: {blocked} is a file, not a directory")
-
-
 def drive_channels(data: TimeData, plant: RigPlant, where: Path) -> np.ndarray:
     """The drive (n_actuators, n) from a file's channels named by the actuators' labels (or
     ``LABEL:displacement``), converted to the model's length unit (a blank unit is taken to
@@ -241,7 +229,7 @@ def drive_channels(data: TimeData, plant: RigPlant, where: Path) -> np.ndarray:
 
 def _simulate(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
-    _check_file_out(args.out, "--out")
+    output_file(args.out, "--out", "time")
     drive_data = read_time_data(args.drive)
     plant = _plant(args.deck, args, args.damping, t0)
     drive = drive_channels(drive_data, plant, args.drive)
@@ -357,7 +345,7 @@ def _correct(args: argparse.Namespace) -> int:
     if (args.drive is None) != (args.response is None):
         raise UsageError("--drive and --response go together (the drive played and the "
                          "response measured); give neither for the first drive")
-    _check_file_out(args.out, "--out")
+    output_file(args.out, "--out", "time")
     target_data = read_time_data(args.target)
     model = _plant(args.deck, args, args.damping, t0)
     control = [model.outputs.index(c) if c in model.outputs else -1 for c in args.control]

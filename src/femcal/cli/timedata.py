@@ -26,12 +26,12 @@ from ..model.build import load_model
 from ..rig.plant import column_stiffness
 from ..testdata.data import FRFData
 from ..testdata.estimate import FRFSettings, RigFRF, channel_labels, estimate_frfs
-from ..testdata.formats import format_of, formats, read_time_data, suffixes, write_frf
+from ..testdata.formats import formats, read_time_data, suffixes, write_frf
 from ..testdata.points import read_points
 from ..testdata.signal import ESTIMATORS, cross_spectra, input_condition_number
 from ..testdata.timedata import TimeData
 from ..viz import timedata as pictures
-from .paths import UsageError, file_in_the_way, output_folder
+from .paths import UsageError, output_file, output_folder
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -153,28 +153,12 @@ def _info(args: argparse.Namespace) -> int:
     return 0
 
 
-def _check_out(path: Path, option: str, kind: str | None) -> None:
-    """UsageError for an output that cannot be written, before any work."""
-    if kind is not None:
-        if path.is_dir():
-            raise UsageError(f"{option} {path}: is a directory; expected a file name")
-        try:
-            format_of(path, kind, writing=True)
-        except ValueError as e:
-            raise UsageError(f"{option} {e}") from None
-        blocked = file_in_the_way(path)
-        if blocked is not None:
-            raise UsageError(f"{option} {path}: {blocked} is a file, not a directory")
-    else:
-        output_folder(path, option)
-
-
 def _frf(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     settings = _settings(args)
-    _check_out(args.out, "--out", "frf")
+    output_file(args.out, "--out", "frf")
     if args.pictures is not None:
-        _check_out(args.pictures, "--pictures", None)
+        output_folder(args.pictures, "--pictures")
     channel_labels([*args.inputs, *args.outputs], args.points)  # the position files first
     data = read_time_data(args.file)
     _say(t0, f"read {args.file}: {data.n_channels} channels x {data.n_samples} samples at "
@@ -233,7 +217,7 @@ def _plot(args: argparse.Namespace) -> int:
     if (args.inputs is None) != (args.outputs is None):
         raise UsageError("--inputs and --outputs go together (for coherence and FRF pictures)")
     settings = _settings(args)
-    _check_out(args.out, "--out", None)
+    output_folder(args.out, "--out")
     data = read_time_data(args.file)
     chans = [data.channel(n) for n in args.channels] if args.channels else None
     if args.seconds is not None and not (np.isfinite(args.seconds) and args.seconds > 0):
