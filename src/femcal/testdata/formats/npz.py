@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 import zipfile
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
@@ -35,6 +36,40 @@ def write_npz(path: str | os.PathLike[str], data: FRFData) -> Path:
 _KEYS = ("frequency_hz", "H", "output_labels", "input_labels", "quantity")
 
 
+def load_arrays(path: str | os.PathLike[str], required: tuple[str, ...],
+                optional: tuple[str, ...], error: type[Exception],
+                missing: Callable[[list[str], list[str]], str],
+                expected: str = "") -> dict[str, np.ndarray]:  # fmt: skip
+    """The ``required`` and (those present of) the ``optional`` arrays of an NPZ archive.
+
+    Raises ``error`` naming the file: for a file that is not an archive of arrays (a single
+    .npy array: ``expected`` is added to that message), for required arrays it lacks
+    (``missing(absent, held)`` gives the message after the file's name), or for a member
+    that cannot be read (a damaged archive). Members are read (and decompressed) only once
+    the required ones are known to be there.
+    """
+    try:
+        z = np.load(path, allow_pickle=False)
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile):
+        raise error(f"{path}: not an NPZ archive of arrays") from None
+    if not hasattr(z, "files"):  # a single .npy array, not an archive
+        raise error(f"{path}: not an NPZ archive of arrays{expected}")
+    with z:
+        absent = [k for k in required if k not in z.files]
+        if absent:
+            raise error(f"{path}: {missing(absent, list(z.files))}")
+        arrays = {}
+        for key in (*required, *optional):
+            if key not in z.files:
+                continue
+            try:
+                arrays[key] = z[key]
+            except Exception as e:  # a damaged member can fail in many ways
+                raise error(f"{path}: array {key!r} cannot be read ({type(e).__name__}: "
+                            f"{e}); the archive is damaged") from e  # fmt: skip
+        return arrays
+
+
 def read_npz(path: str | os.PathLike[str]) -> FRFData:
     """Read what :func:`write_npz` writes (``units`` and ``coherence`` optional).
 
@@ -45,26 +80,9 @@ def read_npz(path: str | os.PathLike[str]) -> FRFData:
         that do not make an FRF set (see :func:`~femcal.testdata.data.frf_of`: real or
         non-finite H, frequencies not increasing, shapes that do not agree...).
     """
-    try:
-        z = np.load(path, allow_pickle=False)
-    except (ValueError, OSError, EOFError, zipfile.BadZipFile):
-        raise FRFError(f"{path}: not an NPZ archive of arrays") from None
-    if not hasattr(z, "files"):  # a single .npy array, not an archive
-        raise FRFError(f"{path}: not an NPZ archive of arrays")
-    with z:
-        missing = sorted(set(_KEYS) - set(z.files))
-        if missing:
-            raise FRFError(f"{path}: missing {', '.join(missing)}; expected the arrays "
-                           f"{', '.join(_KEYS)} (and units)")  # fmt: skip
-        arrays = {}
-        for key in (*_KEYS, "units", "coherence"):
-            if key not in z.files:
-                continue
-            try:  # members are read (and decompressed) only now
-                arrays[key] = z[key]
-            except Exception as e:  # a damaged member can fail in many ways
-                raise FRFError(f"{path}: array {key!r} cannot be read ({type(e).__name__}: "
-                               f"{e}); the archive is damaged") from e  # fmt: skip
+    arrays = load_arrays(path, _KEYS, ("units", "coherence"), FRFError,
+                         lambda absent, _held: f"missing {', '.join(sorted(absent))}; expected "
+                         f"the arrays {', '.join(_KEYS)} (and units)")  # fmt: skip
     text = {k: _text(arrays[k], k, path) for k in ("quantity", "units") if k in arrays}
     data = frf_of(str(path), arrays["frequency_hz"], arrays["H"], arrays["output_labels"],
                   arrays["input_labels"], text["quantity"], text.get("units", ""))  # fmt: skip

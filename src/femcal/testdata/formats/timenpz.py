@@ -8,7 +8,6 @@ samples. :attr:`TimeData.header <femcal.testdata.timedata.TimeData.header>` is n
 from __future__ import annotations
 
 import os
-import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +15,7 @@ import numpy as np
 from ...atomic import write_atomic
 from ...errors import TimeDataError
 from ..timedata import TimeData
+from .npz import load_arrays
 from .registry import Format, register
 
 #: The arrays a time-history archive must hold (``units`` is optional).
@@ -47,29 +47,11 @@ def read_time_npz(path: str | os.PathLike[str]) -> TimeData:
         of ``values``).
     """
     path = Path(path)
-    try:
-        z = np.load(path, allow_pickle=False)
-    except (ValueError, OSError, EOFError, zipfile.BadZipFile):
-        raise TimeDataError(f"{path}: not an NPZ archive of arrays") from None
-    if not hasattr(z, "files"):  # a single .npy array, not an archive
-        raise TimeDataError(f"{path}: not an NPZ archive of arrays; expected the arrays "
-                            f"{', '.join(KEYS)} (and units)")  # fmt: skip
-    with z:
-        missing = [k for k in KEYS if k not in z.files]
-        if missing:
-            raise TimeDataError(f"{path}: no {', '.join(missing)} array"
-                                f"{'s' * (len(missing) > 1)} (it holds "
-                                f"{', '.join(z.files) or 'nothing'}); expected the arrays "
-                                f"{', '.join(KEYS)} (and units)")  # fmt: skip
-        arrays = {}
-        for key in (*KEYS, "units"):
-            if key not in z.files:
-                continue
-            try:  # members are read (and decompressed) only now
-                arrays[key] = z[key]
-            except Exception as e:  # a damaged member can fail in many ways
-                raise TimeDataError(f"{path}: array {key!r} cannot be read ({type(e).__name__}"
-                                    f": {e}); the archive is damaged") from e  # fmt: skip
+    expected = f"; expected the arrays {', '.join(KEYS)} (and units)"
+    arrays = load_arrays(path, KEYS, ("units",), TimeDataError,
+                         lambda absent, held: f"no {', '.join(absent)} array"
+                         f"{'s' * (len(absent) > 1)} (it holds {', '.join(held) or 'nothing'})"
+                         f"{expected}", expected)  # fmt: skip
     dt = arrays["dt"]
     if dt.size != 1 or dt.dtype.kind not in "iuf":
         raise TimeDataError(f"{path}: dt is a {dt.dtype} array of shape {dt.shape}; expected "
