@@ -55,18 +55,37 @@ from .paths import UsageError, output_file, output_folder
 _D = IterationSettings()
 
 
-def _plant_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("deck", type=Path, help="NASTRAN deck of the frame on its oil columns")
+def _plant_options(p: argparse.ArgumentParser, *, deck: bool = True) -> None:
+    """The frame on its rig: the deck (unless each model names its own), actuators,
+    sensors, damping (and with a deck, the damping of an identified model) and modes."""
+    if deck:
+        p.add_argument("deck", type=Path, help="NASTRAN deck of the frame on its oil columns")
     p.add_argument("--actuators", type=Path, required=True,
                    help="actuators CSV (label, grid of the oil column's frame end, direction)")
     p.add_argument("--sensors", type=Path, required=True, help="accelerometers CSV")
     p.add_argument("--damping", type=float, default=0.02, metavar="Z",
                    help="modal damping ratio of every mode (default 0.02)")
-    p.add_argument("--damping-from", type=Path, metavar="MODEL.npz",
-                   help="an identified model (femcal identify --out): each mode within 5 %% "
-                   "of an identified one takes its damping, the others --damping")  # fmt: skip
+    if deck:
+        p.add_argument("--damping-from", type=Path, metavar="MODEL.npz",
+                       help="an identified model (femcal identify --out): each mode within "
+                       "5 %% of an identified one takes its damping, the others "
+                       "--damping")  # fmt: skip
     p.add_argument("--modes-to", type=float, default=200.0, metavar="HZ",
                    help="modes kept (default up to 200 Hz; the others enter statically)")
+
+
+def _iteration_options(p: argparse.ArgumentParser, *, iterations: bool = True) -> None:
+    """The settings of the iteration (:class:`IterationSettings`)."""
+    if iterations:
+        p.add_argument("--iterations", type=int, default=_D.iterations, metavar="N",
+                       help=f"corrections after the first drive (default {_D.iterations})")
+    p.add_argument("--gain", type=float, default=_D.gain,
+                   help=f"gain of each correction (default {_D.gain:g})")
+    p.add_argument("--rcond", type=float, default=_D.rcond,
+                   help=f"singular values below RCOND x the largest are left out of the "
+                   f"inverse (default {_D.rcond:g})")  # fmt: skip
+    p.add_argument("--band", type=float, nargs=2, default=_D.band, metavar=("F1", "F2"),
+                   help=f"drive band (default {_D.band[0]:g} {_D.band[1]:g} Hz)")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -105,15 +124,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     it.add_argument("--frf", choices=("model", "measured"), default="model",
                     help="invert the model's FRF (default), or the FRF measured by playing "
                     "noise drives on the plant, as a rig does")  # fmt: skip
-    it.add_argument("--iterations", type=int, default=_D.iterations, metavar="N",
-                    help=f"corrections after the first drive (default {_D.iterations})")
-    it.add_argument("--gain", type=float, default=_D.gain,
-                    help=f"gain of each correction (default {_D.gain:g})")
-    it.add_argument("--rcond", type=float, default=_D.rcond,
-                    help=f"singular values below RCOND x the largest are left out of the "
-                    f"inverse (default {_D.rcond:g})")  # fmt: skip
-    it.add_argument("--band", type=float, nargs=2, default=_D.band, metavar=("F1", "F2"),
-                    help=f"drive band (default {_D.band[0]:g} {_D.band[1]:g} Hz)")
+    _iteration_options(it)
     it.add_argument("--out", type=Path, required=True, metavar="DIR", help="folder to write")
 
     cor = rsub.add_parser("correct", help="one iteration step for a physical rig",
@@ -132,12 +143,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                      "control channels, one unit a file) instead of the model's")  # fmt: skip
     cor.add_argument("--drive", type=Path, help="the drive that was played")
     cor.add_argument("--response", type=Path, help="the response measured while it played")
-    cor.add_argument("--gain", type=float, default=_D.gain,
-                     help=f"gain of the correction (default {_D.gain:g})")
-    cor.add_argument("--rcond", type=float, default=_D.rcond,
-                     help=f"SVD threshold of the inverse (default {_D.rcond:g})")
-    cor.add_argument("--band", type=float, nargs=2, default=_D.band, metavar=("F1", "F2"),
-                     help=f"drive band (default {_D.band[0]:g} {_D.band[1]:g} Hz)")
+    _iteration_options(cor, iterations=False)
     cor.add_argument("--out", type=Path, required=True, metavar="DRIVE",
                      help=f"the next drive ({time_sfx})")
 
@@ -153,12 +159,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                      "report.json, matched by parameter name through --params)")  # fmt: skip
     cmp.add_argument("--params", type=Path, metavar="TOML",
                      help="the parameters file the calibration used (for --values)")
-    cmp.add_argument("--actuators", type=Path, required=True, help="actuators CSV")
-    cmp.add_argument("--sensors", type=Path, required=True, help="accelerometers CSV")
-    cmp.add_argument("--damping", type=float, default=0.02, metavar="Z",
-                     help="modal damping ratio of every mode (default 0.02)")
-    cmp.add_argument("--modes-to", type=float, default=200.0, metavar="HZ",
-                     help="modes kept (default up to 200 Hz)")
+    _plant_options(cmp, deck=False)
     cmp.add_argument("--target", type=Path, required=True,
                      help="the physical rig's measured channels: the control channels and "
                      "any uncontrolled ones to compare")  # fmt: skip
@@ -166,10 +167,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                      help="control channels (names in the target and the rig's outputs)")
     cmp.add_argument("--reference-drive", type=Path, metavar="DRIVE",
                      help="the drives the physical rig used, to compare the models' with")
-    cmp.add_argument("--iterations", type=int, default=_D.iterations, metavar="N")
-    cmp.add_argument("--gain", type=float, default=_D.gain)
-    cmp.add_argument("--rcond", type=float, default=_D.rcond)
-    cmp.add_argument("--band", type=float, nargs=2, default=_D.band, metavar=("F1", "F2"))
+    _iteration_options(cmp)
     cmp.add_argument("--out", type=Path, required=True, metavar="DIR", help="folder to write")
 
 
