@@ -33,7 +33,7 @@ from ..rig.plant import RigPlant, build_plant
 from ..rig.simulate import periodic_response
 from ..testdata.points import read_points
 from ..testdata.timedata import TimeData
-from .synthetic_test import hidden_values, with_cross_support
+from .synthetic_test import hidden_values, truth_tail, with_cross_support
 
 
 @dataclass(frozen=True)
@@ -212,13 +212,5 @@ def rig_truth_toml(test: RigTest, command: str = "") -> list[str]:
              f"noise = {s.noise!r}", f"rate_hz = {s.rate_hz!r}", f"period_s = {s.period_s!r}",
              f"cycles = {s.cycles}",
              f"drive_band_hz = [{s.drive_band[0]!r}, {s.drive_band[1]!r}]",
-             f"drive_rms_mm = {s.drive_rms!r}", "", "[modes]",
-             "frequency_hz = [" + ", ".join(f"{v:.6f}" for v in test.frequencies_hz) + "]",
-             "damping_ratio = [" + ", ".join(f"{v:.6f}" for v in test.plant.zeta)
-             + "]"]  # fmt: skip
-    for p in test.parameters:
-        lines += ["", "[[parameter]]"]
-        for k in ("name", "card", "id", "field", "nominal", "true", "p"):
-            v = p[k]
-            lines.append(f'{k} = "{v}"' if isinstance(v, str) else f"{k} = {v!r}")
-    return lines
+             f"drive_rms_mm = {s.drive_rms!r}", ""]  # fmt: skip
+    return lines + truth_tail(test.frequencies_hz, test.plant.zeta, test.parameters)

@@ -209,10 +209,18 @@ def truth_toml(test: SynthTest) -> list[str]:
              f"seed = {s.seed}", f"spread = {s.spread!r}",
              f"support_x_mm = {s.support_x!r}", f"support_stiffness_nmm_per_rad = "
              f"{s.support_stiffness!r}", f"noise = {s.noise!r}", f"noise_floor = {s.noise_floor!r}",
-             "", "[modes]",
-             "frequency_hz = [" + ", ".join(f"{v:.6f}" for v in test.frequencies_hz) + "]",
-             "damping_ratio = [" + ", ".join(f"{v:.6f}" for v in test.damping) + "]"]  # fmt: skip
-    for p in test.parameters:
+             ""]  # fmt: skip
+    return lines + truth_tail(test.frequencies_hz, test.damping, test.parameters)
+
+
+def truth_tail(frequencies_hz: np.ndarray, damping: np.ndarray,
+               parameters: list[dict]) -> list[str]:  # fmt: skip
+    """A truth file's ``[modes]`` table (frequencies in Hz, damping ratios) and its
+    ``[[parameter]]`` tables (name, card, id, field, nominal, true, p), as TOML lines."""
+    lines = ["[modes]",
+             "frequency_hz = [" + ", ".join(f"{v:.6f}" for v in frequencies_hz) + "]",
+             "damping_ratio = [" + ", ".join(f"{v:.6f}" for v in damping) + "]"]  # fmt: skip
+    for p in parameters:
         lines += ["", "[[parameter]]"]
         for k in ("name", "card", "id", "field", "nominal", "true", "p"):
             v = p[k]
