@@ -8,6 +8,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from ..elements.shell import grid_normals
 from ..model.model import Model
 from ..parallel import executor, ordered
 from ..properties.materials import MaterialTables
@@ -34,6 +35,14 @@ class Context:
         self.k6rot = k6rot
         self.threads = threads
         self.materials = MaterialTables(model.materials)
+        self._grid_normals: np.ndarray | None = None
+
+    def grid_normals(self) -> np.ndarray:
+        """(n_nodes, 3) NASTRAN's unique grid-point normals of the shells (PARAM SNORM), NaN
+        where a grid has none; computed once."""
+        if self._grid_normals is None:
+            self._grid_normals = shell_grid_normals(self.model)
+        return self._grid_normals
 
     def run_chunks(
         self,
@@ -57,6 +66,32 @@ class Context:
         with executor("threads", threads, name="femcal-kernel") as pool:
             for prepared in ordered(pool, task, parts, ahead=threads + 1):
                 asm.scatter(prepared)
+
+
+#: Shell element types whose normals make the grid normals (NASTRAN: all shells with 3 or 4
+#: corners, the quadratic ones by their corners).
+_SHELLS = {"CQUAD4": 4, "CQUADR": 4, "CQUAD8": 4, "CTRIA3": 3, "CTRIAR": 3, "CTRIA6": 3}
+
+
+def shell_grid_normals(model: Model) -> np.ndarray:
+    """(n_nodes, 3) unique grid-point normals of the model's shells (PARAM SNORM), NaN where a
+    grid has none. A degenerate shell (no normal) is left out here; its handler names it."""
+    conn, normals = [], []
+    for etype, corners in _SHELLS.items():
+        block = model.elements.get(etype)
+        if block is None:
+            continue
+        c = block.nodes[:, :corners]
+        xyz = model.xyz[np.where(c < 0, 0, c)]
+        if corners == 4:
+            n = np.cross(xyz[:, 2] - xyz[:, 0], xyz[:, 3] - xyz[:, 1])
+        else:
+            n = np.cross(xyz[:, 1] - xyz[:, 0], xyz[:, 2] - xyz[:, 0])
+        length = np.linalg.norm(n, axis=1)
+        ok = (length > 0.0) & (c >= 0).all(axis=1)
+        conn.append(c[ok])
+        normals.append(n[ok] / length[ok, None])
+    return grid_normals(model.n_nodes, conn, normals, model.params.snorm)
 
 
 def name_positions(message: str, ids: np.ndarray) -> str:

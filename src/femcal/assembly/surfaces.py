@@ -48,8 +48,12 @@ def shells(ctx: Context, block: ElementBlock, asm: Assembler) -> float:
         try:
             # quadratic shells: which midside nodes are given (the kernel ties an omitted one
             # to its corners); linear ones: CQUADR / CTRIAR have the Allman (drilling) membrane
-            variant = ({"midside": block.nodes[sel, corners:] >= 0} if quadratic
-                       else {"drilling": block.type in ("CQUADR", "CTRIAR")})  # fmt: skip
+            if quadratic:
+                variant = {"midside": block.nodes[sel, corners:] >= 0}
+            elif block.type in ("CQUADR", "CTRIAR"):
+                variant = {"drilling": True}
+            else:  # CQUAD4, CTRIA3: the grid normals tie the drilling rotation where curved
+                variant = {"normals": ctx.grid_normals()[block.nodes[sel]]}
             K, M = kernel(
                 xyz[sel], sec.A[sel], sec.D[sel], None if rigid else sec.S[sel], B,
                 rho_area=sec.rho_area[sel], nsm=sec.nsm[sel], zoffs=zoffs[sel],

@@ -94,38 +94,49 @@ CTRIA3 formulation
   ``tests/test_sol103_analytic.py``: ``test_thin_plates_do_not_lock``,
   ``test_shear_rigid_triangles_do_not_lock``).
 
-Drilling rotation (K6ROT)
--------------------------
+Drilling rotation (K6ROT, SNORM)
+--------------------------------
 A Hughes-Brezzi penalty ties ``Rz`` to the in-plane rotation ``omega = (v,x - u,y) / 2`` of
 the membrane field: ``U_drill = 1/2 alpha integral((Rz - omega)^2 dA)``, integrated with the
-element's full rule (2x2 Gauss, or the 3-point triangle rule), so a free element has exactly
-six zero-energy modes.
+element's full rule (2x2 Gauss, or the 3-point triangle rule).
 
 * CQUADR / CTRIAR (Allman membranes, ``Rz`` the physical in-plane rotation; NASTRAN's R
   elements ignore K6ROT): ``omega`` includes the Allman terms and
   ``alpha = (DRILL_GAMMA + k6rot * 1e-6) * A[2, 2]``, ``DRILL_GAMMA = 1``: the ``gamma = G``
   recommended by Ibrahimbegovic, Taylor & Wilson (the Allman terms alone would leave an
-  equal-``Rz`` mode).
-* CQUAD4 / CTRIA3: ``alpha = (PENALTY_GAMMA + k6rot * 1e-6) * A[2, 2]``,
-  ``PENALTY_GAMMA = 0.1``, plus NASTRAN's K6ROT term (``1e-6 K6ROT G t``).
+  equal-``Rz`` mode). A free element has exactly six zero-energy modes.
+* CQUAD4 / CTRIA3: the membranes do not use ``Rz`` (NASTRAN's do not: its CQUAD4 and CTRIA3
+  membranes are the bilinear / constant-strain ones, and femcal's strain energies with
+  NASTRAN's printed mode shapes of pyn_mode_solid_shell_bar agree with its printed ones only
+  so). ``Rz`` carries NASTRAN's K6ROT penalty (QRG, PARAM K6ROT: ``1e-6 K6ROT G t`` on the
+  element's area, G of MID1, none for a membrane with MID1 alone), with the modulus
+  ``alpha = 9 (quadrilateral) or 12 (triangle) x 1e-6 K6ROT A[2, 2]``, so that one corner's
+  ``Rz`` alone costs ``1e-6 K6ROT G t A`` on a CQUAD4 and ``... 2A`` on a CTRIA3: the
+  values MYSTRAN's authors matched to MSC's element matrices (``CALC_K6ROT.f90``). With the
+  default K6ROT = 100 this is weak (``1e-4 G t A``): a bar that twists a flat shell about its
+  normal meets little resistance there, as in NASTRAN (``tests/test_drilling.py``). It made
+  pyn_goland (a CQUAD4 wing with offset CONM2s) match MSC to 2e-8. Without K6ROT the
+  drilling rotations are free (AUTOSPC fixes them, as NASTRAN's).
 
-Why the CQUAD4 / CTRIA3 membranes do not use ``Rz``: NASTRAN's do not, so ``Rz`` is free in
-NASTRAN's mode shapes, and those values would strain an Allman membrane. With NASTRAN's own
-mode shapes of pyn_mode_solid_shell_bar (beams standing on the corners of a CQUAD4 / CTRIA3
-box), femcal's shell strain energies are close to NASTRAN's printed ones with these membranes
-and several times them with Allman membranes; with these membranes the reference decks
-(pyn_goland, pyn_mode_solid_shell_bar, pyn_nx_sine_solid) match NASTRAN's modes
-(tests/test_conformance.py).
+  Where the shell is curved, flat facets with a weak drilling stiffness hinge: the rotation
+  about one element's normal is a bending rotation of its slightly tilted neighbour, free up
+  to the penalty, so neighbours' bending rotations part (the MacNeal-Harder twisted beam is
+  +35 % too flexible on any mesh). NASTRAN avoids this with unique grid-point normals (PARAM
+  SNORM, default 20 degrees: a grid's normal is the mean of its shells' normals when each
+  lies within SNORM of it; none at a fold), about which it takes the drilling rotation; how
+  they enter its element matrices is not published. femcal instead ties ``Rz`` at such grids
+  (:func:`grid_normals`; ``normals`` of the kernels): ``alpha += min(PENALTY_GAMMA A[2, 2],
+  TIE_SCALE sin^2(eps) D / area)``, ``eps`` the largest angle between the element's normal
+  and a grid normal at its corners, ``D`` the mean bending stiffness. The hinge's stiffness
+  goes as ``alpha / eps^2`` against bending ``D / area``, so this is the same tie for every
+  mesh of a surface and vanishes on flat shells and at folds, where the K6ROT penalty alone
+  is NASTRAN's. ``PENALTY_GAMMA = 0.1``, ``TIE_SCALE = 600``: the twisted beam within 1 % on
+  2x12, 4x24 and 8x48 meshes. Where a curved shell's drilling rotation is loaded (a bar about
+  its normal), femcal is therefore stiffer there than NASTRAN.
 
-Why ``PENALTY_GAMMA = 0.1`` and not NASTRAN's K6ROT penalty alone (``1e-4 G``): a weak
-``Rz``-``omega`` coupling lets the rotation about the normal at a node act as a partial hinge
-between non-coplanar flat neighbours (their out-of-plane rotations are different projections
-of the same nodal rotation; NASTRAN's QUAD4 is not flat), which makes a warped strip such as
-the MacNeal-Harder twisted beam far too flexible. 0.1 G is the weakest coupling that keeps the
-twisted beam (CQUAD4, 2x12 and 4x24 meshes, in-plane and out-of-plane loads) within 1 % of
-the reference; the reference decks' differences from NASTRAN grow with the coupling, so it is
-not taken stronger. ``omega`` includes the incompatible modes' rotation: without it the
-penalty locks the membrane in in-plane bending.
+``omega`` includes the incompatible modes' rotation (without it the penalty locks the
+membrane in in-plane bending); condensing them relaxes a corner's K6ROT stiffness a little
+(4e-5 of it at K6ROT 100).
 
 Shear-rigid plates (``S=None``)
 -------------------------------
@@ -164,16 +175,21 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["quad4_matrices", "shell_frame", "tria3_matrices"]
+__all__ = ["grid_normals", "quad4_matrices", "shell_frame", "tria3_matrices"]
 
 #: Ratio of the penalty transverse shear stiffness to ``trace(D) / area`` for ``S=None``.
 SHEAR_RIGID_PENALTY = 1.0e4
 #: Drilling penalty: ``alpha = (DRILL_GAMMA + k6rot * DRILL_SCALE) * A[2, 2]`` (CQUADR,
-#: CTRIAR: the Allman membranes), ``(PENALTY_GAMMA + k6rot * DRILL_SCALE) * A[2, 2]`` (CQUAD4,
-#: CTRIA3, whose membranes do not use ``Rz``; see "Drilling rotation" above).
+#: CTRIAR: the Allman membranes); CQUAD4 / CTRIA3, whose membranes do not use ``Rz``: K6ROT's
+#: penalty and, where curved, a tie of at most ``PENALTY_GAMMA * A[2, 2]`` (see "Drilling
+#: rotation" above).
 DRILL_GAMMA = 1.0
 PENALTY_GAMMA = 0.1
 DRILL_SCALE = 1.0e-6
+#: CQUAD4 / CTRIA3 curvature tie: ``alpha_tie = min(PENALTY_GAMMA A[2, 2], TIE_SCALE
+#: sin^2(eps) D / area)``, ``eps`` the largest angle between the element normal and a grid
+#: normal at its nodes (see "Drilling rotation" above).
+TIE_SCALE = 600.0
 
 _G = 1.0 / np.sqrt(3.0)
 _GAUSS_2X2 = ((-_G, -_G), (_G, -_G), (_G, _G), (-_G, _G))
@@ -228,6 +244,45 @@ def shell_frame(xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     x = _unit(x, "x axis")
     y = np.cross(z, x)
     return np.stack([x, y, z], axis=1), centre
+
+
+def grid_normals(
+    n_grids: int, connectivity: list[np.ndarray], normals: list[np.ndarray], snorm: float
+) -> np.ndarray:
+    """NASTRAN's unique grid-point normals (PARAM SNORM), in basic: (n_grids, 3), NaN at grids
+    that get none.
+
+    A grid's normal is the mean of the unit normals of the shells at it, kept only if every
+    one of those normals lies within ``snorm`` degrees of it (``snorm <= 0``: none).
+
+    Parameters
+    ----------
+    n_grids : number of grids (node indices run 0 .. n_grids - 1).
+    connectivity : per element type, (n, k) corner node indices (-1: absent).
+    normals : per element type, (n, 3) unit element normals in basic (``shell_frame``).
+    snorm : PARAM SNORM, degrees.
+    """
+    out = np.full((n_grids, 3), np.nan)
+    if snorm <= 0.0 or not connectivity:
+        return out
+    nodes = np.concatenate([c.ravel() for c in connectivity])
+    each = np.concatenate([np.repeat(nrm, c.shape[1], axis=0)
+                           for c, nrm in zip(connectivity, normals, strict=True)])  # fmt: skip
+    keep = nodes >= 0
+    nodes, each = nodes[keep], each[keep]
+    total = np.zeros((n_grids, 3))
+    np.add.at(total, nodes, each)
+    length = np.linalg.norm(total, axis=1)
+    mean = np.divide(total, length[:, None], out=np.full_like(total, np.nan),
+                     where=length[:, None] > 1e-12)  # fmt: skip
+    cos = np.einsum("ei,ei->e", each, mean[nodes])
+    ok = np.ones(n_grids, bool)
+    np.logical_and.at(ok, nodes, cos >= np.cos(np.radians(snorm)))
+    used = np.zeros(n_grids, bool)
+    used[nodes] = True
+    good = ok & used & np.isfinite(mean).all(axis=1)
+    out[good] = mean[good]
+    return out
 
 
 # ----------------------------------------------------------------------------------------
@@ -295,6 +350,43 @@ def _prepare(
     gamma = DRILL_GAMMA if drill_gamma is None else drill_gamma
     alpha = (gamma + _per_elem(k6rot, n, (), "k6rot") * DRILL_SCALE) * A[:, 2, 2]
     return T, p[..., :2], p[..., 2], A, D, S_arr, B, m, zoffs, alpha
+
+
+def _polygon_area(xl: np.ndarray) -> np.ndarray:
+    """(n,) area of the polygons (n, k, 2) of in-plane corner coordinates."""
+    x, y = xl[..., 0], xl[..., 1]
+    return 0.5 * np.abs((x * np.roll(y, -1, axis=1) - np.roll(x, -1, axis=1) * y).sum(axis=1))
+
+
+def _k6rot_modulus(alpha: np.ndarray, D: np.ndarray, corners: int) -> np.ndarray:
+    """CQUAD4 / CTRIA3 drilling modulus (n,) from ``alpha = 1e-6 K6ROT A[2, 2]``: scaled so
+    that one corner's ``Rz`` alone costs ``1e-6 K6ROT G t A`` (a triangle: ``2 A``), as in
+    NASTRAN (see "Drilling rotation"); zero without bending stiffness (MID2 blank)."""
+    scale = 12.0 if corners == 3 else 9.0  # 1 / integral(N_a^2 dA / A), triangle / parallelogram
+    bending = np.abs(D).reshape(len(D), -1).max(axis=1) > 0.0
+    return np.where(bending, scale * alpha, 0.0)
+
+
+def _curvature_tie(
+    T: np.ndarray, xl: np.ndarray, normals: ArrayLike | None, A: np.ndarray, D: np.ndarray
+) -> np.ndarray:
+    """Drilling modulus (n,) that ties ``Rz`` where the shell is curved (see "Drilling rotation").
+
+    ``normals`` (n, nn, 3) are the grid normals at the element's nodes in basic (NaN: the
+    grid has none); a node without one, or whose normal is the element's own, adds nothing.
+    """
+    if normals is None:
+        return np.zeros(T.shape[0])
+    normals = np.asarray(normals, dtype=float)
+    if normals.shape != (T.shape[0], xl.shape[1], 3):
+        raise ValueError(f"normals must have shape ({T.shape[0]}, {xl.shape[1]}, 3), "
+                         f"got {normals.shape}")  # fmt: skip
+    normals = np.where(np.isnan(normals), T[:, None, 2], normals)
+    cos = np.einsum("eai,ei->ea", normals, T[:, 2]) / np.linalg.norm(normals, axis=2)
+    sin2 = np.clip(1.0 - cos * cos, 0.0, 1.0).max(axis=1)
+    area = _polygon_area(xl)
+    bending = 0.5 * (D[:, 0, 0] + D[:, 1, 1])
+    return np.minimum(PENALTY_GAMMA * A[:, 2, 2], TIE_SCALE * sin2 * bending / area)
 
 
 def _area_covariance(xl: np.ndarray, detJ: list[np.ndarray], area: np.ndarray) -> np.ndarray:
@@ -718,6 +810,7 @@ def quad4_matrices(
     k6rot: ArrayLike = 100.0,
     coupled_mass: bool = False,
     drilling: bool = False,
+    normals: ArrayLike | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Stiffness and mass of CQUAD4 elements: MITC4 bending/shear, bilinear + incompatible
     modes membrane (``drilling=True``: CQUADR, Allman (ITW) membrane).
@@ -726,8 +819,10 @@ def quad4_matrices(
     """
     T, xl, h, A_, D_, S_, B_, m, zo, alpha = _prepare(
         xyz, 4, A, D, S, B, rho_area, nsm, zoffs, k6rot,
-        drill_gamma=DRILL_GAMMA if drilling else PENALTY_GAMMA,
+        drill_gamma=DRILL_GAMMA if drilling else 0.0,
     )
+    if not drilling:
+        alpha = _k6rot_modulus(alpha, D_, 4) + _curvature_tie(T, xl, normals, A_, D_)
     K, Nint, Mcons = _quad4_local(xl, A_, D_, S_, B_, alpha, drilling)
     return _to_basic(K, Nint, Mcons, m, T, zo[:, None] - h, coupled_mass)
 
@@ -745,6 +840,7 @@ def tria3_matrices(
     k6rot: ArrayLike = 100.0,
     coupled_mass: bool = False,
     drilling: bool = False,
+    normals: ArrayLike | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Stiffness and mass of CTRIA3 elements: MITC3 bending/shear, constant-strain membrane
     (``drilling=True``: CTRIAR, Allman membrane).
@@ -753,8 +849,10 @@ def tria3_matrices(
     """
     T, xl, h, A_, D_, S_, B_, m, zo, alpha = _prepare(
         xyz, 3, A, D, S, B, rho_area, nsm, zoffs, k6rot,
-        drill_gamma=DRILL_GAMMA if drilling else PENALTY_GAMMA,
+        drill_gamma=DRILL_GAMMA if drilling else 0.0,
     )
+    if not drilling:
+        alpha = _k6rot_modulus(alpha, D_, 3) + _curvature_tie(T, xl, normals, A_, D_)
     K, Nint, Mcons = _tria3_local(xl, A_, D_, S_, B_, alpha, drilling)
     return _to_basic(K, Nint, Mcons, m, T, zo[:, None] - h, coupled_mass)
 
@@ -786,14 +884,19 @@ _PARAMS_DOC = """
         Offset of the reference plane from the grid plane along the element z axis
         (NASTRAN ZOFFS), length. Rigid links, applied to K and M.
     k6rot : array_like, shape (n,) or scalar
-        NASTRAN PARAM K6ROT: adds ``k6rot * 1e-6 * A[2, 2]`` to the drilling penalty modulus
-        ``A[2, 2]`` (see the module docstring; the drilling DOFs are never singular).
+        NASTRAN PARAM K6ROT: the drilling penalty (see the module docstring). CQUADR /
+        CTRIAR: adds ``k6rot * 1e-6 * A[2, 2]`` to the modulus ``A[2, 2]``; CQUAD4 / CTRIA3:
+        one corner's ``Rz`` alone costs ``1e-6 k6rot A[2, 2] area`` (triangle: ``2 area``),
+        nothing without bending stiffness.
     coupled_mass : bool
         False: lumped translational mass (row sums of the consistent mass). True: consistent
         translational mass. No rotary inertia either way.
     drilling : bool
         False (CQUAD4, CTRIA3): a membrane without ``Rz``, which enters only the drilling
         penalty. True (CQUADR, CTRIAR): the Allman membrane with drilling rotations.
+    normals : array_like, shape (n, {nn}, 3), optional
+        CQUAD4 / CTRIA3: the grid normals at the corners in basic (:func:`grid_normals`,
+        NaN where a grid has none), which tie ``Rz`` where the shell is curved; None: none.
 
     Returns
     -------

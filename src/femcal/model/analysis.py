@@ -75,6 +75,8 @@ class Params:
     coupled_mass : PARAM COUPMASS > 0: coupled mass where the element has one (else lumped).
     wtmass : PARAM WTMASS, the factor on the whole mass matrix.
     k6rot : PARAM K6ROT, the shells' drilling stiffness factor.
+    snorm : PARAM SNORM, degrees: the largest angle between a grid's shell normals and their
+        mean for the grid to get a unique normal (<= 0: none).
     autospc : fix singular grid-point DOF before the eigen solution (case control AUTOSPC,
         else PARAM AUTOSPC; default yes).
     grdpnt : PARAM GRDPNT >= 0: the reference grid of the grid point weight summary, 0 for
@@ -85,6 +87,7 @@ class Params:
     coupled_mass: bool = False
     wtmass: float = 1.0
     k6rot: float = 100.0
+    snorm: float = 20.0
     autospc: bool = True
     grdpnt: int | None = None
     cards: dict[str, tuple] = field(default_factory=dict)

@@ -4,9 +4,12 @@ case control METHOD, and the deck's features that femcal does not model."""
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from ..deck.deck import Deck
+from ..errors import FemcalWarning
 from ..markers import INT_BLANK
 from .analysis import EigenRequest, EigenSetup, Params
 
@@ -31,6 +34,19 @@ CASE_REFUSED = {
 }
 
 
+def _warn_given_normals(deck: Deck) -> None:
+    """SNORM bulk cards set a grid's normal in NASTRAN; femcal makes its own from the shells
+    (PARAM SNORM), so it says so rather than pass them by."""
+    at = [i for i, c in enumerate(deck.unused.items) if c.name == "SNORM"]
+    if at:
+        where = deck.where(deck.unused.file[at[0]], deck.unused.line[at[0]])
+        warnings.warn(FemcalWarning(
+            f"{where}: SNORM ({len(at)} card{'s' if len(at) > 1 else ''}): grid normals given "
+            "are not used; femcal makes its own from the shells (PARAM SNORM), so the CQUAD4 "
+            "/ CTRIA3 drilling rotation at those grids may differ from NASTRAN's"),
+            stacklevel=3)  # fmt: skip
+
+
 def params_of(deck: Deck) -> Params:
     """The PARAMs femcal honours (NASTRAN's defaults where the deck gives none or a value
     that is not a number) and every PARAM card as read."""
@@ -50,11 +66,12 @@ def params_of(deck: Deck) -> Params:
         autospc = not case.strip().upper().startswith("NO")
     else:
         autospc = str(cards.get("AUTOSPC", ("YES",))[0]).upper() != "NO"
+    _warn_given_normals(deck)
     g = cards.get("GRDPNT")
     grdpnt = int(g[0]) if g and isinstance(g[0], int) and g[0] >= 0 else None
     return Params(coupled_mass=number("COUPMASS", -1.0) > 0, wtmass=number("WTMASS", 1.0),
-                  k6rot=number("K6ROT", 100.0), autospc=autospc, grdpnt=grdpnt,
-                  cards=cards)  # fmt: skip
+                  k6rot=number("K6ROT", 100.0), snorm=number("SNORM", 20.0), autospc=autospc,
+                  grdpnt=grdpnt, cards=cards)  # fmt: skip
 
 
 def _hz(v: float) -> float | None:
