@@ -92,7 +92,7 @@ from .surrogate import Surrogate
 #: The surrogate's construction version: part of the resume fingerprint, so that starts
 #: finished by a version that built the surrogate (or its elements) differently are run
 #: again rather than mixed with new ones. Raise it with every such change.
-SURROGATE_VERSION = 8
+SURROGATE_VERSION = 9
 
 
 #: Config fields that do not change a start's result (where the files are, whose content
