@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import os
 import re
 import warnings
@@ -73,7 +74,12 @@ def write_uff(path: str | os.PathLike[str], data: FRFData, *, binary: bool = Fal
 
     def dump(tmp: str) -> None:
         Path(tmp).unlink()  # pyuff adds to a file that exists: start from none
-        pyuff.UFF(tmp).write_sets(sets, mode="add")
+        # pyuff leaves each set's file object to the garbage collector, which closes (and
+        # flushes) it with a ResourceWarning; collected here, before the file is renamed
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ResourceWarning)
+            pyuff.UFF(tmp).write_sets(sets, mode="add")
+            gc.collect()
 
     return write_atomic(path, dump)
 
