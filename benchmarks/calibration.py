@@ -207,10 +207,9 @@ def _near_truth_start(params, true_v: dict[str, float], near: float) -> tuple[Pa
     deck_path = WORK / "near_truth_start.bdf"
     write_calibrated_deck(FRAME / "hammer_frame.bdf", params, np.array(start), deck_path)
     lines = ["# the hammer frame's parameters with nominal values near the hidden truth"]
-    for q, v in zip(params, start, strict=True):
+    for q in params:  # no nominal: the deck's, as the deck writer rounded it
         lines += ["", "[[parameter]]", f'name = "{q.name}"', f'card = "{q.card}"', f"id = {q.id}",
-                  f'field = "{q.field}"', f"nominal = {v!r}", f"lower = {q.lower!r}",
-                  f"upper = {q.upper!r}"]  # fmt: skip
+                  f'field = "{q.field}"', f"lower = {q.lower!r}", f"upper = {q.upper!r}"]
     params_path = WORK / "near_truth_start.params.toml"
     params_path.write_text("\n".join(lines) + "\n")
     return deck_path, params_path, "near_truth"

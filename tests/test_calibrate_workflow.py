@@ -107,11 +107,12 @@ def test_report_holds_what_the_issue_asks(study):
     assert len(rep["starts"]) == 10
     # without an identified model there are no test modes to pair
     assert conf["modes"] == []
-    # the calibrated deck carries the calibrated values
+    # the calibrated deck carries the calibrated values, to the digits its 8-character free
+    # fields hold (7 for 5.123456, 5 for .0021999 or 7.8512-9)
     back = build_model(read_deck(d / "out" / conf["calibrated_deck"]))
     for par, row in zip(params, rep["parameters"], strict=True):
         assert current_value(back, par.card, par.id, par.field) == pytest.approx(
-            row["calibrated"], rel=1e-12)
+            row["calibrated"], rel=5e-5)
 
 
 def test_a_second_run_resumes_from_the_finished_starts(study):

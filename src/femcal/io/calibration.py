@@ -1,14 +1,13 @@
-"""A calibration's files: ``report.json`` (the typed result as JSON), the calibrated deck,
-and ``report.html`` with its pictures (:mod:`femcal.viz.calibration`). Every file is
-written atomically."""
+"""A calibration's files: ``report.json`` (the typed result as JSON), the calibrated deck
+with its changed cards, and ``report.html`` with its pictures (:mod:`femcal.viz.calibration`).
+Every file is written atomically."""
 
 from __future__ import annotations
 
 import html
 import json
 import os
-from collections.abc import Callable
-from dataclasses import replace
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +27,12 @@ def calibrated_deck_name(conf: Configuration, cfg: Config) -> str:
     stem = conf.deck.stem
     clash = sum(c.deck.stem == stem for c in cfg.configurations) > 1
     return f"{conf.name}_{stem}_calibrated.bdf" if clash else f"{stem}_calibrated.bdf"
+
+
+def calibrated_changes_name(deck: str | os.PathLike[str]) -> str:
+    """The file name of a calibrated deck's changed cards: its stem with ``.changes.bdf``
+    (``hammer_frame_calibrated.changes.bdf``), beside it."""
+    return f"{Path(deck).stem}.changes.bdf"
 
 
 def _finite(v: float | None) -> float | None:
@@ -259,27 +264,46 @@ def write_report_json(path: str | os.PathLike[str], result: CalibrationResult) -
 
 
 def write_calibrated_deck(deck_path: str | os.PathLike[str], params: list[Parameter],
-                          values: np.ndarray, out: str | os.PathLike[str]) -> Path:  # fmt: skip
-    """Read the deck again, set the parameters' card fields to ``values`` and write it
-    (large field, atomically) to ``out``."""
-    from ..deck import read_deck, write_deck  # the edge writes decks; nothing below it
+                          values: np.ndarray, out: str | os.PathLike[str], *,
+                          config: str | os.PathLike[str] | None = None,
+                          version: str | None = None,
+                          keep: Iterable[str | os.PathLike[str]] = ()) -> list[Path]:  # fmt: skip
+    """Write the deck with the parameters' card fields set to ``values`` to ``out``: the
+    engineer's deck with those fields' text changed and every other byte kept
+    (:mod:`femcal.deck.edit`: INCLUDE files holding a changed card are written beside it, the
+    INCLUDEs pointed at them), a header of comments at its top (femcal's ``version``, today's
+    date, the ``config`` file, how many fields and cards changed), and the changed cards
+    alone in :func:`calibrated_changes_name` beside it. Each value takes as many significant
+    digits as its field holds (at most 7 in an 8-character field, 10 in a 16-character one;
+    fewer where an exponent takes room: ``.0021999``); a value that reads as the deck's own is
+    left as written. ``keep`` are files an INCLUDE copy must not write over
+    (another configuration's, written into the same folder before). Every file is written
+    atomically. Returns the files written, ``out`` first.
 
-    deck = read_deck(deck_path)
-    for par, v in zip(params, np.asarray(values, float), strict=True):
-        spec = par.spec
-        if spec.kind == "record":
-            recs = deck.records[spec.card]
-            for i, r in enumerate(recs.items):
-                if r.pid == par.id:
-                    vals = list(getattr(r, spec.column))
-                    vals[spec.index] = float(v)
-                    recs.items[i] = replace(r, **{spec.column: tuple(vals)})
-            continue
-        table = deck.tables[spec.card]
-        key = {"property": "pid", "material": "mid", "element": "eid"}[spec.kind]
-        rows = np.flatnonzero(table.columns[key] == par.id)
-        table.columns[spec.column][rows] = float(v)
-    return write_deck(deck, out)
+    Raises
+    ------
+    DeckEditError
+        Naming file:line, card, id and field, for a field that is not where the deck says or a
+        value that does not fit it (a ValueError too).
+    """
+    import datetime
+
+    from .. import __version__
+    from ..deck.edit import FieldEdit, edit_deck, write_edited_deck
+
+    out = Path(out)
+    edits = [FieldEdit(p.card, p.id, p.field, float(v), p.name)
+             for p, v in zip(params, np.asarray(values, float), strict=True)]  # fmt: skip
+    edited = edit_deck(deck_path, edits)
+    changes = out.with_name(calibrated_changes_name(out))
+    n_cards = len(edited.cards)
+    header = [f"$ femcal {version or __version__} calibrated deck, "
+              f"{datetime.date.today().isoformat()}",
+              *([f"$ config: {config}"] if config is not None else []),
+              f"$ changed: {len(edited.changes)} field{'s' * (len(edited.changes) != 1)} on "
+              f"{n_cards} card{'s' * (n_cards != 1)} (see {changes.name})"]  # fmt: skip
+    return write_edited_deck(edited, out, header=header, changes=changes, tag="calibrated",
+                             keep=keep)  # fmt: skip
 
 
 _table, _f, _figure = html_table, html_number, html_figure

@@ -5,7 +5,9 @@ Reads each configuration's deck, parameters and test (FRFs, identified first if 
 configuration asks, or an identified model), runs
 :func:`femcal.calibrate.workflow.calibrate_setups` with its state in ``out/starts`` (a
 stopped run resumes), and writes ``out/report.json``, each configuration's calibrated deck
-and, when identified here, ``out/identify/`` (``out/identify/<name>/`` with several
+(the engineer's deck with the calibrated fields changed, its changed INCLUDE files and its
+changed cards alone: :func:`femcal.io.calibration.write_calibrated_deck`) and, when
+identified here, ``out/identify/`` (``out/identify/<name>/`` with several
 configurations: model.npz, identify.json). The pictures and ``report.html`` are
 :func:`femcal.io.calibration.write_report`'s.
 """
@@ -156,10 +158,14 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
     result = calibrate_setups(setups, cfg, truth=truth, state=out / "starts", fresh=fresh,
                               workers=workers, starts=starts, progress=progress,
                               sources=sources)  # fmt: skip
+    written: list[Path] = []
     for conf, params, case in zip(cfg.configurations, per_config, result.cases, strict=True):
         deck = out / calibrated_deck_name(conf, cfg)
-        write_calibrated_deck(conf.deck, params, result.values[case.index], deck)
-        say(f"wrote {deck}")
+        files = write_calibrated_deck(conf.deck, params, result.values[case.index], deck,
+                                      config=cfg.path, keep=written)  # fmt: skip
+        written += files
+        say(f"wrote {deck} ({', '.join(str(f.relative_to(out)) for f in files[1:])} "
+            "beside it)")
     result = replace(result, seconds=time.perf_counter() - t0)  # the whole job's run time
     path = write_report_json(out / "report.json", result)
     say(f"wrote {path}")
