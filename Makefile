@@ -36,6 +36,11 @@ lint: setup
 bench-parse: setup .venv-bench/.ok
 	$(PY) benchmarks/parse.py
 
+# The calibrated deck (the deck's own text, calibrated fields changed) read by femcal and by
+# pyNastran to the same values and card counts.
+bench-deck-edit: setup .venv-bench/.ok
+	$(PY) benchmarks/calibrated_deck.py
+
 bench-assembly: setup
 	$(PY) benchmarks/assembly.py
 
