@@ -1,16 +1,18 @@
 """``femcal identify FRF_FILE --band F1 F2 [--split F ...] [--order N ...] [--json FILE]
-[--out DIR]``: a state-space model, its modes and a channel report from measured FRFs."""
+[--out DIR [--geometry DECK]]``: a state-space model, its modes and a channel report from
+measured FRFs."""
 
 from __future__ import annotations
 
 import argparse
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import message
+from ..errors import FemcalWarning, message
 from ..identify import Settings, identify
 from ..identify.workflow import MAX_ORDER
 from ..io.identified import write_model, write_summary
@@ -59,7 +61,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", type=Path, metavar="FILE", help="summary as JSON")
     p.add_argument("--out", type=Path, metavar="DIR",
                    help="write model.npz, identify.json, the identified FRFs (frf_model.npz), "
+                   "the mode shapes as a universal file (identified_shapes.unv), "
                    "test-against-model overlays and the stabilisation diagrams (PNG)")  # fmt: skip
+    p.add_argument("--geometry", type=Path, metavar="DECK",
+                   help="with --out: the FE deck whose grids the channels name; "
+                   "identified_shapes.unv then also holds the sensors' grids and a wireframe "
+                   "along the mesh, and GRID:1-3 channels are taken in the grids' CD frames")
 
 
 def _check(args: argparse.Namespace) -> str | None:
@@ -83,6 +90,8 @@ def _check(args: argparse.Namespace) -> str | None:
     if args.order is not None and len(args.order) not in (1, n_parts):
         return (f"--order: {len(args.order)} orders for {n_parts} parts; expected one for "
                 "every part or one per part")
+    if args.geometry is not None and args.out is None:
+        return f"--geometry {args.geometry}: draws the shapes of --out; expected --out DIR too"
     if args.out is not None and args.out.exists() and not args.out.is_dir():
         return f"--out {args.out}: exists and is not a directory; expected a directory"
     if args.json is not None and args.json.is_dir():
@@ -111,6 +120,21 @@ def run(args: argparse.Namespace) -> int:
     except (KeyError, ValueError) as e:
         print(f"femcal identify: {message(e)}", file=sys.stderr)
         return 2
+    geometry = None
+    if args.geometry is not None:
+        from ..model.build import load_model
+
+        geometry = load_model(args.geometry)
+        progress(f"read {args.geometry}: {geometry.n_grids} grids")
+        rows = geometry.node_index([c.grid or 0 for c in data.outputs])
+        lost = [c.label for c, r in zip(data.outputs, rows, strict=True)
+                if c.grid is not None and (r < 0 or not geometry.is_grid[r])]  # fmt: skip
+        if lost:
+            print(f"femcal identify: --geometry {args.geometry}: no GRID for channel "
+                  f"{lost[0]}" + (f" ({len(lost) - 1} more)" if len(lost) > 1 else "")
+                  + f" of {args.frf}; expected the deck the test's grids are in",
+                  file=sys.stderr)  # fmt: skip
+            return 2
     progress(f"read {args.frf}: {len(data.outputs)} outputs x {len(data.inputs)} inputs x "
              f"{len(data.frequency_hz)} frequencies ({data.quantity}, "
              f"{data.units or 'no unit'})")  # fmt: skip
@@ -140,17 +164,50 @@ def run(args: argparse.Namespace) -> int:
         write_summary(args.json, model)
         progress(f"wrote {args.json}")
     if args.out:
-        _write_out(args.out, data, model, progress)
+        _write_out(args.out, data, model, progress, geometry)
     return 0
 
 
-def _write_out(out: Path, data, model, progress) -> None:
+#: The universal file of the identified shapes that ``--out`` writes.
+SHAPES_FILE = "identified_shapes.unv"
+
+
+def _write_shapes(path: Path, model, geometry) -> str | None:
+    """The identified shapes as a universal file (complex modes, dataset 55 analysis type
+    3), with the sensors' grids and their wireframe when the geometry deck is given; what
+    it holds, for the progress line (None, with a warning, when no channel names a grid)."""
+    from ..io.uff_shapes import (
+        TraceLines,
+        identified_shapes,
+        model_grids,
+        sensor_wireframe,
+        write_uff_shapes,
+    )
+
+    if not any(c.grid is not None for c in model.outputs):
+        warnings.warn(FemcalWarning(f"no output channel names a grid (GRID:DIRECTION): "
+                                    f"{path.name} not written"), stacklevel=2)  # fmt: skip
+        return None
+    shapes = identified_shapes(model, geometry)
+    if geometry is None:
+        write_uff_shapes(path, None, [shapes])
+        return f"{shapes.n_modes} shapes at {len(shapes.grid_ids)} grids"
+    grids = model_grids(geometry, shapes.grid_ids)
+    lines = TraceLines(sensor_wireframe(geometry, shapes.grid_ids), "femcal sensor wireframe")
+    write_uff_shapes(path, grids, [shapes], lines)
+    return f"{shapes.n_modes} shapes, {len(grids.ids)} grids, {len(lines.pairs)} trace lines"
+
+
+def _write_out(out: Path, data, model, progress, geometry=None) -> None:
     from ..viz.frf import frf_overlay
     from ..viz.identification import stabilization_diagram
 
     out.mkdir(parents=True, exist_ok=True)
     write_model(out / "model.npz", model)
     write_summary(out / "identify.json", model)
+    what = _write_shapes(out / SHAPES_FILE, model, geometry) if len(model.poles) else None
+    if what:
+        progress(f"wrote {out / SHAPES_FILE}: {what}")
     sel = (data.frequency_hz >= model.band[0]) & (data.frequency_hz <= model.band[1])
     test = type(data)(data.frequency_hz[sel], data.H[:, :, sel], data.outputs, data.inputs,
                       data.quantity, data.units)  # fmt: skip

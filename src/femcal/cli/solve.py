@@ -1,4 +1,5 @@
-"""``femcal solve DECK [--modes N] [--json FILE] [--out DIR] [--png DIR]``: SOL 103 normal modes."""
+"""``femcal solve DECK [--modes N] [--json FILE] [--out DIR] [--png DIR] [--pch FILE]
+[--uff FILE [--at SENSORS_CSV]]``: SOL 103 normal modes."""
 
 from __future__ import annotations
 
@@ -11,10 +12,15 @@ from pathlib import Path
 from ..assembly import Options, assemble
 from ..assembly.weight import weight_summary, weight_table
 from ..atomic import write_lines
+from ..deck import read_deck
 from ..io.modes import eigen_table, modes_json, write_json, write_npz, write_vtu
-from ..model.build import load_model
+from ..model.build import build_model
 from ..solve.normal_modes import solve_normal_modes
-from .paths import output_folder
+from .paths import UsageError, file_in_the_way, output_folder
+
+#: Suffixes of the files --pch and --uff write.
+PUNCH_SUFFIXES = (".pch", ".punch")
+UFF_SUFFIXES = (".unv", ".uff")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -25,6 +31,41 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, metavar="DIR",
                    help="write modes.npz, modes.vtu (ParaView) and eigenvalues.txt")  # fmt: skip
     p.add_argument("--png", type=Path, metavar="DIR", help="render each mode to DIR/mode_NNN.png")
+    p.add_argument("--pch", type=Path, metavar="FILE",
+                   help="write the eigenvalues and eigenvectors as a NASTRAN punch file "
+                   "(.pch, as DISPLACEMENT(PUNCH); CD frames)")  # fmt: skip
+    p.add_argument("--uff", type=Path, metavar="FILE",
+                   help="write grids, trace lines and mode shapes as a universal file "
+                   "(.unv/.uff: datasets 15, 82, 55; basic frame) for Test.Lab, ME'scope, "
+                   "pyuff")  # fmt: skip
+    p.add_argument("--at", type=Path, metavar="SENSORS_CSV",
+                   help="with --uff: only the grids of this sensors CSV (label,grid,...,"
+                   "directions), joined by a wireframe along the mesh; default every grid "
+                   "and the element edges")  # fmt: skip
+
+
+def output_path(path: Path | None, option: str, suffixes: tuple[str, ...]) -> Path | None:
+    """``path`` if a file can be written there with one of ``suffixes``; a
+    :class:`UsageError` naming ``option`` for a folder, another suffix or a file where a
+    parent folder should be."""
+    if path is None:
+        return None
+    if path.is_dir():
+        raise UsageError(f"{option} {path}: is a directory; expected a file name")
+    if path.suffix.lower() not in suffixes:
+        raise UsageError(f"{option} {path}: suffix {path.suffix or '(none)'!r}; expected "
+                         f"{' or '.join(suffixes)}")  # fmt: skip
+    blocked = file_in_the_way(path)
+    if blocked is not None:
+        raise UsageError(f"{option} {path}: {blocked} is a file, not a directory")
+    return path
+
+
+def _sensor_grids(path: Path) -> list[int]:
+    """The grids of a sensors CSV, in the file's order, each once."""
+    from ..testdata.points import read_points
+
+    return list(dict.fromkeys(g for _, g, _ in read_points(path)))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -35,8 +76,20 @@ def run(args: argparse.Namespace) -> int:
 
     output_folder(args.out, "--out")
     output_folder(args.png, "--png")
+    output_path(args.pch, "--pch", PUNCH_SUFFIXES)
+    output_path(args.uff, "--uff", UFF_SUFFIXES)
+    if args.at is not None and args.uff is None:
+        raise UsageError(f"--at {args.at}: chooses the grids of --uff; expected --uff FILE too")
+    sensors = _sensor_grids(args.at) if args.at is not None else None
     progress(f"reading {args.deck}")
-    model = load_model(args.deck)
+    deck = read_deck(args.deck)
+    model = build_model(deck)
+    if sensors is not None:
+        rows = model.node_index(sensors)
+        bad = [g for g, r in zip(sensors, rows, strict=True) if r < 0 or not model.is_grid[r]]
+        if bad:
+            raise UsageError(f"--at {args.at}: grid {bad[0]} is not a GRID of {args.deck}"
+                             + (f" ({len(bad) - 1} more)" if len(bad) > 1 else ""))
     progress(f"{model.n_grids} grids, {sum(len(b) for b in model.elements.values())} elements, "
              f"{model.n_dof} DOF")  # fmt: skip
     request = model.eigen.request()
@@ -80,4 +133,36 @@ def run(args: argparse.Namespace) -> int:
 
         paths = render_modes(modes, model, args.png, title=args.deck.name)
         progress(f"wrote {len(paths)} pictures to {args.png}")
+    if args.pch:
+        from ..io.punch import write_punch
+
+        case = deck.case
+        write_punch(args.pch, modes, title=case.value("TITLE") or "",
+                    subtitle=case.value("SUBTITLE") or "", label=case.value("LABEL") or "",
+                    subcase=case.effective()[0][0] or 1)  # fmt: skip
+        progress(f"wrote {args.pch} ({len(modes.eigenvalues)} eigenvectors, CD frames)")
+    if args.uff:
+        _write_uff(args.uff, modes, model, sensors, args.deck.name)
+        progress(f"wrote {args.uff} ({len(modes.eigenvalues)} shapes at "
+                 f"{model.n_grids if sensors is None else len(sensors)} grids)")
     return 0
+
+
+def _write_uff(path: Path, modes, model, sensors: list[int] | None, name: str) -> None:
+    from ..io.uff_shapes import (
+        TraceLines,
+        fe_shapes,
+        mesh_edges,
+        model_grids,
+        sensor_wireframe,
+        write_uff_shapes,
+    )
+
+    grids = model_grids(model, sensors)
+    if sensors is None:
+        lines = TraceLines(mesh_edges(model), "femcal element edges")
+    else:
+        lines = TraceLines(sensor_wireframe(model, sensors), "femcal sensor wireframe")
+    shapes = fe_shapes(modes, model, sensors, title=f"femcal normal modes of {name}",
+                       units="as solved (EIGRL normalisation), model units")  # fmt: skip
+    write_uff_shapes(path, grids, [shapes], lines)
