@@ -12,7 +12,19 @@ from contextlib import contextmanager
 
 from .. import __version__
 from ..errors import FemcalError
-from . import calibrate, frf, identify, info, model, rig, solve, synth, synth_rig, timedata
+from . import (
+    calibrate,
+    correlate,
+    frf,
+    identify,
+    info,
+    model,
+    rig,
+    solve,
+    synth,
+    synth_rig,
+    timedata,
+)
 
 _COMMANDS = {
     "info": info,
@@ -22,6 +34,7 @@ _COMMANDS = {
     "synth-rig-test": synth_rig,
     "identify": identify,
     "calibrate": calibrate,
+    "correlate": correlate,
     "model": model,
     "timedata": timedata,
     "rig": rig,

@@ -1,0 +1,226 @@
+"""``femcal correlate``: the shipped hammer test against the nominal hammer frame, checked
+against an independent computation (the deck solved and the test identified here, paired by
+the largest MAC) and the hidden truth; the files it writes; the errors it gives."""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import io
+import re
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from femcal import cli
+from femcal.correlate import mac
+from femcal.identify import identify
+from femcal.io.identified import read_model, write_model
+from femcal.io.modes import write_npz as write_modes
+from femcal.jobs.correlate import IDENTIFY_MARGIN
+from femcal.model import EigenRequest
+from femcal.model.build import load_model
+from femcal.response.frf import channel_matrix
+from femcal.solve.normal_modes import solve_normal_modes
+from femcal.testdata import read_frf
+from femcal.testdata.data import Channel
+from femcal.testdata.formats import write_frf
+from femcal.testdata.points import point_label, read_points
+
+ROOT = Path(__file__).resolve().parents[1]
+FRAME = ROOT / "models" / "truck_frame"
+DECK, TEST = FRAME / "hammer_frame.bdf", FRAME / "hammer_test.uff"
+SENSORS, TRUTH = FRAME / "hammer_frame.sensors.csv", FRAME / "hammer_test.truth.toml"
+BAND = (10.0, 100.0)
+
+
+def run(*argv: object) -> tuple[int, str, str]:
+    """Run ``femcal correlate ARGV...``: (exit status, stdout, stderr)."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        status = cli.main(["correlate", *map(str, argv)])
+    return status, out.getvalue(), err.getvalue()
+
+
+def read_table(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+@pytest.fixture(scope="module")
+def independent():
+    """The deck solved, the test identified (over the band widened as the command does) and
+    each test mode in the band paired with the FE mode of largest MAC, here."""
+    model = load_model(DECK)
+    fe, _ = solve_normal_modes(model, request=EigenRequest(v2=1.5 * BAND[1], nd=None))
+    data = read_frf(TEST)
+    ident = identify(data, (BAND[0] / IDENTIFY_MARGIN, BAND[1] * IDENTIFY_MARGIN))
+    sel = (ident.frequency_hz >= BAND[0]) & (ident.frequency_hz <= BAND[1])
+    keep = ~ident.suspect
+    C = channel_matrix(model, [c for c, k in zip(ident.outputs, keep, strict=True) if k])
+    M = mac(ident.shapes[keep][:, sel], C @ fe.shapes)
+    best = M.argmax(axis=1)
+    f_test = ident.frequency_hz[sel]
+    f_fe = fe.frequencies_hz[best]
+    return {"model": model, "modes": fe, "ident": ident, "test_hz": f_test,
+            "damping": ident.damping_ratio[sel], "fe_mode": best + 1, "fe_hz": f_fe,
+            "diff": (f_test - f_fe) / f_fe * 100, "mac": M.max(axis=1)}  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def deck_run(tmp_path_factory):
+    """The command on the deck and the shipped UFF file, with the sensors file."""
+    out = tmp_path_factory.mktemp("correlate")
+    status, stdout, stderr = run(DECK, TEST, "--band", *BAND, "--sensors", SENSORS,
+                                 "--out", out)  # fmt: skip
+    return {"status": status, "out": out, "stdout": stdout, "stderr": stderr}
+
+
+@pytest.fixture(scope="module")
+def saved(independent, tmp_path_factory):
+    """The independent FE modes and identified model as ``femcal solve --out`` and ``femcal
+    identify --out`` write them."""
+    folder = tmp_path_factory.mktemp("saved")
+    write_modes(folder / "modes.npz", independent["modes"], independent["model"])
+    write_model(folder / "model.npz", independent["ident"])
+    return folder
+
+
+def test_the_hammer_test_pairs_its_five_modes_with_the_nominal_frame(deck_run, independent):
+    assert deck_run["status"] == 0, deck_run["stderr"]
+    rows = read_table(deck_run["out"] / "correlation.csv")
+    assert len(rows) == 5 and all(r["fe_mode"] for r in rows)  # all paired, no FE mode left
+    ind = independent
+    np.testing.assert_allclose([float(r["test_hz"]) for r in rows], ind["test_hz"], rtol=1e-6)
+    np.testing.assert_allclose([float(r["test_damping_pct"]) for r in rows],
+                               100 * ind["damping"], atol=1e-4)  # fmt: skip
+    assert [int(r["fe_mode"]) for r in rows] == list(ind["fe_mode"])
+    np.testing.assert_allclose([float(r["fe_hz"]) for r in rows], ind["fe_hz"], rtol=1e-6)
+    np.testing.assert_allclose([float(r["frequency_difference_pct"]) for r in rows],
+                               ind["diff"], atol=1e-5)  # fmt: skip
+    macs = np.array([float(r["mac"]) for r in rows])
+    np.testing.assert_allclose(macs, ind["mac"], atol=1e-6)
+    assert (macs > 0.99).all()
+    # the test modes are the hidden frame's (the truth file's modes in the band)
+    text = TRUTH.read_text()
+    truth = np.array([float(x) for x in re.search(r"frequency_hz = \[([^\]]*)\]",
+                                                  text).group(1).split(",")])  # fmt: skip
+    truth = truth[(truth >= BAND[0]) & (truth <= BAND[1])]
+    np.testing.assert_allclose(ind["test_hz"], truth, rtol=1e-3)
+    # the nominal frame is 4.3 % soft in its first elastic mode, within 1.2 % in the others
+    diff = np.array([float(r["frequency_difference_pct"]) for r in rows])
+    assert 4.0 < diff[0] < 4.6 and np.abs(diff[1:]).max() < 1.5
+    # one console line per pair, and the totals
+    lines = deck_run["stdout"].splitlines()
+    assert sum(" ~ " in line for line in lines) == 5
+    assert "5 of 5 test modes in 10-100 Hz paired" in lines[-1]
+    assert "identifying the test FRFs over 8.33333-120 Hz" in deck_run["stderr"]
+
+
+def test_mac_matrix_and_page(deck_run, independent):
+    out = deck_run["out"]
+    with open(out / "mac.csv", newline="") as fh:
+        table = list(csv.reader(fh))
+    head, body = table[0], table[1:]
+    assert head[:2] == ["test_mode", "test_hz"] and len(body) == 5
+    fe_hz = independent["modes"].frequencies_hz
+    window = np.flatnonzero((fe_hz >= BAND[0] / 1.5) & (fe_hz <= BAND[1] * 1.5))
+    assert head[2:] == [f"FE {j + 1} ({fe_hz[j]:.3f} Hz)" for j in window]
+    M = np.array([[float(v) for v in row[2:]] for row in body])
+    assert ((M >= 0) & (M <= 1)).all()
+    rows = read_table(out / "correlation.csv")
+    for k, r in enumerate(rows):  # each pair's MAC is its row's largest, in its column
+        col = list(window).index(int(r["fe_mode"]) - 1)
+        assert M[k, col] == pytest.approx(float(r["mac"]), abs=1e-6) and M[k].argmax() == col
+    page = (out / "correlation.html").read_text()
+    assert not re.search(r"(src|href)\s*=\s*[\"']?\s*(https?:|//)", page, re.IGNORECASE)
+    assert "<link" not in page and "<script" not in page
+    images = re.findall(r"<img src='([^']*)'", page)
+    assert len(images) == 2 + 5  # MAC matrix, component plot, one picture per pair
+    assert all(s.startswith("data:image/png;base64,iVBOR") for s in images)
+    assert page.count("<tr>") >= 1 + 5 + 1 + 5  # the paired table and the MAC table
+
+
+def test_saved_modes_and_an_identified_model_with_sensor_labels(saved, independent, tmp_path):
+    # the identified model's channels relabelled by the sensors' names (L01:+X ...): the
+    # sensors file places them where the grid labels were
+    ident = read_model(saved / "model.npz")
+    where = {(g, code): label for label, g, code in read_points(SENSORS)}
+    named = tuple(Channel.parse(f"{where[(c.grid, int(c.direction))]}:"
+                                f"{point_label(c.grid, int(c.direction)).split(':')[1]}")
+                  for c in ident.outputs)  # fmt: skip
+    assert named[0].label == "L01:+X" and named[0].grid is None
+    write_model(tmp_path / "named.npz", replace(ident, outputs=named))
+    status, _, stderr = run(saved / "modes.npz", tmp_path / "named.npz", "--band", *BAND,
+                            "--sensors", SENSORS, "--out", tmp_path / "o")
+    assert status == 0, stderr
+    assert "identifying" not in stderr and "solving" not in stderr  # both read, not made
+    rows = read_table(tmp_path / "o" / "correlation.csv")
+    assert [int(r["fe_mode"]) for r in rows] == list(independent["fe_mode"])
+    np.testing.assert_allclose([float(r["mac"]) for r in rows], independent["mac"], atol=1e-6)
+    np.testing.assert_allclose([float(r["frequency_difference_pct"]) for r in rows],
+                               independent["diff"], atol=1e-5)  # fmt: skip
+    # without the sensors file the names place nothing: an error naming the channel
+    status, _, stderr = run(saved / "modes.npz", tmp_path / "named.npz")
+    assert status == 2
+    assert "channel 'L01:+X' (output 1 of 72) names no grid (and 71 more" in stderr
+    assert "--sensors" in stderr
+
+
+def test_fewer_fe_modes_leave_a_test_mode_unpaired(saved, tmp_path):
+    status, stdout, stderr = run(saved / "modes.npz", saved / "model.npz", "--band", *BAND,
+                                 "--modes", 10, "--out", tmp_path)  # fmt: skip
+    assert status == 0, stderr
+    rows = read_table(tmp_path / "correlation.csv")
+    assert [r["fe_mode"] for r in rows] == ["7", "8", "9", "10", ""]  # 96.9 Hz: no FE 11
+    assert rows[4]["mac"] == "" and float(rows[4]["test_hz"]) == pytest.approx(96.9, abs=0.1)
+    assert "no FE mode pairs with it" in stdout
+
+
+def test_channels_on_grids_the_deck_lacks_are_named_before_any_work(tmp_path, saved):
+    data = read_frf(TEST)
+    outputs = list(data.outputs)
+    outputs[4] = Channel.parse("999999:2")
+    outputs[5] = Channel.parse("999999:3")
+    bad = tmp_path / "bad.npz"
+    write_frf(bad, type(data)(data.frequency_hz, data.H, tuple(outputs), data.inputs,
+                              data.quantity, data.units))  # fmt: skip
+    status, stdout, stderr = run(DECK, bad, "--band", *BAND, "--out", tmp_path / "o")
+    assert status == 2 and stdout == ""
+    last = stderr.strip().splitlines()[-1]
+    assert last.startswith(f"femcal correlate: {bad}: channel '999999:2' (output 5 of 72): "
+                           f"no GRID 999999 in {DECK} (and 1 more channels, grids 999999)")
+    assert "identifying" not in stderr and "solving" not in stderr
+    assert not (tmp_path / "o").exists()
+    # the same with the saved modes and identified model
+    ident = read_model(saved / "model.npz")
+    moved = (*ident.outputs[:-1], Channel.parse("424242:+Z"))
+    write_model(tmp_path / "moved.npz", replace(ident, outputs=moved))
+    status, _, stderr = run(saved / "modes.npz", tmp_path / "moved.npz")
+    assert status == 2
+    assert "channel '424242:+Z' (output 72 of 72): no GRID 424242 in" in stderr
+
+
+@pytest.mark.parametrize("args, expected", [
+    (["--band", 100, 10], "--band 100 10: expected 0 < F1 < F2"),
+    (["--band", 10, 100, "--modes", 0], "--modes 0: expected a number of modes >= 1"),
+    (["--band", 10, 100, "--split", 200], "--split 200: expected a frequency inside"),
+    (["--band", 10, 100, "--identify-band", 20, 120], "--identify-band 20 120: expected it "
+     "to hold --band 10 100"),
+    (["--band", 10, 100, "--min-mac", 2], "--min-mac 2: expected a MAC in [0, 1]"),
+    ([], "FRFs to identify need a band (--band F1 F2"),
+    (["--band", 10, 200], "band 10-200 Hz: outside the data's 0.05-150 Hz"),
+])  # fmt: skip
+def test_bad_options_are_one_line_errors(args, expected):
+    status, stdout, stderr = run(DECK, TEST, *args)
+    assert status == 2 and stdout == ""
+    assert expected in stderr.strip().splitlines()[-1]
+
+
+def test_an_output_folder_that_is_a_file_is_refused(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    status, _, stderr = run(DECK, TEST, "--band", *BAND, "--out", blocker)
+    assert status == 2 and "--out" in stderr and "is a file" in stderr
