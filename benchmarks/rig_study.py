@@ -2,7 +2,7 @@
 battery-box rig frame a better stand-in for the physical rig than the nominal ones?
 
     make demo                                      # out/report.json: the calibrated values
-    .venv/bin/python benchmarks/rig_study.py [--report out/report.json] [--out rig_study]
+    .venv/bin/python benchmarks/rig_study.py [--report out/report.json] [--out benchmarks/_work/rig_study]
 
 The "physical rig" is the battery-box rig frame as the synthetic tests' hidden frame: the
 hammer test's hidden values (models/truck_frame/hammer_test.truth.toml), the cross support
@@ -88,7 +88,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--report", type=Path, default=ROOT / "out" / "report.json",
                     help="the hammer calibration's report (make demo writes out/report.json)")
-    ap.add_argument("--out", type=Path, default=ROOT / "rig_study")
+    ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "_work" / "rig_study")
     ap.add_argument("--seconds", type=float, default=60.0)
     args = ap.parse_args()
     if not args.report.is_file():
