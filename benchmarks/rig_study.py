@@ -2,7 +2,7 @@
 battery-box rig frame a better stand-in for the physical rig than the nominal ones?
 
     make demo                                      # out/report.json: the calibrated values
-    .venv/bin/python benchmarks/rig_study.py [--report out/report.json] [--out benchmarks/_work/rig_study]
+    .venv/bin/python benchmarks/rig_study.py [--report out/report.json] [--out DIR]
 
 The "physical rig" is the battery-box rig frame as the synthetic tests' hidden frame: the
 hammer test's hidden values (models/truck_frame/hammer_test.truth.toml), the cross support
