@@ -1,5 +1,6 @@
-"""``femcal solve DECK [--modes N] [--json FILE] [--out DIR] [--png DIR] [--pch FILE]
-[--uff FILE [--at SENSORS_CSV]]``: SOL 103 normal modes."""
+"""``femcal solve DECK [--modes N] [--json FILE] [--out DIR] [--png DIR] [--gif DIR
+[--gif-modes N]] [--html FILE] [--pch FILE] [--uff FILE [--at SENSORS_CSV]]``: SOL 103 normal
+modes."""
 
 from __future__ import annotations
 
@@ -21,6 +22,8 @@ from .paths import UsageError, file_in_the_way, output_folder
 #: Suffixes of the files --pch and --uff write.
 PUNCH_SUFFIXES = (".pch", ".punch")
 UFF_SUFFIXES = (".unv", ".uff")
+#: Suffixes of the page --html writes.
+HTML_SUFFIXES = (".html", ".htm")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -31,6 +34,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, metavar="DIR",
                    help="write modes.npz, modes.vtu (ParaView) and eigenvalues.txt")  # fmt: skip
     p.add_argument("--png", type=Path, metavar="DIR", help="render each mode to DIR/mode_NNN.png")
+    p.add_argument("--gif", type=Path, metavar="DIR",
+                   help="animate each mode over one period to DIR/mode_NNN.gif")  # fmt: skip
+    p.add_argument("--gif-modes", type=int, metavar="N",
+                   help="with --gif: only the first N modes (default every mode)")  # fmt: skip
+    p.add_argument("--html", type=Path, metavar="FILE",
+                   help="write an interactive 3-D page of the modes (.html, self-contained: "
+                   "opens in a browser without a server; the first 20 modes)")  # fmt: skip
     p.add_argument("--pch", type=Path, metavar="FILE",
                    help="write the eigenvalues and eigenvectors as a NASTRAN punch file "
                    "(.pch, as DISPLACEMENT(PUNCH); CD frames)")  # fmt: skip
@@ -76,6 +86,14 @@ def run(args: argparse.Namespace) -> int:
 
     output_folder(args.out, "--out")
     output_folder(args.png, "--png")
+    output_folder(args.gif, "--gif")
+    if args.gif_modes is not None:
+        if args.gif is None:
+            raise UsageError(f"--gif-modes {args.gif_modes}: chooses the modes of --gif; "
+                             "expected --gif DIR too")  # fmt: skip
+        if args.gif_modes < 1:
+            raise UsageError(f"--gif-modes {args.gif_modes}: expected a number of modes >= 1")
+    output_path(args.html, "--html", HTML_SUFFIXES)
     output_path(args.pch, "--pch", PUNCH_SUFFIXES)
     output_path(args.uff, "--uff", UFF_SUFFIXES)
     if args.at is not None and args.uff is None:
@@ -133,6 +151,18 @@ def run(args: argparse.Namespace) -> int:
 
         paths = render_modes(modes, model, args.png, title=args.deck.name)
         progress(f"wrote {len(paths)} pictures to {args.png}")
+    if args.gif:
+        from ..viz.animate import animate_modes
+
+        paths = animate_modes(modes, model, args.gif, title=args.deck.name,
+                              max_modes=args.gif_modes)  # fmt: skip
+        progress(f"wrote {len(paths)} animations to {args.gif}")
+    if args.html:
+        from ..viz.webview import write_webview
+
+        write_webview(args.html, modes, model, title=args.deck.name)
+        size = args.html.stat().st_size / 1e6
+        progress(f"wrote {args.html} ({size:.1f} MB)")
     if args.pch:
         from ..io.punch import write_punch
 

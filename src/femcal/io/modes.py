@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -95,26 +96,79 @@ def write_npz(path: Path, modes: Modes, model: Model) -> Path:
 
 def basic_translations(modes: Modes, model: Model) -> np.ndarray:
     """(n_nodes, 3, k) translations of every node in basic for every mode (0 at SPOINTs)."""
+    return _basic(modes, model, 0)
+
+
+def basic_rotations(modes: Modes, model: Model) -> np.ndarray:
+    """(n_nodes, 3, k) rotations (components 4-6) of every node in basic for every mode (0 at
+    SPOINTs): each grid's CD frame turns them as it turns its translations."""
+    return _basic(modes, model, 3)
+
+
+def _basic(modes: Modes, model: Model, first: int) -> np.ndarray:
     n = model.n_nodes
     k = modes.shapes.shape[1]
     out = np.zeros((n, 3, k))
     g = np.flatnonzero(model.is_grid)
-    local = modes.shapes[model.dof_start[g][:, None] + np.arange(3)]  # (n_g, 3, k)
+    local = modes.shapes[model.dof_start[g][:, None] + first + np.arange(3)]  # (n_g, 3, k)
     out[g] = np.einsum("nij,njk->nik", model.cd_frames[g], local)
     return out
 
 
-def mesh_cells(model: Model) -> list[tuple[str, np.ndarray]]:
-    """meshio cell blocks (type, node indices) of the model's elements."""
-    cells: list[tuple[str, np.ndarray]] = []
+#: The VTU's cell data ``element_type``: a code per card (stable: new cards get new codes).
+#: The file's field data repeats it as ``element_type_<CARD>`` = [code] for the cards present.
+ELEMENT_TYPE_CODES: dict[str, int] = {
+    "CQUAD4": 1, "CQUADR": 2, "CQUAD8": 3, "CTRIA3": 4, "CTRIAR": 5, "CTRIA6": 6,
+    "CSHEAR": 7, "CHEXA": 8, "CPENTA": 9, "CTETRA": 10, "CPYRAM": 11,
+    "CBAR": 12, "CBEAM": 13, "CROD": 14, "CONROD": 15, "CTUBE": 16, "CBUSH": 17,
+    "CELAS1": 18, "CELAS2": 19, "CONM2": 20, "CONM1": 21,
+    "RBE2": 22, "RBAR": 23, "RBE3": 24,
+}  # fmt: skip
+#: Spring cards drawn as a line between their two grids (a point where one end is ground).
+_SPRINGS = ("CELAS1", "CELAS2")
+#: Rigid elements (model constraints) drawn as lines from their independent grid.
+RIGID_TYPES = ("RBE2", "RBAR", "RBE3")
+
+
+@dataclass(frozen=True)
+class CellBlock:
+    """Cells of one element card and one cell shape: ``kind`` the meshio cell type,
+    ``element_type`` the card (``"CQUAD4"``, ``"RBE2"``), ``nodes`` (n, k) node indices in
+    VTK order, ``ids`` (n,) element ids and ``pids`` (n,) property ids (-1 for none). A rigid
+    element has one line cell per leg (independent grid to dependent grid), each with the
+    element's id."""
+
+    kind: str
+    element_type: str
+    nodes: np.ndarray
+    ids: np.ndarray
+    pids: np.ndarray
+
+
+def element_cells(model: Model, *, springs: bool = True, rigid: bool = True) -> list[CellBlock]:
+    """The model's elements as cell blocks with their ids: those of :func:`mesh_cells`, and
+    with ``springs`` CELAS1/CELAS2 between two grids as lines (to ground as points), with
+    ``rigid`` the legs of RBE2, RBAR and RBE3 as lines."""
+    out: list[CellBlock] = []
     for etype, b in model.elements.items():
         if etype in _CELLS:
             kind, order = _CELLS[etype]
-            nodes = b.nodes
-            if kind == "line":
-                nodes = nodes[(nodes >= 0).all(axis=1)]
+            keep = (b.nodes >= 0).all(axis=1) if kind == "line" else slice(None)
+            nodes = b.nodes[keep]
             if len(nodes):
-                cells.append((kind, nodes if order is None else nodes[:, order]))
+                out.append(CellBlock(kind, etype, nodes if order is None else nodes[:, order],
+                                     b.ids[keep], b.pids[keep]))  # fmt: skip
+            continue
+        if springs and etype in _SPRINGS:
+            nodes = b.nodes[:, :2]
+            on_grid = (nodes >= 0) & model.is_grid[np.maximum(nodes, 0)]
+            both = on_grid.all(axis=1)
+            one = on_grid.any(axis=1) & ~both
+            if both.any():
+                out.append(CellBlock("line", etype, nodes[both], b.ids[both], b.pids[both]))
+            if one.any():
+                end = np.where(on_grid[one, 0], nodes[one, 0], nodes[one, 1])
+                out.append(CellBlock("vertex", etype, end[:, None], b.ids[one], b.pids[one]))
             continue
         for (name, nn), (kind, order) in _SOLID_CELLS.items():
             if name != etype:
@@ -122,22 +176,90 @@ def mesh_cells(model: Model) -> list[tuple[str, np.ndarray]]:
             present = (b.nodes >= 0).sum(axis=1) == nn
             if present.any():
                 nodes = b.nodes[present, :nn]
-                cells.append((kind, nodes if order is None else nodes[:, order]))
-    return cells
+                out.append(CellBlock(kind, etype, nodes if order is None else nodes[:, order],
+                                     b.ids[present], b.pids[present]))  # fmt: skip
+    if rigid:
+        c = model.constraints
+        legs = {
+            "RBE2": [(r.id, r.independent, d) for r in c.rigid_links for d in r.dependent],
+            "RBAR": [(r.id, *r.nodes) for r in c.rigid_bars],
+            "RBE3": [(r.id, r.reference, n) for r in c.interpolations for g in r.groups
+                     for n in g.nodes],
+        }  # fmt: skip
+        for etype, rows in legs.items():
+            a = np.array(rows, dtype=np.int64).reshape(-1, 3)
+            a = a[(a[:, 1] != a[:, 2]) & model.is_grid[a[:, 1]] & model.is_grid[a[:, 2]]]
+            if len(a):
+                out.append(CellBlock("line", etype, a[:, 1:], a[:, 0], np.full(len(a), -1)))
+    return out
+
+
+def mesh_cells(model: Model) -> list[tuple[str, np.ndarray]]:
+    """meshio cell blocks (type, node indices) of the model's elements (no springs or rigid
+    elements: :func:`element_cells` has those and the ids)."""
+    return [(b.kind, b.nodes) for b in element_cells(model, springs=False, rigid=False)]
+
+
+def _vtu_point_data(modes: Modes, model: Model) -> dict[str, np.ndarray]:
+    t = basic_translations(modes, model)
+    r = basic_rotations(modes, model)
+    data: dict[str, np.ndarray] = {"grid_id": np.asarray(model.node_ids, dtype=np.int32)}
+    for i, f in enumerate(modes.frequencies_hz):
+        name = f"mode_{i + 1:03d}_{f:.4g}Hz"
+        data[name] = t[:, :, i]
+        data[f"{name}_rotation"] = r[:, :, i]
+    return data
 
 
 def write_vtu(path: Path, modes: Modes, model: Model) -> Path:
-    """VTU (ParaView) with the mesh and one displacement vector field per mode, basic frame."""
+    """VTU (ParaView) with the mesh, its springs and rigid elements' legs, and per mode the
+    translations and rotations in the basic frame.
+
+    Point data: ``grid_id`` (the GRID or SPOINT id; SPOINTs sit at the origin) and per mode
+    ``mode_NNN_<f>Hz`` (translations: Warp By Vector animates it) and
+    ``mode_NNN_<f>Hz_rotation``, as solved (EIGRL normalisation). Cell data: ``element_id``,
+    ``property_id`` (-1 where the card has none: CONM2, CELAS2, rigid elements) and
+    ``element_type`` (:data:`ELEMENT_TYPE_CODES`). Field data: ``frequencies_hz`` and
+    ``element_type_<CARD>`` = [code] for each card present (ParaView's Information panel
+    lists them). Rigid elements have one line cell per leg.
+    """
     import meshio
 
-    disp = basic_translations(modes, model)
-    point_data = {
-        f"mode_{i + 1:03d}_{f:.4g}Hz": disp[:, :, i] for i, f in enumerate(modes.frequencies_hz)
-    }
-    mesh = meshio.Mesh(model.xyz, mesh_cells(model), point_data=point_data)
-    mesh.field_data["frequencies_hz"] = np.asarray(modes.frequencies_hz)
+    blocks = element_cells(model)
+    cell_data = {
+        "element_id": [b.ids.astype(np.int32) for b in blocks],
+        "property_id": [b.pids.astype(np.int32) for b in blocks],
+        "element_type": [np.full(len(b.ids), ELEMENT_TYPE_CODES[b.element_type], np.int32)
+                         for b in blocks],
+    }  # fmt: skip
+    mesh = meshio.Mesh(model.xyz, [(b.kind, b.nodes) for b in blocks],
+                       point_data=_vtu_point_data(modes, model), cell_data=cell_data)  # fmt: skip
+    field = {"frequencies_hz": np.asarray(modes.frequencies_hz, dtype=float)}
+    for etype in dict.fromkeys(b.element_type for b in blocks):
+        field[f"element_type_{etype}"] = np.array([ELEMENT_TYPE_CODES[etype]], np.int32)
 
     def w(tmp: str) -> None:
         meshio.write(tmp, mesh, file_format="vtu")
+        _add_field_data(Path(tmp), field)
 
     return write_atomic(path, w)
+
+
+def _add_field_data(path: Path, field: dict[str, np.ndarray]) -> None:
+    """Put ``field`` into the VTU file as its ``<FieldData>`` (meshio 5.3 reads field data but
+    does not write it): ASCII arrays, float64 to 17 digits, before the ``<Piece>``."""
+    rows = []
+    for name, a in field.items():
+        kind = "Float64" if a.dtype.kind == "f" else "Int32"
+        text = " ".join(format(x, ".17g") if kind == "Float64" else str(int(x)) for x in a)
+        rows.append(f'<DataArray type="{kind}" Name="{name}" NumberOfTuples="{len(a)}" '
+                    f'format="ascii">{text}</DataArray>')  # fmt: skip
+    if not rows:
+        return
+    xml = path.read_bytes()
+    tag = b"<UnstructuredGrid>"
+    at = xml.find(tag)
+    if at < 0:
+        raise RuntimeError(f"{path}: meshio wrote no <UnstructuredGrid> element")
+    block = ("<FieldData>" + "".join(rows) + "</FieldData>").encode()
+    path.write_bytes(xml[: at + len(tag)] + block + xml[at + len(tag) :])
