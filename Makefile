@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.femcal-setup
 
-.PHONY: setup demo test test-slow lint bench-parse bench-assembly bench-eigen bench-identify bench-calibration bench-fuzz clean
+.PHONY: setup demo test test-slow lint bench-parse bench-deck-edit bench-assembly bench-eigen bench-identify bench-calibration bench-fuzz clean
 
 setup: $(STAMP)
 

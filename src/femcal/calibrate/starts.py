@@ -17,6 +17,7 @@ from threadpoolctl import threadpool_limits
 from ..atomic import write_atomic
 from ..errors import FemcalError
 from ..parallel import executor, message_queue
+from ..parallel.progress import Detail, Step
 from .lm import levenberg_marquardt
 from .problem import Problem
 from .result import StartResult
@@ -71,8 +72,12 @@ def _finished(folder: Path, k: int, p0: np.ndarray, fingerprint: str) -> StartRe
 
 def run_starts(problem: Problem, starts: list[np.ndarray], *, workers: int = 1,
                folder: Path | None = None, fingerprint: str = "",
-               progress: Callable[[str], None] | None = None) -> list[StartResult]:  # fmt: skip
+               progress: Callable[[str], None] | None = None,
+               task: str = "Levenberg-Marquardt starts") -> list[StartResult]:  # fmt: skip
     """Run LM from every start point; results in start order.
+
+    ``progress`` gets each finished start as a :class:`~femcal.parallel.progress.Step` of
+    ``task`` and each iteration as a :class:`~femcal.parallel.progress.Detail`.
 
     With ``folder``, each finished start is written there (``start_NNN.json``, atomically,
     with ``fingerprint``) and starts already there with the same fingerprint are read
@@ -95,15 +100,17 @@ def run_starts(problem: Problem, starts: list[np.ndarray], *, workers: int = 1,
             saved = _finished(folder, k, starts[k], fingerprint)
             if saved is not None:
                 results[k] = saved
-                say(f"start {k + 1}/{len(starts)}: finished earlier, deviation "
-                    f"{saved.deviation:.5g}")  # fmt: skip
+                say(Step(f"start {k + 1}/{len(starts)}: finished earlier, deviation "
+                         f"{saved.deviation:.5g}", task=task, done=len(results),
+                         total=len(starts)))  # fmt: skip
 
     def keep(res: StartResult) -> None:
         k = res.start
         results[k] = res
-        say(f"start {k + 1}/{len(starts)} done: deviation {res.history[0]:.5g} -> "
-            f"{res.deviation:.5g} in {res.iterations} iterations, "
-            f"{res.seconds:.1f} s ({res.message})")  # fmt: skip
+        say(Step(f"start {k + 1}/{len(starts)} done: deviation {res.history[0]:.5g} -> "
+                 f"{res.deviation:.5g} in {res.iterations} iterations, "
+                 f"{res.seconds:.1f} s ({res.message})", task=task, done=len(results),
+                 total=len(starts)))  # fmt: skip
         if folder is not None:
             text = json.dumps({**res.to_dict(), "fingerprint": fingerprint}, indent=1)
             write_atomic(folder / f"start_{k + 1:03d}.json",
@@ -113,7 +120,8 @@ def run_starts(problem: Problem, starts: list[np.ndarray], *, workers: int = 1,
     if workers <= 1 or len(todo) <= 1:
         for k in todo:
             def report(s, it, cost, k=k):
-                say(f"start {k + 1}/{len(starts)} iteration {it}: deviation {2 * cost:.5g}")
+                say(Detail(f"start {k + 1}/{len(starts)} iteration {it}: deviation "
+                           f"{2 * cost:.5g}"))  # fmt: skip
 
             keep(run_one(problem, k, starts[k], report))
     elif todo:
@@ -128,7 +136,8 @@ def run_starts(problem: Problem, starts: list[np.ndarray], *, workers: int = 1,
                         s, it, dev = q.get_nowait()
                     except queue_mod.Empty:
                         break
-                    say(f"start {s + 1}/{len(starts)} iteration {it}: deviation {dev:.5g}")
+                    say(Detail(f"start {s + 1}/{len(starts)} iteration {it}: deviation "
+                               f"{dev:.5g}"))  # fmt: skip
                 for fut in done:
                     try:
                         res = fut.result()

@@ -62,6 +62,7 @@ from ..atomic import write_atomic
 from ..correlate import mac, pair_modes, pseudo_orthogonality, serep_mass
 from ..identify import IdentifiedModel
 from ..model.model import Model
+from ..parallel.progress import Detail
 from ..response.frf import channel_matrix
 from ..testdata.data import FRFData
 from .cases import Case, TestSetup, prepare_case, residual_rows
@@ -93,6 +94,15 @@ from .surrogate import Surrogate
 #: finished by a version that built the surrogate (or its elements) differently are run
 #: again rather than mixed with new ones. Raise it with every such change.
 SURROGATE_VERSION = 9
+
+
+def _starts_task(name: str) -> str:
+    """The console's name for a run of starts: ``cycle1`` -> ``cycle 1: starts``,
+    ``cycle3_search`` -> ``cycle 3: search starts``, ``cycle2`` (the one local start) ->
+    ``cycle 2: step``."""
+    cycle, _, kind = name.removeprefix("cycle").partition("_")
+    what = "search starts" if kind == "search" else ("starts" if cycle == "1" else "step")
+    return f"cycle {cycle}: {what}"
 
 
 #: Config fields that do not change a start's result (where the files are, whose content
@@ -256,7 +266,7 @@ def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
     def surrogate_at(k: int, p: np.ndarray) -> tuple[Surrogate, object]:
         case = cases[k]
         q = p[case.index]
-        say(f"{case.name}: surrogate at p = [{', '.join(f'{x:+.4f}' for x in q)}]")
+        say(Detail(f"{case.name}: surrogate at p = [{', '.join(f'{x:+.4f}' for x in q)}]"))
         sur, modes = build_surrogate(
             case.model, list(case.params), q, case.outputs, case.inputs,
             n_modes=cfg.reduction_modes, zeta=case.zeta0, quantity=case.quantity,
@@ -314,7 +324,7 @@ def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
                 f.unlink()
         return run_starts(problem, pts, workers=n_workers, folder=folder,
                           fingerprint=fp + f"-{name}-" + ",".join(f"{x:.12g}" for x in center),
-                          progress=say)  # fmt: skip
+                          progress=say, task=_starts_task(name))  # fmt: skip
 
     cycles: list[Cycle] = []
 

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from pathlib import Path
 
 from ..errors import message
@@ -25,19 +24,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--fresh", action="store_true",
                    help="ignore starts finished by an earlier run into DIR")
     p.add_argument("--no-pictures", action="store_true", help="report.json and HTML tables only")
+    p.add_argument("--verbose", action="store_true",
+                   help="every iteration of every start on the console, not only a progress "
+                   "bar per phase")  # fmt: skip
 
 
 def run(args: argparse.Namespace) -> int:
     from ..calibrate.config import SETTINGS, read_config
     from ..io.calibration import summary_lines
     from ..jobs.calibration import run as calibrate
+    from .console import Console
     from .paths import output_folder
 
-    t0 = time.perf_counter()
-
-    def progress(msg: str) -> None:
-        print(f"[{time.perf_counter() - t0:7.1f} s] {msg}", file=sys.stderr, flush=True)
-
+    progress = Console(verbose=args.verbose)
     output_folder(args.out, "--out")
     for name, v in (("workers", args.workers), ("starts", args.starts)):
         if v is not None and not SETTINGS[name].accepts(v):
@@ -49,8 +48,11 @@ def run(args: argparse.Namespace) -> int:
         result = calibrate(cfg, args.out, fresh=args.fresh, workers=args.workers,
                            starts=args.starts, progress=progress)  # fmt: skip
     except (KeyError, ValueError) as e:
+        progress.close()
         print(f"femcal calibrate: {message(e)}", file=sys.stderr)
         return 2
+    finally:
+        progress.close()  # a bar left open by an interruption or an error
     if cfg.pictures and not args.no_pictures:
         from ..io.calibration import write_report
 

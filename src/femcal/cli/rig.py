@@ -50,6 +50,7 @@ from ..testdata.points import read_points
 from ..testdata.timedata import TimeData
 from ..testdata.units import unit_factor
 from ..viz import rig as pictures
+from .console import Console
 from .paths import UsageError, output_file, output_folder
 
 _D = IterationSettings()
@@ -233,9 +234,11 @@ def _simulate(args: argparse.Namespace) -> int:
     drive = drive_channels(drive_data, plant, args.drive)
     n = drive.shape[1]
     _say(t0, f"playing {n} samples ({n * drive_data.dt:g} s at {1 / drive_data.dt:g} Hz)")
-    every = max(1, -(-n // 10))
-    y = simulate(plant, drive, drive_data.dt, periodic=args.periodic,
-                 progress=lambda m: None if int(m.split()[1]) % every else _say(t0, m))  # fmt: skip
+    console = Console(t0=t0)
+    try:
+        y = simulate(plant, drive, drive_data.dt, periodic=args.periodic, progress=console)
+    finally:
+        console.close()
     write_time_data(args.out, TimeData(drive_data.dt, y, plant.outputs, plant.output_units))
     _say(t0, f"wrote {args.out}")
     width = max(len(n) for n in plant.outputs)

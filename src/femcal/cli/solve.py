@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from dataclasses import replace
 from pathlib import Path
 
@@ -17,6 +16,7 @@ from ..deck import read_deck
 from ..io.modes import eigen_table, modes_json, write_json, write_npz, write_vtu
 from ..model.build import build_model
 from ..solve.normal_modes import solve_normal_modes
+from .console import Console
 from .paths import UsageError, file_in_the_way, output_folder
 
 #: Suffixes of the files --pch and --uff write.
@@ -79,11 +79,7 @@ def _sensor_grids(path: Path) -> list[int]:
 
 
 def run(args: argparse.Namespace) -> int:
-    t0 = time.perf_counter()
-
-    def progress(msg: str) -> None:
-        print(f"[{time.perf_counter() - t0:7.1f} s] {msg}", file=sys.stderr, flush=True)
-
+    progress = Console()  # Lanczos as a bar on a terminal; its last step closes it
     output_folder(args.out, "--out")
     output_folder(args.png, "--png")
     output_folder(args.gif, "--gif")

@@ -38,6 +38,7 @@ import numpy as np
 import scipy.signal as ss
 
 from ..errors import TimeDataError
+from ..parallel.progress import Step
 from .plant import RigPlant
 
 #: Samples per block of modal coordinates.
@@ -139,7 +140,8 @@ def simulate(plant: RigPlant, drive: np.ndarray, dt: float, *, periodic: bool = 
         qdd = raw - rate * qd - (w**2)[:, None] * q
         y[:, start:stop] += plant.Yd @ q + plant.Ya @ qdd
         if progress is not None:
-            progress(f"simulated {stop} of {n} samples")
+            progress(Step(f"simulated {stop} of {n} samples", task="simulating", done=stop,
+                          total=n))  # fmt: skip
     return y
 
 

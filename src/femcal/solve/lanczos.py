@@ -30,6 +30,8 @@ import numpy as np
 import scipy.linalg as sl
 import scipy.sparse as sp
 
+from ..parallel.progress import Step
+
 #: Columns per block.
 DEFAULT_BLOCK = 8
 #: Relative residual of theta at which a root counts as converged. The eigenvalues' error is
@@ -122,7 +124,9 @@ def block_lanczos(solve: Callable[[np.ndarray], np.ndarray], M: sp.spmatrix, sig
         resid = np.linalg.norm(R @ Y[m:top, -want:], axis=0)
         done = resid <= tol * np.abs(theta[-want:])
         if progress:
-            progress(f"block Lanczos: basis {top}, {int(done.sum())} of {k} roots converged")
+            progress(Step(f"block Lanczos: basis {top}, {int(done.sum())} of {k} roots "
+                          "converged", task=f"block Lanczos: {k} roots", done=int(done.sum()),
+                          total=k))  # fmt: skip
         converged = (want == k and done.all()) or top >= n
         if converged and (enough is None or top >= n or k >= n
                           or enough(_roots(theta[-want:], sigma))):  # fmt: skip
