@@ -943,7 +943,8 @@ def _sensor_edges(xyz: np.ndarray, k: int = 2) -> list[tuple[int, int]]:
 
 
 def shape_figure(result: Correlation, r: PairedMode):
-    """A pair's shapes at the sensors, test beside FE, in 3D (see :func:`correlation_html`)."""
+    """A pair's shapes at the sensors in 3D: test, FE, and the two overlaid (see
+    :func:`correlation_html`)."""
     from ..viz.figures import pyplot
 
     plt = pyplot()
@@ -963,28 +964,33 @@ def shape_figure(result: Correlation, r: PairedMode):
     pts = np.vstack([cloud, xyz, xyz + scale * u_t, xyz + scale * u_fe])
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     mid, half = (lo + hi) / 2, np.maximum((hi - lo) / 2, 0.04 * size)
-    fig = plt.figure(figsize=(14, 4.4))
-    for n, (u, title, color) in enumerate(
-            ((u_t, f"test mode {r.test_mode}: {r.test_hz:.2f} Hz", "tab:red"),
-             (u_fe, f"FE mode {r.fe_mode}: {r.fe_hz:.2f} Hz", "tab:blue"))):  # fmt: skip
-        ax = fig.add_subplot(1, 2, n + 1, projection="3d")
+    test = (u_t, f"test mode {r.test_mode}: {r.test_hz:.2f} Hz", "tab:red")
+    model = (u_fe, f"FE mode {r.fe_mode}: {r.fe_hz:.2f} Hz", "tab:blue")
+    panels = ((test,), (model,), (test, model))  # beside each other, then overlaid
+    fig = plt.figure(figsize=(18, 4.4))
+    for n, shapes in enumerate(panels):
+        ax = fig.add_subplot(1, 3, n + 1, projection="3d")
         if len(cloud):
             ax.scatter(*cloud.T, s=0.3, c="0.8", depthshade=False)
-        moved = xyz + scale * u
         for i, j in edges:
             ax.plot(*xyz[[i, j]].T, color="0.35", lw=0.6)
-            ax.plot(*moved[[i, j]].T, color=color, lw=1.4)
         ax.scatter(*xyz.T, s=6, c="k", depthshade=False)
         if n == 0:
             for p_, name in zip(xyz, names, strict=True):
                 ax.text(*p_, f" {name}", fontsize=5, color="0.3")
-        ax.scatter(*moved.T, s=14, c=color, depthshade=False)
-        for i in range(len(xyz)):
-            ax.plot(*np.array([xyz[i], moved[i]]).T, color=color, lw=0.6, alpha=0.6)
+        for u, _title, color in shapes:
+            moved = xyz + scale * u
+            for i, j in edges:
+                ax.plot(*moved[[i, j]].T, color=color, lw=1.4)
+            ax.scatter(*moved.T, s=14, c=color, depthshade=False)
+            for i in range(len(xyz)):
+                ax.plot(*np.array([xyz[i], moved[i]]).T, color=color, lw=0.6, alpha=0.6)
         ax.set_xlim(mid[0] - half[0], mid[0] + half[0])
         ax.set_ylim(mid[1] - half[1], mid[1] + half[1])
         ax.set_zlim(mid[2] - half[2], mid[2] + half[2])
         ax.set_box_aspect(tuple(half), zoom=1.1)  # (it scales an array in place)
+        title = (shapes[0][1] if len(shapes) == 1
+                 else "overlaid: test (red) and FE (blue)")  # fmt: skip
         ax.set_title(f"{title} (MAC {r.mac:.3f})", fontsize=9)
         ax.set_xlabel("x", fontsize=8)
         ax.set_ylabel("y", fontsize=8)
