@@ -895,11 +895,11 @@ def test_ctrl_c_ends_the_workers_and_leaves_no_partial_file(tiny, tmp_path):
                      .replace("workers = 1", "workers = 2"))  # fmt: skip
     out = tmp_path / "out"
     proc = subprocess.Popen([sys.executable, "-m", "femcal", "calibrate", str(cfg), "--out",
-                             str(out)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                            text=True, start_new_session=True)  # fmt: skip
+                             str(out), "--verbose"], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)  # fmt: skip
     try:
         seen = []
-        for line in proc.stderr:  # the starts run in the workers once they report
+        for line in proc.stderr:  # the starts run in the workers once they report (--verbose)
             seen.append(line)
             if " iteration " in line:
                 break
