@@ -1,6 +1,10 @@
 """A calibration's files: ``report.json`` (the typed result as JSON), the calibrated deck
-with its changed cards, and ``report.html`` with its pictures (:mod:`femcal.viz.calibration`).
-Every file is written atomically."""
+with its changed cards, ``report.html`` and ``report.pdf`` with their pictures
+(:mod:`femcal.viz.calibration`, :mod:`femcal.viz.report_pdf`). The page and the PDF can be
+sent on alone: a header names femcal's version, when they were made, the command and every
+input file with its size and SHA-256 digest, and every figure is numbered, captioned and
+embedded (the PNG files in ``pictures/`` are written too, for other tools). Every file is
+written atomically."""
 
 from __future__ import annotations
 
@@ -8,6 +12,7 @@ import html
 import json
 import os
 from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +22,15 @@ from ..calibrate.config import Config, Configuration
 from ..calibrate.modelform import NOISE_FACTOR
 from ..calibrate.parameters import Parameter
 from ..calibrate.result import CalibrationResult, CaseResult, Cycle
-from .html import html_figure, html_number, html_table
+from .html import (
+    HEADER_STYLE,
+    embedded_figure,
+    file_facts,
+    html_header,
+    html_number,
+    html_table,
+    provenance,
+)
 
 
 def calibrated_deck_name(conf: Configuration, cfg: Config) -> str:
@@ -306,7 +319,67 @@ def write_calibrated_deck(deck_path: str | os.PathLike[str], params: list[Parame
                              keep=keep)  # fmt: skip
 
 
-_table, _f, _figure = html_table, html_number, html_figure
+_table, _f = html_table, html_number
+
+
+@dataclass(frozen=True)
+class ReportFigure:
+    """A figure of the report as the page and the PDF show it: its number (in the page's
+    order), title, PNG file, caption, the configuration it belongs to (None: the whole
+    calibration) and whether it is a rendering of a calibrated mode (shown two by two)."""
+
+    number: int
+    title: str
+    path: Path
+    caption: str
+    case: str | None = None
+    mode: bool = False
+
+
+def _figure(f: ReportFigure) -> str:
+    return embedded_figure(f.title, f.path, f.caption, number=f.number,
+                           css_class="mode" if f.mode else "")  # fmt: skip
+
+
+def report_inputs(result: CalibrationResult) -> list[dict]:
+    """The files a calibration read, for the report's header (:func:`femcal.io.html.file_facts`:
+    role, path, size, SHA-256): the configuration file, and per configuration its deck, the
+    files the deck INCLUDEs, the parameter, test, sensor, input and truth files; each file
+    once, with every role it has (``bare: deck, loaded: deck``)."""
+    cfg = result.config
+    several = len(cfg.configurations) > 1
+    seen: dict[str, dict] = {}
+    out: list[dict] = []
+
+    def add(role: str, path: object, must: bool = True) -> None:
+        """``must``: listed even when it cannot be read (else only an existing file)."""
+        if path is None:
+            return
+        key = os.path.abspath(str(path))
+        if key in seen:
+            if role not in seen[key]["role"].split(", "):
+                seen[key]["role"] += f", {role}"
+            return
+        if not must and not os.path.isfile(key):
+            return
+        seen[key] = file_facts(role, path)
+        out.append(seen[key])
+
+    add("configuration", cfg.path, must=False)
+    for conf, case in zip(cfg.configurations, result.cases, strict=True):
+        at = f"{conf.name}: " if several else ""
+        add(f"{at}deck", conf.deck)
+        deck = os.path.abspath(conf.deck)
+        for f in case.model.files:
+            if os.path.abspath(f) != deck:
+                add(f"{at}deck INCLUDE", f, must=False)
+        add(f"{at}parameters", conf.parameters)
+        add(f"{at}test FRFs", conf.test_frf)
+        add(f"{at}test model", conf.test_model)
+        add(f"{at}sensors", conf.sensors)
+        add(f"{at}inputs", conf.inputs)
+        add(f"{at}truth", conf.test_truth)
+    return out
 
 
 def _model_form_html(form: dict | None) -> str:
@@ -358,9 +431,9 @@ calibrated against {ho['deviation_nominal']:.6g} nominal ({'better' if ho['bette
  ""])}"""
 
 
-def _configuration_html(c: dict, figures: list[tuple[str, str, str]],
-                        mode_pictures: list[str], several: bool) -> str:  # fmt: skip
-    """One configuration's section: its test, deviation, modes and pictures."""
+def _configuration_html(c: dict, figures: list[ReportFigure], several: bool) -> str:
+    """One configuration's section: its test, deviation, modes and figures (the renderings
+    of the calibrated paired modes last)."""
     modes = [[f"{m['test_hz']:.3f}", _f(m["fe_before_hz"], ".3f"), _f(m["fe_after_hz"], ".3f"),
               _f(m["frequency_error_before_pct"], "+.2f"),
               _f(m["frequency_error_after_pct"], "+.2f"), _f(m["mac_before"], ".4f"),
@@ -374,7 +447,7 @@ def _configuration_html(c: dict, figures: list[tuple[str, str, str]],
 {c['band_hz'][0]:g}-{c['band_hz'][1]:g} Hz at {c['n_frequencies']} frequencies; damping
 equalised to zeta0 = {c['zeta0']:.4f}; {len(c['outputs'])} outputs x {len(c['inputs'])}
 inputs; channels left out: {html.escape(', '.join(c['excluded_channels']) or 'none')}.
-Calibrated deck: <a href="{deck}">{deck}</a>.</p>
+Calibrated deck: <code>{deck}</code> (beside this report).</p>
 <p>Deviation before {c['deviation']['before']:.6g}, after {c['deviation']['after']:.6g} (full
 model, log10 FRF residuals squared and summed). One residual's standard deviation: {lk['sigma']:.3g}
 at the nominal model, {lk['misfit_sigma_after']:.3g} after calibration{
@@ -382,21 +455,22 @@ at the nominal model, {lk['misfit_sigma_after']:.3g} after calibration{
 the {lk['residuals']} residuals count as {lk['effective_observations']:.0f} independent
 observations.</p>
 <h3>Modes</h3>{_table(modes, ["test Hz", "FE before Hz", "FE after Hz", "error before %",
- "error after %", "MAC before", "MAC after"]) if modes else
- "<p>No identified test modes (raw FRFs compared).</p>"}
+ "error after %", "MAC before", "MAC after"]) + "<p>Frequency error: (test - FE) / FE.</p>"
+ if modes else "<p>No identified test modes (raw FRFs compared).</p>"}
 {_model_form_html(c.get("model_form"))}
-{''.join(_figure(*f) for f in figures)}
-{'<h3>Paired modes after calibration</h3>' if mode_pictures else ''}{
-''.join(f"<img class='mode' src='{html.escape(s)}'>" for s in mode_pictures)}
+{''.join(_figure(f) for f in figures if not f.mode)}
+{'<h3>Paired modes after calibration</h3>' if any(f.mode for f in figures) else ''}{
+''.join(_figure(f) for f in figures if f.mode)}
 """
 
 
-def write_html(path: Path, report: dict, figures: list[tuple[str, str, str]],
-               case_figures: list[list[tuple[str, str, str]]],
-               mode_pictures: list[list[str]]) -> Path:  # fmt: skip
-    """The HTML page: the trust summary first, then the parameters, each configuration's
-    test, modes and pictures, and the runs. ``figures`` (title, file, caption) are the
-    whole calibration's, ``case_figures`` and ``mode_pictures`` each configuration's."""
+def write_html(path: Path, report: dict, figures: list[ReportFigure],
+               head: dict | None = None) -> Path:  # fmt: skip
+    """The HTML page, one file: the header (``head``, :func:`femcal.io.html.provenance`:
+    version, date, command, input files with sizes and digests) and the list of figures, the
+    trust summary, then the parameters, each configuration's test, modes and figures, and
+    the runs. ``figures`` are numbered in the page's order (the whole calibration's first,
+    then each configuration's) and embedded as PNG data URIs."""
     def status(p: dict) -> str:
         s = "held" if p["held"] else ("identifiable" if p["identifiable"] else "weakly informed")
         return s + (" (at a bound!)" if p["at_bound"] else "")
@@ -431,16 +505,22 @@ def write_html(path: Path, report: dict, figures: list[tuple[str, str, str]],
     dev = report["deviation"]
     confs = report["configurations"]
     several = len(confs) > 1
-    sections = "".join(_configuration_html(c, f, m, several)
-                       for c, f, m in zip(confs, case_figures, mode_pictures, strict=True))
+    sections = "".join(_configuration_html(c, [f for f in figures if f.case == c["name"]],
+                                           several) for c in confs)  # fmt: skip
+    contents = "".join(f"<li><a href='#figure-{f.number}'>Figure {f.number}</a>. "
+                       f"{html.escape(f.title)}</li>" for f in figures)  # fmt: skip
     page = f"""<!DOCTYPE html><html><head><meta charset="utf-8"><title>femcal calibration</title>
 <style>body{{font-family:sans-serif;margin:2em;max-width:1500px}}table{{border-collapse:collapse;
 margin:1em 0}}td,th{{border:1px solid #bbb;padding:3px 8px;text-align:right}}th{{background:#eee}}
-img{{max-width:100%;display:block;margin:0.5em 0}}img.mode{{max-width:48%;display:inline-block}}
+img{{max-width:100%;display:block;margin:0.5em 0}}
+figure.mode{{width:48%;display:inline-block;vertical-align:top;margin:0.5em 1% 0.5em 0}}
 ul.summary{{background:#f4f4f4;padding:0.8em 2em;font-size:1.05em}}
 figure{{margin:1.5em 0}}figcaption{{color:#333;max-width:1100px;font-size:0.95em}}
+{HEADER_STYLE}
 </style></head><body>
 <h1>femcal calibration</h1>
+{html_header(head) if head is not None else ''}
+{f'<p>Figures:</p><ul class="contents">{contents}</ul>' if contents else ''}
 <h2>Summary</h2><ul class="summary">{summary}</ul>
 <p>Metric {report['metric']}, {'Huber' if report.get('loss') == 'huber' else 'least-squares'}
 loss; {len(confs)} configuration{'s' if several else ''}
@@ -461,7 +541,7 @@ the prior's; held: the test cannot narrow the prior by more than
 {100 * (1 - report['posterior']['hold_ratio']):g} %.{
 " True values from a synthetic test's file." if truth else ""}</p>
 <ul>{why}</ul>
-{''.join(_figure(*f) for f in figures)}
+{''.join(_figure(f) for f in figures if f.case is None)}
 {_holdout_html(report.get("holdout"))}
 {sections}
 <h2>Runs</h2><p>Cycle 1 runs Levenberg-Marquardt from every start on the nominal model's
@@ -480,11 +560,28 @@ the next candidate.</p>{_table(cyc, ["cycle", "step", "full-model deviation at t
     return write_atomic(path, lambda tmp: Path(tmp).write_text(page))
 
 
+def _mode_caption(case: CaseResult, index: int) -> str:
+    """The caption of the rendering of the calibrated model's mode ``index`` (0-based): the
+    test modes it is paired with."""
+    hz = case.modes_after.frequencies_hz[index]
+    pairs = [m for m in case.modes if m.fe_after == index + 1]
+    paired = "; ".join(f"test mode {m.test_mode} ({m.test_hz:.3f} Hz, frequency error "
+                       f"{_f(m.frequency_error_after_pct, '+.2f')} %, MAC "
+                       f"{_f(m.mac_after, '.3f')})" for m in pairs)  # fmt: skip
+    return (f"FE mode {index + 1} of the calibrated model, {hz:.3f} Hz, paired with {paired}: "
+            "the deformed shape coloured by its displacement magnitude (normalised to the "
+            "largest, no unit) over the undeformed mesh (grey), in an isometric view.")
+
+
 def write_report(result: CalibrationResult, out: str | os.PathLike[str], *,
-                 progress: Callable[[str], None] | None = None) -> Path:  # fmt: skip
+                 progress: Callable[[str], None] | None = None, command: str | None = None,
+                 pdf: bool = True) -> Path:  # fmt: skip
     """The pictures (``out/pictures``: parameters, history, and per configuration FRFs, MAC,
-    paired shapes and renderings of the calibrated paired modes) and ``out/report.html``;
-    returns the page's path."""
+    paired shapes and renderings of the calibrated paired modes), ``out/report.html`` (one
+    file: every picture embedded, nothing referred to) and, with ``pdf``, ``out/report.pdf``
+    (:func:`femcal.viz.report_pdf.write_report_pdf`), both headed by femcal's version, the
+    time, ``command`` (the femcal command line this process runs when None and known) and the
+    input files with their sizes and SHA-256 digests; returns the page's path."""
     from ..viz import calibration as pictures_of
     from ..viz.render import render_modes
 
@@ -492,25 +589,42 @@ def write_report(result: CalibrationResult, out: str | os.PathLike[str], *,
     out = Path(out)
     pics = out / "pictures"
     pics.mkdir(parents=True, exist_ok=True)
-    figures = pictures_of.report_pictures(result, pics)
+    drawn = pictures_of.report_pictures(result, pics)
     several = len(result.cases) > 1
+    figures: list[ReportFigure] = []
 
-    def rel(p: Path) -> str:
-        return str(p.relative_to(out))
+    def add(title: str, path: Path, caption: str, case: str | None, mode: bool = False) -> None:
+        figures.append(ReportFigure(len(figures) + 1, title, path, caption, case, mode))
 
-    whole = [(f.title, rel(f.path), f.caption) for f in figures if f.case is None]
-    per_case, modes = [], []
+    for f in drawn:
+        if f.case is None:
+            add(f.title, f.path, f.caption, None)
     for case in result.cases:
-        per_case.append([(f.title, rel(f.path), f.caption) for f in figures
-                         if f.case == case.name])  # fmt: skip
+        at = f" ({case.name})" if several else ""
+        for f in drawn:
+            if f.case == case.name:
+                add(f.title + at, f.path, f.caption, case.name)
         which = sorted({m.fe_after - 1 for m in case.modes if m.fe_after is not None})
-        pngs = []
         if which:
             say(f"{case.name}: rendering the calibrated model's paired modes")
             pngs = render_modes(case.modes_after, case.model,
                                 pics / (f"modes_{case.name}" if several else "modes"),
                                 title="calibrated", which=which, window=(960, 600))  # fmt: skip
-        modes.append([rel(p) for p in pngs])
-    page = write_html(out / "report.html", report_dict(result), whole, per_case, modes)
-    say(f"wrote {page} and {len(figures) + sum(map(len, modes))} pictures")
+            for k, png in zip(which, pngs, strict=True):
+                add(f"Calibrated mode {k + 1}, "
+                    f"{case.modes_after.frequencies_hz[k]:.2f} Hz{at}", png,
+                    _mode_caption(case, k), case.name, mode=True)  # fmt: skip
+    report = report_dict(result)
+    head = provenance(report_inputs(result), command=command)
+    page = write_html(out / "report.html", report, figures, head)
+    written = [page.name]
+    if pdf:
+        from ..viz.report_pdf import write_report_pdf
+
+        say("writing report.pdf")
+        doc = write_report_pdf(out / "report.pdf", report, head,
+                               [(f.number, f.title, f.path, f.caption) for f in figures])
+        written.append(f"{doc.path.name} ({len(doc.pages)} pages)")
+    say(f"wrote {' and '.join(written)} in {out} with {len(figures)} figures (also in "
+        f"{pics})")
     return page

@@ -1,5 +1,8 @@
 """A drive iteration on disk: the JSON summary and the HTML page (RMS error of each control
-channel at each iteration, the drives, the pictures). Files are written atomically."""
+channel at each iteration, the drives, the pictures). Each page is one file that can be sent
+on: a header (femcal's version, when, the command, the input files with their sizes and
+SHA-256 digests) and its pictures numbered, captioned and embedded as PNG data URIs (the PNG
+files beside it stay, for other tools). Files are written atomically."""
 
 from __future__ import annotations
 
@@ -13,13 +16,13 @@ import numpy as np
 from ..atomic import write_lines
 from ..rig.iterate import Iteration, IterationSettings
 from ..rig.plant import RigPlant
-from .html import html_figure, html_table
+from .html import HEADER_STYLE, embedded_figure, file_facts, html_header, html_table, provenance
 
 _STYLE = ("body{font-family:sans-serif;margin:2em;max-width:1400px}"
           "table{border-collapse:collapse;margin:1em 0}"
           "td,th{border:1px solid #bbb;padding:3px 8px;text-align:right}th{background:#eee}"
           "img{max-width:100%;display:block;margin:0.5em 0}"
-          "figcaption{color:#333;font-size:0.95em}")
+          "figcaption{color:#333;font-size:0.95em}" + HEADER_STYLE)
 
 
 def iteration_dict(result: Iteration, plant: RigPlant, settings: IterationSettings, *,
@@ -50,10 +53,32 @@ def write_iteration_json(path: str | os.PathLike[str], report: dict) -> Path:
     return write_lines(path, [json.dumps(report, indent=1)])
 
 
+def _figures(path: str | os.PathLike[str], figures: list[tuple[str, str, str]]) -> str:
+    """The pictures (title, PNG file relative to the page's folder, caption), numbered and
+    embedded."""
+    folder = Path(path).parent
+    return "".join(embedded_figure(title, folder / file, caption, number=k)
+                   for k, (title, file, caption) in enumerate(figures, start=1))  # fmt: skip
+
+
+def _header(report: dict, roles: list[tuple[str, str]]) -> str:
+    """The page's header: version, date, command, and the report's files named by ``roles``
+    (report key, role), each file once."""
+    seen: set[str] = set()
+    inputs = []
+    for key, role in roles:
+        name = report.get(key)
+        if name and name not in seen and Path(name).is_file():
+            seen.add(name)
+            inputs.append(file_facts(role, name))
+    return html_header(provenance(inputs))
+
+
 def write_iteration_html(path: str | os.PathLike[str], report: dict,
                          figures: list[tuple[str, str, str]]) -> Path:  # fmt: skip
-    """The page: what was iterated, the error table (channel x iteration), the drives'
-    RMS, the pictures."""
+    """The page: a header (version, date, command, input files), what was iterated, the
+    error table (channel x iteration), the drives' RMS, the pictures (title, PNG file
+    relative to the page's folder, caption), numbered and embedded."""
     steps = len(report["control"][0]["rms_error"]) if report["control"] else 0
     head = ["control channel"] + [f"{k}" for k in range(steps)]
     rows = [[c["channel"], *(f"{100 * e:.2f}" for e in c["rms_error"])]
@@ -64,6 +89,7 @@ def write_iteration_html(path: str | os.PathLike[str], report: dict,
     page = f"""<!DOCTYPE html><html><head><meta charset="utf-8">
 <title>femcal drive iteration</title><style>{_STYLE}</style></head><body>
 <h1>femcal drive iteration</h1>
+{_header(report, [("target", "target"), ("model", "model deck"), ("plant", "plant deck")])}
 <p>Target <code>{html.escape(report['target'])}</code>; FRF inverted: {html.escape(report['frf'])}
 of <code>{html.escape(report['model'])}</code>; plant played: <code>{
 html.escape(report['plant'])}</code>. {s['iterations']} corrections with gain {s['gain']:g}, the
@@ -76,15 +102,17 @@ worst, {100 * last['median']:.2f} % median.</b></p>
 <h2>RMS of each drive ({html.escape(report['drives'][0]['unit'] if report['drives'] else '')})
 after each step</h2>
 {html_table(drives, ["actuator"] + [f"{k}" for k in range(steps)])}
-{''.join(html_figure(*f) for f in figures)}
+{_figures(path, figures)}
 </body></html>"""
     return write_lines(path, [page])
 
 
 def write_comparison_html(path: str | os.PathLike[str], report: dict,
                           figures: list[tuple[str, str, str]]) -> Path:  # fmt: skip
-    """The page of a comparison of models on the virtual rig: each model's control error,
-    drive errors against the reference drive, uncontrolled channels' errors, pictures."""
+    """The page of a comparison of models on the virtual rig: a header (version, date,
+    command, the target file), each model's control error, drive errors against the
+    reference drive, uncontrolled channels' errors, the pictures (title, PNG file relative to
+    the page's folder, caption), numbered and embedded."""
     models = report["models"]
     names = [m["name"] for m in models]
     control = [[c, *(f"{100 * m['control_rms_error'][k]:.2f}" for m in models)]
@@ -105,6 +133,7 @@ def write_comparison_html(path: str | os.PathLike[str], report: dict,
     page = f"""<!DOCTYPE html><html><head><meta charset="utf-8">
 <title>femcal: models on the virtual rig</title><style>{_STYLE}</style></head><body>
 <h1>Models on the virtual rig</h1>
+{_header(report, [("target", "target")])}
 <p>Target <code>{html.escape(report['target'])}</code>. Each model is its own plant: its FRF
 inverted, its drives iterated on it ({s['iterations']} corrections, gain {s['gain']:g}, band
 {s['band_hz'][0]:g}-{s['band_hz'][1]:g} Hz) until its control channels follow the target. A
@@ -112,6 +141,6 @@ model that stands in for the physical rig needs the rig's drives and predicts wh
 measured on the channels nobody controlled.</p>
 <h2>Control channels after the last step (RMS error, % of the target's)</h2>
 {''.join(parts)}
-{''.join(html_figure(*f) for f in figures)}
+{_figures(path, figures)}
 </body></html>"""
     return write_lines(path, [page])

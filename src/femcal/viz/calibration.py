@@ -1,8 +1,10 @@
 """The calibration report's pictures (matplotlib, Agg backend) from a
 :class:`~femcal.calibrate.result.CalibrationResult`: per configuration the FRFs before and
 after, MAC matrices and paired shapes; the parameters' prior and posterior, the deviation
-history. Each comes with a caption; every file is written atomically; the page that shows
-them is :mod:`femcal.io.calibration`'s."""
+history. Every axis is labelled with its quantity and unit (log10 residuals and deviations
+are dimensionless; a mode shape's is the model's), channels by their sensor's name where
+the test names it. Each comes with a caption; every file is written atomically; the page and
+the PDF that show them are :mod:`femcal.io.calibration`'s."""
 
 from __future__ import annotations
 
@@ -60,7 +62,7 @@ def frf_comparison(path: Path, outcome: CaseResult, pairs: list[tuple[int, int]]
         ax.set_title(f"{outcome.channel_name(outcome.outputs[o])} / "
                      f"{outcome.channel_name(outcome.inputs[i])}", fontsize=8)
         ax.set_xlabel("frequency (Hz)")
-        ax.set_ylabel(f"|H| ({units})" if units else "|H|")
+        ax.set_ylabel(f"|H| ({units})" if units else "|H| (the test's units)")
         ax.grid(True, which="both", alpha=0.3)
         if n == 0:
             ax.legend(fontsize=7)
@@ -90,7 +92,7 @@ def mac_matrices(path: Path, outcome: CaseResult) -> Path:
             if v > 0.3:
                 ax.text(c, r, f"{v:.2f}", ha="center", va="center", fontsize=6,
                         color="k" if v > 0.6 else "w")  # fmt: skip
-        fig.colorbar(im, ax=ax, fraction=0.04)
+        fig.colorbar(im, ax=ax, fraction=0.04, label="MAC (0-1)")
     return _save(fig, path)
 
 
@@ -133,6 +135,8 @@ def parameters_plot(path: Path, outcome: CalibrationResult) -> Path:
     axes[1].set_xticks(range(len(free)), [names[i] for i in free], rotation=90, fontsize=7)
     axes[1].set_yticks(range(len(free)), [names[i] for i in free], fontsize=7)
     axes[1].set_title("posterior correlation of the calibrated parameters")
+    axes[1].set_xlabel("parameter")
+    axes[1].set_ylabel("parameter")
     fig.colorbar(im, ax=axes[1], fraction=0.046, label="correlation")
     return _save(fig, path)
 
@@ -145,7 +149,7 @@ def history_plot(path: Path, outcome: CalibrationResult) -> Path:
     for s in outcome.cycles[0].starts:
         axes[0].semilogy(s.history, marker=".", lw=0.8, label=f"start {s.start + 1}")
     axes[0].set_xlabel("Levenberg-Marquardt iteration")
-    axes[0].set_ylabel("deviation + prior term (surrogate)")
+    axes[0].set_ylabel("deviation + prior term\n(surrogate; dimensionless)")
     axes[0].set_title("starts of the first cycle")
     axes[0].legend(fontsize=7, ncol=2)
     axes[0].grid(True, which="both", alpha=0.3)
@@ -156,24 +160,37 @@ def history_plot(path: Path, outcome: CalibrationResult) -> Path:
     axes[1].axhline(outcome.deviation_after, color="tab:red", ls="--",
                     label="after (full model)")  # fmt: skip
     axes[1].set_xlabel("cycle (surrogate rebuilt)")
-    axes[1].set_ylabel("deviation (sum of squared log10 residuals)")
+    axes[1].set_ylabel("deviation: squared log10 residuals,\nsummed (dimensionless)")
     axes[1].set_title("deviation")
     axes[1].legend(fontsize=8)
     axes[1].grid(True, which="both", alpha=0.3)
     return _save(fig, path)
 
 
+def _units(outcome: CaseResult) -> str:
+    """The test FRFs' units (empty when not known)."""
+    if outcome.data is not None:
+        return outcome.data.units
+    return outcome.identified.units if outcome.identified is not None else ""
+
+
 def vector_plot(path: Path, outcome: CaseResult) -> Path | None:
     """Test shape against FE shape (after calibration, scaled by the modal scale factor),
-    component by component, for each paired mode: points on the diagonal agree."""
+    component by component, for each paired mode: points on the diagonal agree; the three
+    components farthest from it named by their sensor."""
     plt = pyplot()
     pairs = [m for m in outcome.modes if m.fe_after is not None]
     if not pairs:
         return None
     Cg = channel_matrix(outcome.model, outcome.outputs)
     fe = np.asarray(Cg @ outcome.modes_after.shapes[:, [m.fe_after - 1 for m in pairs]])
-    fig, axes = plt.subplots(1, len(pairs), figsize=(3.4 * len(pairs), 3.5), squeeze=False)
-    for k, (ax, pr) in enumerate(zip(axes[0], pairs, strict=True)):
+    cols = min(4, len(pairs))
+    rows = -(-len(pairs) // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(3.4 * cols, 3.6 * rows), squeeze=False)
+    for ax in axes.flat[len(pairs):]:
+        ax.set_visible(False)
+    unit = "mass-normalised, model units"
+    for k, (ax, pr) in enumerate(zip(axes.flat[: len(pairs)], pairs, strict=True)):
         t = outcome.test_shapes[:, pr.test_mode - 1]
         a = fe[:, k]
         s = modal_scale_factor(t, a)
@@ -186,8 +203,13 @@ def vector_plot(path: Path, outcome: CaseResult) -> Path | None:
         ax.set_aspect("equal")
         ax.set_title(f"test {pr.test_hz:.1f} Hz / FE {pr.fe_after_hz:.1f} Hz\n"
                      f"MAC {pr.mac_after:.3f}", fontsize=8)  # fmt: skip
-        ax.set_xlabel("FE shape after calibration (mass-normalised)")
-        ax.set_ylabel("test shape, scaled by the MSF")
+        for o in np.argsort(np.abs(t_r - a))[::-1][:3]:  # the worst components by name
+            if abs(t_r[o] - a[o]) > 0.05 * lim:
+                ch = outcome.outputs[o]
+                ax.annotate(outcome.channel_names.get(ch.label, ch.label), (a[o], t_r[o]),
+                            fontsize=6, xytext=(3, 3), textcoords="offset points")  # fmt: skip
+        ax.set_xlabel(f"FE shape after calibration\n({unit})", fontsize=8)
+        ax.set_ylabel(f"test shape x MSF\n({unit})", fontsize=8)
     return _save(fig, path)
 
 
@@ -227,9 +249,8 @@ def model_form_plot(path: Path, outcome: CaseResult) -> Path | None:
     for k, c in enumerate(form.candidates, start=1):
         ax.scatter(*c.xyz, marker="*", s=160, c="tab:red", depthshade=False)
         ax.text(*c.xyz, f"  {k}", color="tab:red", fontsize=9, weight="bold")
-    ax.set_xlabel("x (model units)")
-    ax.set_ylabel("y")
-    ax.set_zlabel("z")
+    for set_label, axis in ((ax.set_xlabel, "x"), (ax.set_ylabel, "y"), (ax.set_zlabel, "z")):
+        set_label(f"{axis} (the deck's length unit)")
     span = np.ptp(xyz, axis=0)
     ax.set_box_aspect(np.maximum(span, 0.05 * span.max()))
     ax.set_title("residual by sensor; red stars: missing-element candidates", fontsize=9)
@@ -282,13 +303,14 @@ def report_pictures(result: CalibrationResult, folder: Path) -> list[Figure]:
         order = np.argsort(err)[::-1]
         chans = list(dict.fromkeys([*order[:2], *np.linspace(0, len(order) - 1, 4).astype(int)]))
         pairs = [(int(o), i) for o in chans[:3] for i in range(len(case.inputs))][:6]
-        units = case.data.units if case.data is not None else (
-            case.identified.units if case.identified is not None else "")
+        units = _units(case)
         figures.append(Figure(
             "FRFs: test, FE before and after",
             frf_comparison(folder / f"{pre}frf.png", case, pairs, units),
             "FRF magnitudes of the two channels that fit worst before calibration and a "
-            "spread of the others, for each input: the measured FRF (grey), the identified "
+            "spread of the others, for each input (each panel: the output, by its sensor's "
+            "name and channel, over the input; magnitude in the test's units"
+            f"{f', {units}' if units else ''}): the measured FRF (grey), the identified "
             "test model with its damping equalised to zeta0 (black, what the FE model is "
             f"compared with), and the FE model before (blue, dashed) and after (red) "
             f"calibration, over the calibration band {case.band[0]:g}-{case.band[1]:g} "
@@ -320,6 +342,8 @@ def report_pictures(result: CalibrationResult, folder: Path) -> list[Figure]:
                     "Paired shapes, component against component", vp,
                     "For each test mode paired with an FE mode after calibration: every "
                     "sensor component of the test shape (scaled by the modal scale factor) "
-                    "against the FE shape's; points on the diagonal agree.",
+                    "against the FE shape's, both in the FE model's mass-normalised units; "
+                    "points on the diagonal agree, and the three farthest from it are named "
+                    "by their sensor.",
                     case.name))  # fmt: skip
     return figures

@@ -66,7 +66,8 @@ def frf_overlay(
         ph.set_yticks([-180, -90, 0, 90, 180])
         ph.set_xlabel("frequency (Hz)")
         if c == 0:
-            mag.set_ylabel(f"|H| ({test.units})" if test.units else f"|{test.quantity}|")
+            mag.set_ylabel(f"|H| ({test.units})" if test.units
+                           else f"|{test.quantity}| (units not given)")  # fmt: skip
             ph.set_ylabel("phase (deg)")
         if n == 0 and model is not None:
             mag.legend(fontsize=8)

@@ -1,0 +1,397 @@
+"""The calibration report as a PDF (matplotlib's PdfPages, A4 portrait), to send on with or
+instead of ``report.html``: a title page (femcal's version, when it was made, the command, the
+input files with their sizes and SHA-256 digests, the trust summary the console prints), the
+parameter table, the paired-modes table (each split over as many pages as it needs, its
+header row repeated), then one page per figure with its number, title and caption.
+
+Every line of text is wrapped by its measured width (the font's own metrics), so nothing runs
+past its column or the page's margins; a word longer than its column (a path, a digest) is
+broken between characters. The document's metadata (Title, Author, Subject, Keywords,
+Creator) name femcal and its version. Written atomically."""
+
+from __future__ import annotations
+
+import datetime
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..atomic import write_atomic
+from .figures import pyplot
+
+#: A4 portrait in points, and the margin on every side.
+PAGE_W, PAGE_H = 595.28, 841.89
+MARGIN = 42.0
+#: Font sizes (points): body text, tables, headings, the title, the footer.
+BODY, TABLE, HEADING, TITLE, FOOT = 9.0, 7.0, 12.0, 18.0, 6.5
+_LEADING = 1.3  # line height over font size
+_PAD = 2.5  # a table cell's inner margin (points)
+
+
+def _no_ligatures() -> dict:
+    """Text options that keep every letter its own glyph where matplotlib shapes text
+    (3.11 and later: "fi" would become one glyph, and the PDF's text would not read or
+    search as written)."""
+    from matplotlib.text import Text
+
+    return {"fontfeatures": ["-liga", "-clig"]} if hasattr(Text, "set_fontfeatures") else {}
+
+
+@dataclass(frozen=True)
+class PdfReport:
+    """The written PDF: its path and what each page holds (``title``, ``parameters``,
+    ``modes``, ``figure N``), in order: ``len(pages)`` is its page count."""
+
+    path: Path
+    pages: tuple[str, ...]
+
+
+class _Measure:
+    """Text widths in points from the font's metrics (an Agg renderer at 10 x 72 dpi)."""
+
+    def __init__(self) -> None:
+        from matplotlib.backends.backend_agg import RendererAgg
+
+        self._r = RendererAgg(10, 10, 720)
+        self._props: dict[tuple[float, str, str], object] = {}
+        self._cache: dict[tuple[str, float, str, str], float] = {}
+
+    def width(self, s: str, size: float, weight: str = "normal", family: str = "sans-serif"):
+        key = (s, size, weight, family)
+        w = self._cache.get(key)
+        if w is None:
+            from matplotlib.font_manager import FontProperties
+
+            prop = self._props.get(key[1:])
+            if prop is None:
+                prop = self._props[key[1:]] = FontProperties(size=size, weight=weight,
+                                                             family=family)  # fmt: skip
+            w = self._r.get_text_width_height_descent(s, prop, ismath=False)[0] / 10.0
+            self._cache[key] = w
+        return w
+
+    def wrap(self, text: str, width: float, size: float, weight: str = "normal",
+             family: str = "sans-serif") -> list[str]:  # fmt: skip
+        """``text`` broken into lines no wider than ``width`` points (less 2 %, for the
+        rounding of glyph positions): at spaces, and a word wider than the line between its
+        characters (its own newlines kept)."""
+        width *= 0.98
+        lines: list[str] = []
+        for para in str(text).split("\n"):
+            line = ""
+            for word in para.split(" "):
+                trial = f"{line} {word}" if line else word
+                if self.width(trial, size, weight, family) <= width:
+                    line = trial
+                    continue
+                if line:
+                    lines.append(line)
+                line = ""
+                for ch in word:  # the word alone, broken where it must be
+                    if line and self.width(line + ch, size, weight, family) > width:
+                        lines.append(line)
+                        line = ch
+                    else:
+                        line += ch
+            lines.append(line)
+        return lines
+
+
+class _Document:
+    """Pages written one after another, top to bottom, with a cursor (points from the page's
+    top) and a footer on each."""
+
+    def __init__(self, pdf, footer: str) -> None:
+        self.pdf, self.footer = pdf, footer
+        self.measure = _Measure()
+        self.options = _no_ligatures()
+        self.plt = pyplot()
+        self.fig = None
+        self.kinds: list[str] = []
+        self.y = MARGIN
+        self.width = PAGE_W - 2 * MARGIN
+
+    # -- pages
+    def new_page(self, kind: str) -> None:
+        self.close_page()
+        self.fig = self.plt.figure(figsize=(PAGE_W / 72, PAGE_H / 72), dpi=72)
+        self.kinds.append(kind)
+        self.y = MARGIN
+        self._text(MARGIN, PAGE_H - MARGIN / 2, f"{self.footer}, page {len(self.kinds)}",
+                   FOOT, color="0.4", va="baseline")  # fmt: skip
+
+    def close_page(self) -> None:
+        if self.fig is not None:
+            self.pdf.savefig(self.fig)
+            self.plt.close(self.fig)
+            self.fig = None
+
+    def room(self) -> float:
+        """Points left above the bottom margin."""
+        return PAGE_H - MARGIN - self.y
+
+    # -- drawing (x, y in points from the top left)
+    def _text(self, x: float, y_top: float, s: str, size: float, *, weight: str = "normal",
+              family: str = "sans-serif", color: str = "k", ha: str = "left",
+              va: str = "top") -> None:  # fmt: skip
+        self.fig.text(x / PAGE_W, 1 - y_top / PAGE_H, s, fontsize=size, weight=weight,
+                      family=family, color=color, ha=ha, va=va, parse_math=False,
+                      **self.options)  # fmt: skip
+
+    def lines(self, text: str, size: float = BODY, *, weight: str = "normal", indent: float = 0,
+              family: str = "sans-serif", kind: str = "", bullet: str = "",
+              after: float = 0.4) -> None:  # fmt: skip
+        """A paragraph, wrapped to the text width (less ``indent``), continued on a new page
+        of ``kind`` when the page is full."""
+        step = _LEADING * size
+        x = MARGIN + indent
+        for k, line in enumerate(self.measure.wrap(text, self.width - indent, size, weight,
+                                                   family)):  # fmt: skip
+            if self.room() < step:
+                self.new_page(kind or self.kinds[-1])
+            if bullet and k == 0:
+                self._text(x - 9, self.y, bullet, size)
+            self._text(x, self.y, line, size, weight=weight, family=family)
+            self.y += step
+        self.y += after * step
+
+    def heading(self, text: str, size: float = HEADING) -> None:
+        if self.room() < 4 * _LEADING * size:  # not alone at the bottom of a page
+            self.new_page(self.kinds[-1])
+        self.y += 0.3 * size
+        self.lines(text, size, weight="bold", after=0.25)
+
+    def table(self, head: Sequence[str], rows: Sequence[Sequence[str]],
+              weights: Sequence[float], align: Sequence[str], *, kind: str,
+              title: str = "", more: str = "", size: float = TABLE) -> None:  # fmt: skip
+        """A table over the text width, columns in proportion to ``weights``, every cell
+        wrapped to its column, below the heading ``title``; the header row again at the top
+        of each new page, below the heading ``more`` (default: ``title`` continued)."""
+        more = more or (f"{title} (continued)" if title else "")
+        scale = self.width / float(sum(weights))
+        widths = [w * scale for w in weights]
+        lefts = np.concatenate([[MARGIN], MARGIN + np.cumsum(widths)[:-1]])
+        step = 1.2 * size
+        wrap = self.measure.wrap
+
+        def cells(row: Sequence[str], weight: str) -> list[list[str]]:
+            return [wrap(str(c), w - 2 * _PAD, size, weight) for c, w in zip(row, widths,
+                                                                            strict=True)]
+
+        def draw(parts: list[list[str]], weight: str, shade: str | None) -> None:
+            height = max(len(p) for p in parts) * step + 2 * _PAD
+            if shade is not None:
+                self.fig.patches.append(self._rect(MARGIN, self.y, self.width, height, shade))
+            for x, w, p, a in zip(lefts, widths, parts, align, strict=True):
+                for k, line in enumerate(p):
+                    xx = x + _PAD if a == "left" else x + w - _PAD
+                    self._text(xx, self.y + _PAD + k * step, line, size, weight=weight,
+                               ha="left" if a == "left" else "right")  # fmt: skip
+            self.y += height
+            self._hline(self.y)
+
+        header = cells(head, "bold")
+
+        def top(continued: bool) -> None:
+            if more if continued else title:
+                self.heading(more if continued else title)
+            self._hline(self.y)
+            draw(header, "bold", "0.9")
+
+        top(False)
+        for n, row in enumerate(rows):
+            parts = cells(row, "normal")
+            height = max(len(p) for p in parts) * step + 2 * _PAD
+            if self.room() < height:
+                self.new_page(kind)
+                top(True)
+            draw(parts, "normal", "0.97" if n % 2 else None)
+        if not rows:
+            self.lines("(none)", size)
+        self.y += step
+
+    def _rect(self, x: float, y_top: float, w: float, h: float, color: str):
+        from matplotlib.patches import Rectangle
+
+        return Rectangle((x / PAGE_W, 1 - (y_top + h) / PAGE_H), w / PAGE_W, h / PAGE_H,
+                         transform=self.fig.transFigure, facecolor=color, edgecolor="none",
+                         zorder=-1)  # fmt: skip
+
+    def _hline(self, y_top: float) -> None:
+        from matplotlib.lines import Line2D
+
+        y = 1 - y_top / PAGE_H
+        self.fig.lines.append(Line2D([MARGIN / PAGE_W, 1 - MARGIN / PAGE_W], [y, y], lw=0.4,
+                                     color="0.55", transform=self.fig.transFigure))  # fmt: skip
+
+    def picture(self, png: str | os.PathLike[str], height: float) -> None:
+        """A PNG scaled to fit the text width and ``height`` points (its aspect kept),
+        centred, below the cursor."""
+        import matplotlib.image as mpimg
+
+        img = mpimg.imread(str(png))
+        if img.dtype != np.uint8:
+            img = np.asarray(img, float)
+            if img.ndim == 3 and img.shape[2] == 4:  # composite on white: no alpha in the PDF
+                img = img[..., :3] * img[..., 3:] + (1 - img[..., 3:])
+            img = np.clip(np.round(255 * img), 0, 255).astype(np.uint8)
+        rows, cols = img.shape[:2]
+        s = min(self.width / cols, height / rows)
+        w, h = cols * s, rows * s
+        x = MARGIN + (self.width - w) / 2
+        ax = self.fig.add_axes((x / PAGE_W, 1 - (self.y + h) / PAGE_H, w / PAGE_W, h / PAGE_H))
+        ax.imshow(img, interpolation="none", aspect="auto")
+        ax.set_axis_off()
+        self.y += h + 8
+
+
+def _size(n: int | None) -> str:
+    return "-" if n is None else f"{n:,d}"
+
+
+def _f(v: float | None, spec: str) -> str:
+    return "-" if v is None else format(v, spec)
+
+
+def _title_pages(doc: _Document, report: dict, head: dict) -> None:
+    doc.new_page("title")
+    doc.lines("femcal calibration report", TITLE, weight="bold", after=0.2)
+    doc.lines(f"femcal {head['version']}, made {head['made']}", 10.5, after=0.6)
+    if head.get("command"):
+        doc.lines(f"Command: {head['command']}", BODY, family="monospace")
+    doc.lines(f"Working folder: {head['folder']}", BODY)
+    confs = report["configurations"]
+    dev = report["deviation"]
+    doc.lines(f"Metric {report['metric']}, "
+              f"{'Huber' if report.get('loss') == 'huber' else 'least-squares'} loss; "
+              f"{len(confs)} configuration{'s' * (len(confs) > 1)}; deviation "
+              f"{dev['before']:.6g} before, {dev['after']:.6g} after; run time "
+              f"{report['seconds']:.0f} s.", BODY)  # fmt: skip
+    for c in confs:
+        doc.lines(f"{c['name']}: band {c['band_hz'][0]:g}-{c['band_hz'][1]:g} Hz at "
+                  f"{c['n_frequencies']} frequencies, zeta0 {c['zeta0']:.4f}, "
+                  f"{len(c['outputs'])} outputs x {len(c['inputs'])} inputs; calibrated deck "
+                  f"{c['calibrated_deck']}.", BODY, indent=12, bullet="-")  # fmt: skip
+    doc.heading("Inputs")
+    rows = [[f["role"], f["path"] or "-", _size(f["bytes"]), f["sha256"] or "not readable"]
+            for f in head["inputs"]]  # fmt: skip
+    doc.table(["input", "file", "bytes", "SHA-256"], rows, [17, 44, 13, 50],
+              ["left", "left", "right", "left"], kind="title", size=6.5)  # fmt: skip
+    doc.heading("Summary")
+    for line in report["summary"]:
+        doc.lines(line, BODY, indent=12, bullet="-")
+
+
+def _status(p: dict) -> str:
+    s = "held" if p["held"] else ("identifiable" if p["identifiable"] else "weakly informed")
+    return s + (" (at a bound!)" if p["at_bound"] else "")
+
+
+def _parameter_pages(doc: _Document, report: dict) -> None:
+    doc.new_page("parameters")
+    params = report["parameters"]
+    head = ["name", "description", "card, id, field", "nominal", "calibrated", "change %",
+            "prior std %", "posterior std %", "status"]  # fmt: skip
+    weights = [26, 96, 46, 42, 44, 36, 30, 42, 58]
+    truth = bool(params) and "true" in params[0]
+    rows = []
+    for p in params:
+        row = [p["name"], p["description"] or "", f"{p['card']} {p['id']} {p['field']}",
+               _f(p["nominal"], ".6g"), _f(p["calibrated"], ".6g"), f"{100 * p['p']:+.2f}",
+               f"{100 * p['prior_std_p']:.2f}",
+               "-" if p["held"] else f"{100 * p['posterior_std_p']:.2f}", _status(p)]
+        if truth:
+            row += [_f(p.get("true"), ".6g"), _f(p.get("error_pct"), "+.2f")]
+        rows.append(row)
+    if truth:
+        head += ["true", "error %"]
+        weights += [42, 32]
+    align = ["left", "left", "left", *["right"] * 5, "left", "right", "right"][: len(head)]
+    post = report["posterior"]
+    doc.lines("Parameters", HEADING, weight="bold", after=0.25)
+    doc.lines("Change: from the nominal value. Prior and posterior standard deviations in % of "
+              "the nominal value. Identifiable: the posterior standard deviation below "
+              f"{100 * post['identifiable_below']:g} % of the prior's; held: the test cannot "
+              f"narrow the prior by more than {100 * (1 - post['hold_ratio']):g} %, so the "
+              "parameter keeps its nominal value"
+              + ("; true: the synthetic test's hidden value." if truth else "."), 7.5)
+    doc.table(head, rows, weights, align, kind="parameters", more="Parameters (continued)")
+
+
+def _mode_pages(doc: _Document, report: dict) -> None:
+    doc.new_page("modes")
+    confs = report["configurations"]
+    head = ["test mode", "test Hz", "FE mode before", "FE before Hz", "FE mode after",
+            "FE after Hz", "error before %", "error after %", "MAC before", "MAC after"]
+    for c in confs:
+        title = "Paired modes" + (f": configuration {c['name']}" if len(confs) > 1 else "")
+        if not c["modes"]:
+            doc.heading(title)
+            doc.lines("No identified test modes (the raw FRFs were compared).", BODY)
+            continue
+        rows = [[str(m["test_mode"]), f"{m['test_hz']:.3f}", _f(m["fe_before_mode"], "d"),
+                 _f(m["fe_before_hz"], ".3f"), _f(m["fe_after_mode"], "d"),
+                 _f(m["fe_after_hz"], ".3f"), _f(m["frequency_error_before_pct"], "+.2f"),
+                 _f(m["frequency_error_after_pct"], "+.2f"), _f(m["mac_before"], ".4f"),
+                 _f(m["mac_after"], ".4f")] for m in c["modes"]]  # fmt: skip
+        doc.table(head, rows, [1] * len(head), ["right"] * len(head), kind="modes",
+                  title=title)  # fmt: skip
+    doc.lines("Frequency error: (test - FE) / FE. Each test mode is paired with the FE mode of "
+              "the highest MAC within a frequency ratio, each FE mode once "
+              "(femcal.correlate).", 7.5)
+
+
+def _figure_page(doc: _Document, number: int, title: str, png: str | os.PathLike[str],
+                 caption: str) -> None:  # fmt: skip
+    doc.new_page(f"figure {number}")
+    doc.lines(f"Figure {number}. {title}", HEADING, weight="bold", after=0.5)
+    cap = doc.measure.wrap(f"Figure {number}. {caption}", doc.width, BODY)
+    space = doc.room() - len(cap) * _LEADING * BODY - 12
+    doc.picture(png, max(space, 120.0))
+    doc.lines(f"Figure {number}. {caption}", BODY)
+
+
+def write_report_pdf(path: str | os.PathLike[str], report: dict, head: dict,
+                     figures: Sequence[tuple[int, str, str | os.PathLike[str], str]],
+                     *, title: str = "femcal calibration report") -> PdfReport:  # fmt: skip
+    """Write the calibration report ``report`` (``report.json``'s content,
+    :func:`femcal.io.calibration.report_dict`) as an A4 PDF: the title page(s) with the
+    header ``head`` (:func:`femcal.io.html.provenance`: version, date, command, the input
+    files) and the summary, the parameter table, the paired-modes tables, then one page per
+    figure (number, title, PNG file, caption). Written atomically; returns the path and
+    what each page holds."""
+    from matplotlib import rc_context
+    from matplotlib.backends.backend_pdf import PdfPages
+
+    path = Path(path)
+    made = datetime.datetime.fromisoformat(head["made"])
+    who = f"femcal {head['version']}"
+    confs = report.get("configurations", [])
+    meta = {"Title": title, "Author": who, "Creator": who,
+            "Subject": f"{title}, made {head['made']} by {who}: "
+                       + "; ".join(f"deck {c['deck']}, test {c['test']}" for c in confs),
+            "Keywords": "femcal, calibration, finite elements, modal test",
+            "CreationDate": made}  # fmt: skip
+    kinds: list[str] = []
+
+    def write(tmp: str) -> None:
+        with rc_context({"pdf.fonttype": 3, "pdf.compression": 6}), \
+                PdfPages(tmp, metadata=meta) as pdf:  # fmt: skip
+            doc = _Document(pdf, f"{who} - {title}, made {head['made']}")
+            try:
+                _title_pages(doc, report, head)
+                _parameter_pages(doc, report)
+                _mode_pages(doc, report)
+                for number, caption_title, png, caption in figures:
+                    _figure_page(doc, number, caption_title, png, caption)
+                doc.close_page()
+            finally:
+                if doc.fig is not None:
+                    doc.plt.close(doc.fig)
+            kinds[:] = doc.kinds
+
+    write_atomic(path, write)
+    return PdfReport(path, tuple(kinds))
