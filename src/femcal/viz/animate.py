@@ -6,7 +6,7 @@ edges), oscillating over one period: frame k of n shows the shape times sin(2 pi
 scaled so that the largest displacement is ``scale`` times the model's size, coloured by
 the displacement at that instant (fixed range, so the colour swells with the motion). The
 camera is set once, on the bounds of both extremes, so the model does not jump. The GIF is
-written with Pillow (a dependency of matplotlib) on one palette shared by every frame, so
+written with Pillow on one palette shared by every frame, so
 the colours do not flicker, and loops forever.
 """
 
