@@ -22,6 +22,7 @@ from . import (
     model,
     rig,
     solve,
+    study,
     synth,
     synth_rig,
     timedata,
@@ -39,6 +40,7 @@ _COMMANDS = {
     "init": init,
     "model": model,
     "timedata": timedata,
+    "study": study,
     "rig": rig,
 }
 

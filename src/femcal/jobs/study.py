@@ -1,0 +1,472 @@
+"""A design study (``femcal study``): a model generator run over a set of values of a design
+variable, each point solved for its normal modes, the modes tracked across the points by MAC,
+and the frequencies written as a table and a plot against the variable.
+
+The configuration (TOML)::
+
+    [model]
+    generator = "truck-frame"      # the bundled truck ladder frame (femcal.examples)
+    variant = "hammer"             # hammer, rig or rig-battery
+    [[variable]]
+    name = "cross_x_3"             # the third cross member's x (mm)
+    values = [2475, 2375, 2275]
+    [solve]
+    band = [5, 120]                # elastic modes in this band (Hz); or: modes = N
+    [pairing]
+    min_mac = 0.8
+    reference = 0                  # the point (0-based) whose modes are tracked
+
+**Common stations.** The generator puts grid lines at the cross members, so the meshes of
+two points differ. Shapes are compared at a fixed set of stations the generator names (the
+truck frame: the two rails' top-flange centre lines every :data:`STATION_STEP` mm), each
+point's nearest grid to each station standing for it; the translations there, in the basic
+frame, are the shape vector MAC is computed on.
+
+**Elastic modes.** Modes below ``rigid_below`` Hz (default :data:`RIGID_BELOW`: the frame's
+six suspension modes on its soft bellows are at 1-4 Hz) are left out; so is anything below the
+band's bottom.
+
+**Tracking.** The tracked modes are the reference point's elastic modes in the band (or its
+lowest N). Points are visited outwards from the reference, and each is paired to its
+neighbour nearer the reference (not to the reference itself), so that a shape which drifts
+slowly along the sweep is still followed (:func:`femcal.correlate.pair_modes`: greedy by falling
+MAC, each mode at most once, MAC >= ``min_mac``, frequencies within a factor 1.5). Neighbours
+are solved to :data:`BAND_MARGIN` times the band's top so that a mode leaving the band is
+still found. A track lost at a point (no partner with MAC >= ``min_mac``) stays lost beyond
+it; modes of other points that pair to no tracked mode are counted, not tracked.
+
+The library never prints: progress goes to a ``progress`` callback (a
+:class:`~femcal.parallel.progress.Step` per point solved).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tempfile
+import time
+import tomllib
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from ..atomic import write_atomic, write_lines
+from ..correlate.shapes import pair_modes
+from ..errors import ConfigError
+from ..model.analysis import EigenRequest
+from ..model.model import Model
+from ..parallel.progress import Progress, Step
+
+__all__ = [
+    "GENERATORS",
+    "Point",
+    "StudyConfig",
+    "StudyResult",
+    "Track",
+    "read_study_config",
+    "run_study",
+    "study_config",
+    "write_study",
+]
+
+#: Modes below this frequency (Hz) are rigid-body or suspension modes, not tracked.
+RIGID_BELOW = 5.0
+#: Station spacing (mm) along the rails.
+STATION_STEP = 100.0
+#: Neighbours are solved to this factor times the band's top (a mode leaving the band is
+#: still paired).
+BAND_MARGIN = 1.2
+#: With ``modes = N``, the solve asks for N plus this many roots (the rigid-body ones).
+EXTRA_ROOTS = 12
+#: Frequencies of paired modes are within this factor.
+MAX_FREQUENCY_RATIO = 1.5
+
+
+# ----------------------------------------------------------------------------- generators
+
+
+@dataclass(frozen=True)
+class Generator:
+    """A model generator: its variants, its variables (name -> unit, description) and a
+    function ``build(variant, {name: value}) -> (Model, stations (n, 3))``."""
+
+    name: str
+    variants: tuple[str, ...]
+    variables: dict[str, tuple[str, str]]
+    build: Callable[[str, dict[str, float]], tuple[Model, np.ndarray]]
+    check: Callable[[str, str, float], str]  # variant, name, value -> "" or what is wrong
+
+
+def _truck_dims(variant: str):
+    from ..examples import truck_frame as tf
+
+    return {"hammer": tf.FrameDimensions(), "rig": tf.RIG, "rig-battery": tf.RIG_BATTERY}[variant]
+
+
+def _truck_check(variant: str, name: str, value: float) -> str:
+    """Why ``value`` of cross_x_K cannot be built ("" if it can): it must stay between the
+    neighbouring cross members (100 mm clear) and inside the frame."""
+    d = _truck_dims(variant)
+    k = int(name.rsplit("_", 1)[1]) - 1
+    if not 0 <= k < len(d.cross_x):
+        return f"the {variant} frame has {len(d.cross_x)} cross members (cross_x_1 to " \
+               f"cross_x_{len(d.cross_x)})"  # fmt: skip
+    lo = d.cross_x[k - 1] + 100.0 if k > 0 else 100.0
+    hi = d.cross_x[k + 1] - 100.0 if k + 1 < len(d.cross_x) else d.length - 100.0
+    if not (math.isfinite(value) and lo <= value <= hi):
+        return f"expected {lo:g} <= x <= {hi:g} mm (100 mm clear of the neighbouring cross " \
+               "members and the frame's ends)"  # fmt: skip
+    return ""
+
+
+def _truck_build(variant: str, values: dict[str, float]) -> tuple[Model, np.ndarray]:
+    from ..examples import truck_frame as tf
+    from ..model.build import load_model
+
+    d = _truck_dims(variant)
+    cross = list(d.cross_x)
+    for name, v in values.items():
+        cross[int(name.rsplit("_", 1)[1]) - 1] = float(v)
+    d = replace(d, cross_x=tuple(cross))
+    frame = tf.build_frame(d)
+    # the deck reader reads files: the point's deck goes through a temporary folder
+    with tempfile.TemporaryDirectory(prefix="femcal-study-") as tmp:
+        deck = write_lines(Path(tmp) / "point.bdf", tf.deck_lines(frame, "design study point"))
+        model = load_model(deck)
+    xs = np.arange(STATION_STEP / 2, d.length, STATION_STEP)
+    y, z = d.half_width - d.flange / 2, d.web / 2  # top flange's centre line
+    stations = np.array([(x, s * y, z) for s in (1.0, -1.0) for x in xs])
+    return model, stations
+
+
+GENERATORS: dict[str, Generator] = {
+    "truck-frame": Generator(
+        "truck-frame", ("hammer", "rig", "rig-battery"),
+        {f"cross_x_{k}": ("mm", f"x of cross member {k} (from the front end)")
+         for k in range(1, 6)},
+        _truck_build, _truck_check,
+    ),
+}  # fmt: skip
+
+
+# ----------------------------------------------------------------------------- configuration
+
+
+@dataclass(frozen=True)
+class StudyConfig:
+    """A design study: ``generator`` (of :data:`GENERATORS`) and its ``variant``; the design
+    variable ``variable`` (its ``unit``) and its ``values``; ``band`` (Hz) or ``n_modes``;
+    ``min_mac`` and ``reference`` (0-based index into ``values``); ``rigid_below`` (Hz)."""
+
+    generator: str
+    variant: str
+    variable: str
+    values: tuple[float, ...]
+    unit: str = ""
+    band: tuple[float, float] | None = (RIGID_BELOW, 120.0)
+    n_modes: int | None = None
+    min_mac: float = 0.8
+    reference: int = 0
+    rigid_below: float = RIGID_BELOW
+
+
+def study_config(data: dict, where: str = "study") -> StudyConfig:
+    """A :class:`StudyConfig` from parsed TOML; :class:`ConfigError` naming the key that is
+    wrong (``where``: the file's name for the messages)."""
+
+    def bad(key: str, text: str) -> ConfigError:
+        return ConfigError(f"{where}: {key}: {text}")
+
+    def table(name: str) -> dict:
+        t = data.get(name, {})
+        if not isinstance(t, dict):
+            raise bad(name, "expected a table")
+        return t
+
+    known = {"model", "variable", "solve", "pairing"}
+    for k in data:
+        if k not in known:
+            raise bad(k, f"unknown section; expected one of {', '.join(sorted(known))}")
+    model = table("model")
+    gen_name = model.get("generator")
+    if gen_name not in GENERATORS:
+        raise bad("model.generator", f"unknown generator {gen_name!r}; expected one of "
+                  f"{', '.join(repr(g) for g in GENERATORS)}")  # fmt: skip
+    gen = GENERATORS[gen_name]
+    variant = model.get("variant", gen.variants[0])
+    if variant not in gen.variants:
+        raise bad("model.variant", f"unknown {gen_name} variant {variant!r}; expected one of "
+                  f"{', '.join(repr(v) for v in gen.variants)}")  # fmt: skip
+    variables = data.get("variable")
+    if not isinstance(variables, list) or not variables:
+        raise bad("variable", "expected one [[variable]] table (name, values)")
+    if len(variables) > 1:
+        raise bad("variable", f"{len(variables)} variables; a study sweeps one (for now)")
+    var = variables[0]
+    if not isinstance(var, dict):
+        raise bad("variable", "expected a [[variable]] table (name, values)")
+    name = var.get("name")
+    if name not in gen.variables:
+        raise bad("variable.name", f"unknown {gen_name} variable {name!r}; expected one of "
+                  f"{', '.join(gen.variables)}")  # fmt: skip
+    values = var.get("values")
+    if not isinstance(values, list) or not values:
+        raise bad("variable.values", f"expected a non-empty list of numbers for {name}")
+    if not all(isinstance(v, int | float) and not isinstance(v, bool) for v in values):
+        raise bad("variable.values", f"expected numbers, got {values!r}")
+    values = tuple(float(v) for v in values)
+    for v in values:
+        why = gen.check(variant, name, v)
+        if why:
+            raise bad("variable.values", f"{name} = {v:g}: {why}")
+    if len(set(values)) != len(values):
+        raise bad("variable.values", "a value is repeated")
+    solve = table("solve")
+    band, n_modes = None, None
+    if "band" in solve and "modes" in solve:
+        raise bad("solve", "give band or modes, not both")
+    if "modes" in solve:
+        n_modes = solve["modes"]
+        if not isinstance(n_modes, int) or isinstance(n_modes, bool) or n_modes < 1:
+            raise bad("solve.modes", f"expected a number of modes >= 1, got {n_modes!r}")
+    else:
+        b = solve.get("band", [RIGID_BELOW, 120.0])
+        if not (isinstance(b, list) and len(b) == 2
+                and all(isinstance(x, int | float) for x in b)
+                and math.isfinite(b[0]) and math.isfinite(b[1]) and 0 <= b[0] < b[1]):
+            raise bad("solve.band", f"expected [F1, F2] Hz with 0 <= F1 < F2, got {b!r}")
+        band = (float(b[0]), float(b[1]))
+    rigid_below = solve.get("rigid_below", RIGID_BELOW)
+    if not (isinstance(rigid_below, int | float) and rigid_below >= 0):
+        raise bad("solve.rigid_below", f"expected a frequency >= 0 Hz, got {rigid_below!r}")
+    pairing = table("pairing")
+    min_mac = pairing.get("min_mac", 0.8)
+    if not (isinstance(min_mac, int | float) and 0 <= min_mac <= 1):
+        raise bad("pairing.min_mac", f"expected a MAC in [0, 1], got {min_mac!r}")
+    ref = pairing.get("reference", 0)
+    if not (isinstance(ref, int) and not isinstance(ref, bool) and 0 <= ref < len(values)):
+        raise bad("pairing.reference", f"expected a point index 0 to {len(values) - 1}, got "
+                  f"{ref!r}")  # fmt: skip
+    return StudyConfig(gen_name, variant, name, values, gen.variables[name][0], band, n_modes,
+                       float(min_mac), ref, float(rigid_below))  # fmt: skip
+
+
+def read_study_config(path: str | Path) -> StudyConfig:
+    """Read a study's TOML file (:func:`study_config`)."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as e:
+        raise ConfigError(f"{path}: not valid TOML: {e}") from None
+    return study_config(data, str(path))
+
+
+# ----------------------------------------------------------------------------- the run
+
+
+@dataclass(frozen=True)
+class Point:
+    """One point of the study: the variable's ``value``, its elastic modes' ``frequencies``
+    (Hz) and ``shapes`` at the stations (3 n_stations, k), the model's size and the time its
+    build and solution took (s)."""
+
+    value: float
+    frequencies: np.ndarray
+    shapes: np.ndarray
+    n_dof: int
+    seconds: float
+
+
+@dataclass
+class Track:
+    """A tracked mode: its elastic mode number at the reference (1-based), ``modes`` its
+    index among each point's elastic modes (-1 where lost), ``frequencies`` (NaN where lost)
+    and ``mac`` to the neighbour it was paired with (NaN at the reference and where lost)."""
+
+    reference_mode: int
+    modes: list[int] = field(default_factory=list)
+    frequencies: list[float] = field(default_factory=list)
+    mac: list[float] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class StudyResult:
+    config: StudyConfig
+    points: list[Point]
+    tracks: list[Track]
+    untracked: list[int]  # per point: elastic modes in the band paired to no track
+    seconds: float
+
+
+def _request(cfg: StudyConfig) -> EigenRequest:
+    if cfg.n_modes is not None:
+        return EigenRequest(v1=None, v2=None, nd=cfg.n_modes + EXTRA_ROOTS)
+    return EigenRequest(v1=None, v2=cfg.band[1] * BAND_MARGIN, nd=None)
+
+
+def _station_shapes(model: Model, modes, stations: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    """Translations (basic frame) of modes ``keep`` at each station's nearest grid:
+    (3 n_stations, k)."""
+    grid = np.nonzero(model.is_grid)[0]
+    xyz = model.xyz[grid]
+    near = np.array([grid[np.argmin(np.linalg.norm(xyz - s, axis=1))] for s in stations])
+    frames = model.cd_frames[near]  # (n, 3, 3): columns are the CD axes in basic
+    dof = model.dof_start[near][:, None] + np.arange(3)
+    u = modes.shapes[dof][:, :, keep]  # (n, 3, k) in CD frames
+    return np.einsum("nij,njk->nik", frames, u).reshape(-1, len(keep))
+
+
+def solve_point(cfg: StudyConfig, value: float) -> Point:
+    """Build and solve one point; its elastic modes (above ``rigid_below`` and the band's
+    bottom, up to :data:`BAND_MARGIN` x its top) at the generator's stations."""
+    from ..solve.normal_modes import solve_normal_modes
+
+    t0 = time.perf_counter()
+    model, stations = GENERATORS[cfg.generator].build(cfg.variant, {cfg.variable: value})
+    modes, _ = solve_normal_modes(model, request=_request(cfg))
+    hz = modes.frequencies_hz
+    lo = max(cfg.rigid_below, cfg.band[0] if cfg.band else 0.0)
+    keep = np.nonzero(hz >= lo)[0]
+    shapes = _station_shapes(model, modes, stations, keep)
+    return Point(value, hz[keep].copy(), shapes, model.n_dof, time.perf_counter() - t0)
+
+
+def _tracked(cfg: StudyConfig, ref: Point) -> np.ndarray:
+    if cfg.n_modes is not None:
+        return np.arange(min(cfg.n_modes, len(ref.frequencies)))
+    return np.nonzero(ref.frequencies <= cfg.band[1])[0]
+
+
+def track_modes(cfg: StudyConfig, points: Sequence[Point]) -> tuple[list[Track], list[int]]:
+    """Tracks of the reference's modes across the points (see the module docstring), and
+    per point the number of its modes in the band that no track reached."""
+    n, r = len(points), cfg.reference
+    tracked = _tracked(cfg, points[r])
+    tracks = [Track(int(j) + 1, [-1] * n, [math.nan] * n, [math.nan] * n) for j in tracked]
+    for t, j in zip(tracks, tracked, strict=True):
+        t.modes[r], t.frequencies[r] = int(j), float(points[r].frequencies[j])
+    order = [(k, k + 1) for k in range(r - 1, -1, -1)] + [(k, k - 1) for k in range(r + 1, n)]
+    for k, nb in order:
+        a, b = points[nb], points[k]
+        pairs = pair_modes(a.shapes, a.frequencies, b.shapes, b.frequencies,
+                           min_mac=cfg.min_mac, max_frequency_ratio=MAX_FREQUENCY_RATIO)
+        partner = {p.test: p for p in pairs}
+        for t in tracks:
+            p = partner.get(t.modes[nb]) if t.modes[nb] >= 0 else None
+            if p is not None:
+                t.modes[k], t.frequencies[k], t.mac[k] = p.fe, float(b.frequencies[p.fe]), p.mac
+    untracked = []
+    for k, pt in enumerate(points):
+        in_band = set(_tracked(cfg, pt).tolist())
+        untracked.append(len(in_band - {t.modes[k] for t in tracks}))
+    return tracks, untracked
+
+
+def run_study(cfg: StudyConfig, *, progress: Progress | None = None) -> StudyResult:
+    """Solve every point of the study (one after another) and track the modes."""
+    say = progress or (lambda s: None)
+    t0 = time.perf_counter()
+    points = []
+    task = f"study: {len(cfg.values)} points"
+    for i, v in enumerate(cfg.values):
+        pt = solve_point(cfg, v)
+        points.append(pt)
+        say(Step(f"{cfg.variable} = {v:g} {cfg.unit}: {len(pt.frequencies)} elastic modes, "
+                 f"{pt.n_dof} DOF, {pt.seconds:.1f} s", task=task, done=i + 1,
+                 total=len(cfg.values)))  # fmt: skip
+    tracks, untracked = track_modes(cfg, points)
+    return StudyResult(cfg, points, tracks, untracked, time.perf_counter() - t0)
+
+
+# ----------------------------------------------------------------------------- output
+
+
+def _num(x: float, fmt: str) -> str:
+    return "" if not math.isfinite(x) else format(x, fmt)
+
+
+def csv_lines(res: StudyResult) -> list[str]:
+    """One row per tracked mode: its frequency at each point and the MAC to the neighbour
+    it was paired with (empty where lost; at the reference, the mode itself)."""
+    cfg = res.config
+    head = ["track", "reference_mode"]
+    head += [f"f_hz@{cfg.variable}={v:g}" for v in cfg.values]
+    head += [f"mac@{cfg.variable}={v:g}" for v in cfg.values]
+    rows = [",".join(head)]
+    for i, t in enumerate(res.tracks, start=1):
+        cells = [str(i), str(t.reference_mode)]
+        cells += [_num(f, ".4f") for f in t.frequencies]
+        cells += [_num(m, ".4f") for m in t.mac]
+        rows.append(",".join(cells))
+    return rows
+
+
+def _json_value(x: float) -> float | None:
+    return x if math.isfinite(x) else None
+
+
+def result_json(res: StudyResult) -> dict:
+    cfg = res.config
+    return {
+        "config": asdict(cfg),
+        "points": [{"value": p.value, "n_dof": p.n_dof, "seconds": round(p.seconds, 3),
+                    "elastic_frequencies_hz": [float(f) for f in p.frequencies],
+                    "untracked": u}
+                   for p, u in zip(res.points, res.untracked, strict=True)],
+        "tracks": [{"reference_mode": t.reference_mode,
+                    "modes": [m + 1 if m >= 0 else None for m in t.modes],
+                    "frequencies_hz": [_json_value(f) for f in t.frequencies],
+                    "mac": [_json_value(m) for m in t.mac]} for t in res.tracks],
+        "seconds": round(res.seconds, 3),
+    }  # fmt: skip
+
+
+def plot_frequencies(res: StudyResult, path: Path) -> Path:
+    """Frequency against the variable, one line per tracked mode."""
+    from ..viz.figures import pyplot, save_figure
+
+    plt = pyplot()
+    cfg = res.config
+    fig, ax = plt.subplots(figsize=(7, 5))
+    x = np.array(cfg.values)
+    for t in res.tracks:
+        ax.plot(x, t.frequencies, "o-", label=f"mode {t.reference_mode}")
+    unit = f" ({cfg.unit})" if cfg.unit else ""
+    ax.set_xlabel(f"{cfg.variable}{unit}")
+    ax.set_ylabel("frequency (Hz)")
+    ax.set_title(f"{cfg.generator} ({cfg.variant}): elastic modes, tracked by MAC >= "
+                 f"{cfg.min_mac:g}")  # fmt: skip
+    ax.grid(True, alpha=0.3)
+    if res.tracks:
+        ax.legend(fontsize="small", loc="best")
+    save_figure(fig, path)
+    return Path(path)
+
+
+def write_study(res: StudyResult, out: str | Path) -> list[Path]:
+    """Write ``study.csv``, ``study.json`` and ``frequencies.png`` into ``out`` (each
+    atomically); returns their paths."""
+    out = Path(out)
+    paths = [write_lines(out / "study.csv", csv_lines(res))]
+    text = json.dumps(result_json(res), indent=1)
+
+    def dump(tmp: str) -> None:
+        Path(tmp).write_text(text + "\n", encoding="utf-8")
+
+    paths.append(write_atomic(out / "study.json", dump))
+    paths.append(plot_frequencies(res, out / "frequencies.png"))
+    return paths
+
+
+def summary_lines(res: StudyResult) -> list[str]:
+    """The tracked modes as a small table for the console."""
+    cfg = res.config
+    lines = [f"{'mode':>4}  " + "  ".join(f"{v:>9g}" for v in cfg.values)
+             + f"   ({cfg.variable}, {cfg.unit}; Hz)"]
+    for t in res.tracks:
+        lines.append(f"{t.reference_mode:>4}  "
+                     + "  ".join(f"{f:9.2f}" if math.isfinite(f) else f"{'-':>9}"
+                                 for f in t.frequencies))  # fmt: skip
+    return lines

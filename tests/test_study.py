@@ -1,0 +1,128 @@
+"""Design studies (femcal.jobs.study, femcal study): the hammer frame's cross member 3 moved
+from 2475 to 2275 mm, as in the reference study's Table 8.4."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from femcal.errors import ConfigError
+from femcal.jobs.study import read_study_config, run_study, study_config, write_study
+from femcal.parallel.progress import Step
+
+ROOT = Path(__file__).resolve().parents[1]
+
+BASE = {
+    "model": {"generator": "truck-frame", "variant": "hammer"},
+    "variable": [{"name": "cross_x_3", "values": [2475, 2275]}],
+    "solve": {"band": [5, 120]},
+    "pairing": {"min_mac": 0.8, "reference": 0},
+}
+
+#: Table 8.4 (elastic modes 3 and 4 of the study: 2475 mm -> 2275 mm).
+TABLE_8_4 = {3: (58.70, 54.06), 4: (98.57, 93.46)}
+
+
+@pytest.fixture(scope="module")
+def study():
+    messages = []
+    res = run_study(study_config(BASE), progress=messages.append)
+    return res, messages
+
+
+def _track_near(res, hz: float):
+    """The tracked mode whose frequency at the reference (2475 mm) is nearest ``hz``."""
+    return min(res.tracks, key=lambda t: abs(t.frequencies[0] - hz))
+
+
+def test_modes_of_table_8_4_are_tracked(study):
+    res, messages = study
+    assert [type(m) for m in messages] == [Step, Step]
+    assert (messages[-1].done, messages[-1].total) == (2, 2)
+    for p in res.points:
+        assert np.all(p.frequencies >= 5.0)  # the six suspension modes (1-4 Hz) left out
+    ref = res.points[0].frequencies
+    np.testing.assert_allclose(ref[:5], [13.95, 35.70, 42.68, 57.68, 95.80], atol=0.05)
+    shifts = {}
+    for study_mode, (f_ref, _) in TABLE_8_4.items():
+        t = _track_near(res, f_ref)
+        assert t.mac[1] >= 0.8, (study_mode, t)
+        assert math.isfinite(t.frequencies[1])
+        shifts[study_mode] = t.frequencies[1] - t.frequencies[0]
+    # the bundled frame's modes pairing to the study's 3 and 4 (elastic 4 and 5 here)
+    assert _track_near(res, 58.70).reference_mode == 4
+    assert _track_near(res, 98.57).reference_mode == 5
+    # what the bundled model does (measured): 57.68 -> 57.44 Hz and 95.80 -> 96.86 Hz
+    assert shifts[3] == pytest.approx(-0.25, abs=0.1)
+    assert shifts[4] == pytest.approx(1.06, abs=0.2)
+
+
+@pytest.mark.xfail(strict=True, reason="the bundled frame is far less sensitive to cross "
+                   "member 3's position than the study's: mode 4 (57.7 Hz) drops by 0.25 Hz "
+                   "and mode 5 (95.8 Hz) rises by 1.1 Hz, where Table 8.4 has 4.6 and 5.1 Hz "
+                   "drops")  # fmt: skip
+def test_shifts_as_in_table_8_4(study):
+    res, _ = study
+    for f_ref, _f_new in TABLE_8_4.values():
+        t = _track_near(res, f_ref)
+        assert t.frequencies[0] - t.frequencies[1] > 2.0
+
+
+def test_files_written(study, tmp_path):
+    res, _ = study
+    paths = write_study(res, tmp_path)
+    assert [p.name for p in paths] == ["study.csv", "study.json", "frequencies.png"]
+    rows = list(csv.DictReader((tmp_path / "study.csv").open()))
+    assert len(rows) == len(res.tracks)
+    assert rows[3]["reference_mode"] == "4"
+    assert float(rows[3]["f_hz@cross_x_3=2475"]) == pytest.approx(57.68, abs=0.05)
+    assert float(rows[3]["mac@cross_x_3=2275"]) >= 0.8
+    assert rows[3]["mac@cross_x_3=2475"] == ""
+    data = json.loads((tmp_path / "study.json").read_text())
+    assert data["config"]["values"] == [2475.0, 2275.0]
+    assert data["tracks"][3]["mac"][0] is None
+    assert (tmp_path / "frequencies.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def _with(section: str, **changes) -> dict:
+    cfg = {k: (list(v) if isinstance(v, list) else dict(v)) for k, v in BASE.items()}
+    if section == "variable":
+        cfg["variable"] = [dict(cfg["variable"][0], **changes)]
+    else:
+        cfg[section] = dict(cfg[section], **changes)
+    return cfg
+
+
+@pytest.mark.parametrize(("cfg", "message"), [
+    (_with("model", generator="bus-frame"), "model.generator: unknown generator 'bus-frame'"),
+    (_with("model", variant="boat"), "model.variant: unknown truck-frame variant 'boat'"),
+    (_with("variable", name="cross_y_3"), "variable.name: unknown truck-frame variable "
+                                          "'cross_y_3'"),
+    (_with("variable", values=[]), "variable.values: expected a non-empty list"),
+    (_with("variable", values=[2475, 3000]), "variable.values: cross_x_3 = 3000: expected"),
+    (_with("solve", band=[120, 5]), "solve.band: expected [F1, F2]"),
+    (_with("pairing", reference=2), "pairing.reference: expected a point index 0 to 1"),
+    (_with("pairing", min_mac=1.5), "pairing.min_mac: expected a MAC in [0, 1]"),
+])  # fmt: skip
+def test_config_errors_named(cfg, message):
+    with pytest.raises(ConfigError) as e:
+        study_config(cfg, "s.toml")
+    assert str(e.value).startswith(f"s.toml: {message}"), str(e.value)
+
+
+def test_bundled_config_and_cli_errors(tmp_path, capsys):
+    from femcal import cli
+
+    cfg = read_study_config(ROOT / "models/truck_frame/cross_member_study.toml")
+    assert cfg.variable == "cross_x_3" and cfg.values == (2475.0, 2375.0, 2275.0)
+    assert cfg.band == (5.0, 120.0) and cfg.min_mac == 0.8 and cfg.unit == "mm"
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[model]\ngenerator = "nope"\n')
+    assert cli.main(["study", str(bad), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "model.generator: unknown generator 'nope'" in err[0], err
