@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 from ..errors import FemcalError
@@ -37,12 +38,36 @@ def output_file(path: Path, option: str, kind: str) -> Path:
     kind writes, or a file where a parent folder should be."""
     from ..testdata.formats import format_of
 
+    def suffix() -> None:
+        try:
+            format_of(path, kind, writing=True)
+        except ValueError as e:
+            raise UsageError(f"{option} {e}") from None
+
+    return _file_target(path, option, suffix)
+
+
+def output_path(path: Path | None, option: str, suffixes: tuple[str, ...]) -> Path | None:
+    """``path`` (None stays None) if a file with one of ``suffixes`` can be written there; a
+    :class:`UsageError` naming ``option`` for a folder, another suffix or a file where a
+    parent folder should be."""
+    if path is None:
+        return None
+
+    def suffix() -> None:
+        if path.suffix.lower() not in suffixes:
+            raise UsageError(f"{option} {path}: suffix {path.suffix or '(none)'!r}; expected "
+                             f"{' or '.join(suffixes)}")  # fmt: skip
+
+    return _file_target(path, option, suffix)
+
+
+def _file_target(path: Path, option: str, check_suffix: Callable[[], None]) -> Path:
+    """``path`` after the checks every output file gets: not a folder, its suffix
+    (``check_suffix`` raises), no file where a parent folder should be."""
     if path.is_dir():
         raise UsageError(f"{option} {path}: is a directory; expected a file name")
-    try:
-        format_of(path, kind, writing=True)
-    except ValueError as e:
-        raise UsageError(f"{option} {e}") from None
+    check_suffix()
     blocked = file_in_the_way(path)
     if blocked is not None:
         raise UsageError(f"{option} {path}: {blocked} is a file, not a directory")

@@ -17,7 +17,7 @@ from ..io.modes import eigen_table, modes_json, write_json, write_npz, write_vtu
 from ..model.build import build_model
 from ..solve.normal_modes import solve_normal_modes
 from .console import Console
-from .paths import UsageError, file_in_the_way, output_folder
+from .paths import UsageError, output_folder, output_path
 
 #: Suffixes of the files --pch and --uff write.
 PUNCH_SUFFIXES = (".pch", ".punch")
@@ -52,23 +52,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="with --uff: only the grids of this sensors CSV (label,grid,...,"
                    "directions), joined by a wireframe along the mesh; default every grid "
                    "and the element edges")  # fmt: skip
-
-
-def output_path(path: Path | None, option: str, suffixes: tuple[str, ...]) -> Path | None:
-    """``path`` if a file can be written there with one of ``suffixes``; a
-    :class:`UsageError` naming ``option`` for a folder, another suffix or a file where a
-    parent folder should be."""
-    if path is None:
-        return None
-    if path.is_dir():
-        raise UsageError(f"{option} {path}: is a directory; expected a file name")
-    if path.suffix.lower() not in suffixes:
-        raise UsageError(f"{option} {path}: suffix {path.suffix or '(none)'!r}; expected "
-                         f"{' or '.join(suffixes)}")  # fmt: skip
-    blocked = file_in_the_way(path)
-    if blocked is not None:
-        raise UsageError(f"{option} {path}: {blocked} is a file, not a directory")
-    return path
 
 
 def _sensor_grids(path: Path) -> list[int]:
