@@ -41,11 +41,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atomic import write_atomic
 from ..errors import FemcalWarning
 from ..identify.workflow import IdentifiedModel
 from ..model.model import Model
 from ..solve.normal_modes import Modes
+from ..testdata.formats.uff import write_uff_sets
 from .modes import mesh_cells
 
 #: Most points of one trace line dataset (record 1 field 2: "maximum of 250").
@@ -506,22 +506,11 @@ def write_uff_shapes(path: str | os.PathLike[str], grids: Grids | None = None,
     ValueError
         For nothing to write, or trace lines or shapes at grids that ``grids`` lacks.
     """
-    import pyuff
-
     sets = uff_datasets(grids, shapes, trace_lines)
     if not sets:
         raise ValueError(f"{path}: nothing to write (no grids, trace lines or shapes)")
 
-    def dump(tmp: str) -> None:
-        Path(tmp).unlink()  # pyuff adds to a file that exists: start from none
-        # pyuff leaves each set's file object to the garbage collector, which closes (and
-        # flushes) it with a ResourceWarning; collected here, before the file is renamed
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", ResourceWarning)
-            pyuff.UFF(tmp).write_sets(sets, mode="add")
-            gc.collect()
-
-    return write_atomic(path, dump)
+    return write_uff_sets(path, sets)
 
 
 @dataclass(frozen=True)

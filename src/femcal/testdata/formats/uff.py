@@ -72,6 +72,14 @@ def write_uff(path: str | os.PathLike[str], data: FRFData, *, binary: bool = Fal
                 orddenom_spec_data_type=13, data=np.asarray(data.H[o, i], complex), x=f,
             ))  # fmt: skip
 
+    return write_uff_sets(path, sets)
+
+
+def write_uff_sets(path: str | os.PathLike[str], sets: list[dict]) -> Path:
+    """Write datasets prepared with pyuff (``pyuff.prepare_*``) as one universal file,
+    atomically (:func:`femcal.atomic.write_atomic`)."""
+    import pyuff
+
     def dump(tmp: str) -> None:
         Path(tmp).unlink()  # pyuff adds to a file that exists: start from none
         # pyuff leaves each set's file object to the garbage collector, which closes (and
@@ -81,7 +89,7 @@ def write_uff(path: str | os.PathLike[str], data: FRFData, *, binary: bool = Fal
             pyuff.UFF(tmp).write_sets(sets, mode="add")
             gc.collect()
 
-    return write_atomic(path, dump)
+    return write_atomic(Path(path), dump)
 
 
 def _e13_5(x: np.ndarray) -> np.ndarray:
