@@ -114,9 +114,10 @@ element's full rule (2x2 Gauss, or the 3-point triangle rule).
   ``Rz`` alone costs ``1e-6 K6ROT G t A`` on a CQUAD4 and ``... 2A`` on a CTRIA3: the
   values MYSTRAN's authors matched to MSC's element matrices (``CALC_K6ROT.f90``). With the
   default K6ROT = 100 this is weak (``1e-4 G t A``): a bar that twists a flat shell about its
-  normal meets little resistance there, as in NASTRAN (``tests/test_drilling.py``). It made
-  pyn_goland (a CQUAD4 wing with offset CONM2s) match MSC to 2e-8. Without K6ROT the
-  drilling rotations are free (AUTOSPC fixes them, as NASTRAN's).
+  normal meets little resistance there, as in NASTRAN (``tests/test_drilling.py``); the
+  reference deck pyn_goland, a CQUAD4 wing whose offset CONM2s load it, checks it against
+  MSC (``tests/test_conformance.py``). Without K6ROT the drilling rotations are free
+  (AUTOSPC fixes them, as NASTRAN's).
 
   Where the shell is curved, flat facets with a weak drilling stiffness hinge: the rotation
   about one element's normal is a bending rotation of its slightly tilted neighbour, free up
