@@ -3,7 +3,8 @@
 #  1. Debian packages (only as root with apt-get): libsuitesparse-dev for CHOLMOD, and
 #     libopenblas0-pthread so that CHOLMOD's supernodal factorisation runs on OpenBLAS
 #     rather than the reference BLAS (about 3x faster factorisations).
-#  2. A virtual environment in .venv/ with `pip install -e .[dev]`.
+#  2. A virtual environment in .venv/ with `pip install -e .[dev,dask]` (Dask: the optional
+#     distributed engine, used by the test suite).
 #  3. scikit-sparse 0.4.16 (CHOLMOD) when SuiteSparse headers exist; otherwise femcal
 #     runs with SciPy's SuperLU and this script says so.
 set -euo pipefail
@@ -41,7 +42,7 @@ fi
 
 say "installing femcal and its dependencies into .venv"
 .venv/bin/python -m pip install -q --upgrade pip >/dev/null
-.venv/bin/python -m pip install -q -e '.[dev]'
+.venv/bin/python -m pip install -q -e '.[dev,dask]'
 
 if have_cholmod_headers; then
     if ! .venv/bin/python -c "import sksparse.cholmod" >/dev/null 2>&1; then

@@ -52,6 +52,11 @@
     starts = 8                              # Latin hypercube starts (the nominal is one;
                                             #  1 to 10000)
     workers = 2                             # parallel processes for the starts (1 to 256)
+    engine = "local"                        # or "dask": the starts, and the surrogates of
+                                            #  several configurations, run on a Dask
+                                            #  LocalCluster of `workers` processes, or on
+    scheduler = ""                          #  the running Dask scheduler at this address
+                                            #  (tcp://host:port; engine "dask" only)
     seed = 1                                # >= 0
     max_iterations = 30                     # per start and cycle
     max_cycles = 5                          # surrogates built (the first at the nominal);
@@ -136,6 +141,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import ConfigError
+from ..parallel.cluster import ENGINES
 from .metric import METRICS
 
 #: The hold-out validation's kinds (femcal.calibrate.holdout).
@@ -205,6 +211,8 @@ class Config:
     exact_gradient: bool = True
     starts: int = 8
     workers: int = 2
+    engine: str = "local"
+    scheduler: str | None = None
     seed: int = 1
     max_iterations: int = 30
     max_cycles: int = 5
@@ -292,6 +300,7 @@ CHOICES: dict[str, tuple[str, ...]] = {
     "loss": ("huber", "squared"),
     "surrogate": ("exact", "first-order"),
     "holdout": HOLDOUT_KINDS,
+    "engine": ENGINES,
 }
 
 #: The ``[calibration]`` keys that take true or false, and their defaults.
@@ -350,7 +359,7 @@ KEYS = {
     "test.identify": {"band", "splits", "orders", "max_order", "gamma", "beta"},
     "configuration": {"name", "deck", "parameters", "units", "frf", "model", "truth",
                       "identify", "band", "zeta0", "sensors", "inputs"},
-    "calibration": {"band", "zeta0", "crlb_bands", *SETTINGS, *CHOICES, *FLAGS},
+    "calibration": {"band", "zeta0", "crlb_bands", "scheduler", *SETTINGS, *CHOICES, *FLAGS},
     "output": {"pictures"},
 }  # fmt: skip
 
@@ -611,8 +620,9 @@ def read_config(path: str | os.PathLike[str]) -> Config:
         raise ConfigError(f"{where} crlb_bands = {bands!r}: expected a list of bands, e.g. "
                           "[[10.0, 40.0], [40.0, 100.0]]")  # fmt: skip
     sigma = numbers.pop("noise_sigma")
+    scheduler = _text(cal, "scheduler", "", where) or None
     cfg = Config(path=path, configurations=configurations, **words, **flags, **numbers,
-                 noise_sigma=float(sigma) if sigma else None,
+                 noise_sigma=float(sigma) if sigma else None, scheduler=scheduler,
                  crlb_bands=tuple(_band(b, f"{where} crlb_bands") for b in bands),
                  pictures=_flag(out, "pictures", True, f"{path}: [output]"), raw=doc)
     check_config(cfg)
@@ -645,6 +655,9 @@ def check_config(cfg: Config) -> None:
         if getattr(cfg, key) not in choices:
             raise ConfigError(f"{where} {key} = {getattr(cfg, key)!r}: expected "
                               f"{_choices(choices)}")  # fmt: skip
+    if cfg.scheduler is not None and cfg.engine != "dask":
+        raise ConfigError(f"{where} scheduler = {cfg.scheduler!r} needs engine = \"dask\" "
+                          f"(engine is {cfg.engine!r})")  # fmt: skip
     if cfg.identifiable_ratio > cfg.hold_ratio:
         raise ConfigError(f"{where} identifiable_ratio = {cfg.identifiable_ratio!r}: expected "
                           f"at most hold_ratio ({cfg.hold_ratio!r}): a parameter the test "

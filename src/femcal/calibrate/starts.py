@@ -1,5 +1,5 @@
-"""Levenberg-Marquardt starts on a surrogate, in parallel processes, with their results
-kept on disk so that a stopped run resumes from the starts it finished."""
+"""Levenberg-Marquardt starts on a surrogate, in parallel processes or on a Dask cluster,
+with their results kept on disk so that a stopped run resumes from the starts it finished."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ import time
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, wait
 from concurrent.futures.process import BrokenProcessPool
+from contextlib import nullcontext
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +18,7 @@ from threadpoolctl import threadpool_limits
 from ..atomic import write_atomic
 from ..errors import FemcalError
 from ..parallel import executor, message_queue
+from ..parallel.cluster import Engine, Session, killed_worker_error, share
 from ..parallel.progress import Detail, Step
 from .lm import levenberg_marquardt
 from .problem import Problem
@@ -71,7 +73,9 @@ def _finished(folder: Path, k: int, p0: np.ndarray, fingerprint: str) -> StartRe
 
 
 def run_starts(problem: Problem, starts: list[np.ndarray], *, workers: int = 1,
-               folder: Path | None = None, fingerprint: str = "",
+               engine: Engine | None = None, session: Session | None = None,
+               folder: Path | None = None,
+               fingerprint: str = "",
                progress: Callable[[str], None] | None = None,
                task: str = "Levenberg-Marquardt starts") -> list[StartResult]:  # fmt: skip
     """Run LM from every start point; results in start order.
@@ -85,12 +89,20 @@ def run_starts(problem: Problem, starts: list[np.ndarray], *, workers: int = 1,
     (:func:`femcal.parallel.executor`), their progress coming back through a queue; the
     workers ignore Ctrl-C and die with this process, and an exception here (Ctrl-C's
     KeyboardInterrupt among them) ends them at once, the starts finished being kept.
+    ``engine`` (default: the local pool of ``workers`` processes) may put them on a Dask
+    cluster instead (:mod:`femcal.parallel.cluster`): the problem is sent once, a start
+    whose worker is lost runs again elsewhere, and each finished start is reported and kept
+    as it arrives (its iterations are not reported from there). ``session`` (an engine held
+    open for a whole job, :class:`~femcal.parallel.cluster.Session`) replaces ``engine``:
+    its cluster is used and left open, and the problem is sent to it once. The results do
+    not depend on where the starts ran.
 
     Raises
     ------
     FemcalError
-        When a worker process ends without its result (killed from outside, or for want of
-        memory).
+        When a local worker process ends without its result (killed from outside, or for
+        want of memory), or a start's Dask workers died more often than the scheduler
+        allows.
     """
     say = progress or (lambda _m: None)
     results: dict[int, StartResult] = {}
@@ -117,7 +129,25 @@ def run_starts(problem: Problem, starts: list[np.ndarray], *, workers: int = 1,
                          lambda tmp: Path(tmp).write_text(text))  # fmt: skip
 
     todo = [k for k in range(len(starts)) if k not in results]
-    if workers <= 1 or len(todo) <= 1:
+    if session is not None:
+        engine = session.engine
+    engine = engine or Engine("local", max(1, workers))
+    if engine.kind == "dask" and todo:
+        with nullcontext(session) if session is not None else engine.session() as held:
+            pool = held.pool()
+            shared = share(pool, problem)
+            pending = {pool.submit(run_one, shared, k, starts[k]) for k in todo}
+            while pending:
+                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for fut in done:
+                    try:
+                        keep(fut.result())
+                    except killed_worker_error() as e:
+                        raise FemcalError(
+                            f"a Levenberg-Marquardt start failed on every Dask worker that "
+                            f"took it ({e}); the {len(results)} starts finished are kept: "
+                            "run again to resume") from None  # fmt: skip
+    elif engine.workers <= 1 or len(todo) <= 1:
         for k in todo:
             def report(s, it, cost, k=k):
                 say(Detail(f"start {k + 1}/{len(starts)} iteration {it}: deviation "
@@ -126,7 +156,7 @@ def run_starts(problem: Problem, starts: list[np.ndarray], *, workers: int = 1,
             keep(run_one(problem, k, starts[k], report))
     elif todo:
         q = message_queue("processes")
-        with executor("processes", min(workers, len(todo)), initializer=_init_worker,
+        with executor("processes", min(engine.workers, len(todo)), initializer=_init_worker,
                       initargs=(q,)) as pool:  # fmt: skip
             pending = {pool.submit(_worker, problem, k, starts[k]) for k in todo}
             while pending:

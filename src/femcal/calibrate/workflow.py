@@ -62,6 +62,7 @@ from ..atomic import write_atomic
 from ..correlate import mac, pair_modes, pseudo_orthogonality, serep_mass
 from ..identify import IdentifiedModel
 from ..model.model import Model
+from ..parallel.cluster import Engine, Session
 from ..parallel.progress import Detail
 from ..response.frf import channel_matrix
 from ..testdata.data import FRFData
@@ -108,7 +109,8 @@ def _starts_task(name: str) -> str:
 #: Config fields that do not change a start's result (where the files are, whose content
 #: enters through the models, the test FRFs and the files' own digests; the number of worker
 #: processes, pictures, the raw text). The configurations' settings enter on their own.
-_NOT_IN_FINGERPRINT = ("path", "configurations", "workers", "pictures", "raw")
+_NOT_IN_FINGERPRINT = ("path", "configurations", "workers", "engine", "scheduler", "pictures",
+                       "raw")
 
 
 def file_digest(path: str | Path) -> str:
@@ -185,7 +187,7 @@ def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
               data: FRFData | None = None, identified: IdentifiedModel | None = None,
               truth: np.ndarray | None = None, state: str | Path | None = None,
               fresh: bool = False, workers: int | None = None,
-              starts: int | None = None,
+              starts: int | None = None, engine: Engine | None = None,
               progress: Callable[[str], None] | None = None) -> CalibrationResult:  # fmt: skip
     """Calibrate ``params`` of ``model`` against one test: :func:`calibrate_setups` with the
     first configuration of ``cfg`` (its name, band and zeta0; its files are not read here,
@@ -196,14 +198,14 @@ def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
     setup = TestSetup(conf.name, model, tuple(params), conf.band, data, identified, conf.zeta0,
                       conf.model_units)
     return calibrate_setups([setup], cfg, truth=truth, state=state,
-                            fresh=fresh, workers=workers, starts=starts,
+                            fresh=fresh, workers=workers, starts=starts, engine=engine,
                             progress=progress, sources=conf.sources)  # fmt: skip
 
 
 def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
                      truth: np.ndarray | None = None, state: str | Path | None = None,
                      fresh: bool = False, workers: int | None = None,
-                     starts: int | None = None,
+                     starts: int | None = None, engine: Engine | None = None,
                      progress: Callable[[str], None] | None = None,
                      sources: Sequence[str | Path] = ()) -> CalibrationResult:  # fmt: skip
     """Calibrate the parameters of one or more configurations, shared by name, against their
@@ -225,6 +227,9 @@ def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
         nothing kept.
     fresh : ignore finished starts in ``state``. workers, starts : override the
         configuration's (at least 1).
+    engine : where the starts (and the surrogates of several configurations) run; default
+        the configuration's ``engine``, ``scheduler`` and ``workers``
+        (:class:`~femcal.parallel.cluster.Engine`). The result does not depend on it.
     sources : the other files the run was read from (parameter, test, sensor and input
         files): their content enters the fingerprint.
 
@@ -236,8 +241,6 @@ def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
         For no configuration, shared parameters that disagree, test data in other units,
         a band without test modes or data, test FRFs that are zero in the band.
     """
-    say = progress or (lambda _m: None)
-    t0 = time.perf_counter()
     if not setups:
         raise ValueError("calibrate needs at least one configuration")
     check_config(cfg)
@@ -245,11 +248,26 @@ def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
         if n is not None and (isinstance(n, bool) or not isinstance(n, int)
                               or not SETTINGS[what].accepts(n)):
             raise ConfigError(f"{what} = {n!r}: expected {SETTINGS[what].expected}")
+    engine = engine or Engine(cfg.engine, workers or cfg.workers, cfg.scheduler)
+    if engine.kind == "dask" and progress is not None:
+        progress(f"the starts run on {engine.describe()}")
+    with engine.session() as session:
+        return _calibrate_setups(setups, cfg, truth=truth, state=state, fresh=fresh,
+                                 starts=starts, session=session, progress=progress,
+                                 sources=sources)  # fmt: skip
+
+
+def _calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *, truth: np.ndarray | None,
+                      state: str | Path | None, fresh: bool, starts: int | None,
+                      session: Session, progress: Callable[[str], None] | None,
+                      sources: Sequence[str | Path]) -> CalibrationResult:  # fmt: skip
+    """:func:`calibrate_setups` with its settings checked, on an open engine ``session``."""
+    say = progress or (lambda _m: None)
+    t0 = time.perf_counter()
     params, indices = share_parameters([s.params for s in setups], [s.name for s in setups])
     n_p = len(params)
     cases = [prepare_case(s, idx, cfg, say) for s, idx in zip(setups, indices, strict=True)]
     plan = fold_plan(cases, cfg.holdout, cfg.holdout_folds, cfg.metric)  # bad settings fail now
-    n_workers = workers or cfg.workers
     n_starts = starts or cfg.starts
     lo = np.array([p.p_lower for p in params])
     hi = np.array([p.p_upper for p in params])
@@ -263,18 +281,28 @@ def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
 
     frf_modes: dict[int, int] = {}  # per configuration the FRFs' mode count, fixed at the nominal
 
-    def surrogate_at(k: int, p: np.ndarray) -> tuple[Surrogate, object]:
+    def build_arguments(k: int, p: np.ndarray) -> tuple[tuple, dict]:
+        """:func:`build_surrogate`'s arguments for configuration k at p (no progress)."""
         case = cases[k]
         q = p[case.index]
         say(Detail(f"{case.name}: surrogate at p = [{', '.join(f'{x:+.4f}' for x in q)}]"))
-        sur, modes = build_surrogate(
-            case.model, list(case.params), q, case.outputs, case.inputs,
+        return (case.model, list(case.params), q, case.outputs, case.inputs), dict(
             n_modes=cfg.reduction_modes, zeta=case.zeta0, quantity=case.quantity,
             order=cfg.surrogate, polynomials=case.polynomials,
             enrich_hz=cfg.enrich_hz or None, n_enrich=cfg.enrich_vectors,
             residual=cfg.residual, frf_modes=frf_modes.get(k),
             frf_hz=cfg.modal_hz if k not in frf_modes and cfg.modal_hz else None,
-            exact_gradient=cfg.exact_gradient, progress=say)  # fmt: skip
+            exact_gradient=cfg.exact_gradient)  # fmt: skip
+
+    def surrogate_at(k: int, p: np.ndarray,
+                     built: tuple[Surrogate, object] | None = None
+                     ) -> tuple[Surrogate, object]:  # fmt: skip
+        """Configuration k's surrogate at p: ``built`` elsewhere, or built here."""
+        case = cases[k]
+        if built is None:
+            args, kwargs = build_arguments(k, p)
+            built = build_surrogate(*args, **kwargs, progress=say)
+        sur, modes = built
         if k not in frf_modes:
             frf_modes[k] = sur.n_frf
             if cfg.modal_hz:
@@ -288,7 +316,21 @@ def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
         return sur, modes
 
     def surrogates_at(p: np.ndarray) -> tuple[list[Surrogate], list]:
-        built = [surrogate_at(k, p) for k in range(len(cases))]
+        """Every configuration's surrogate at p: built at once on a Dask cluster when
+        there are several (each model sent there once), one after another here otherwise
+        (each build is parallel inside)."""
+        if len(cases) > 1 and session.engine.kind == "dask":
+            pool = session.pool()
+            jobs = []
+            for k in range(len(cases)):
+                (model, *rest), kwargs = build_arguments(k, p)
+                jobs.append(pool.submit(_build_surrogate, session.share_once(model),
+                                        *rest, kwargs))  # fmt: skip
+            say(f"surrogates of {len(cases)} configurations building on "
+                f"{session.engine.describe()}")  # fmt: skip
+            built = [surrogate_at(k, p, job.result()) for k, job in enumerate(jobs)]
+        else:
+            built = [surrogate_at(k, p) for k in range(len(cases))]
         return [b[0] for b in built], [b[1] for b in built]
 
     corrections: dict[int, tuple[Surrogate, np.ndarray | None]] = {}
@@ -322,7 +364,7 @@ def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
         if fresh and folder is not None and folder.is_dir():
             for f in folder.glob("start_*.json"):
                 f.unlink()
-        return run_starts(problem, pts, workers=n_workers, folder=folder,
+        return run_starts(problem, pts, session=session, folder=folder,
                           fingerprint=fp + f"-{name}-" + ",".join(f"{x:.12g}" for x in center),
                           progress=say, task=_starts_task(name))  # fmt: skip
 
@@ -516,6 +558,12 @@ def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
         holdout=holdout)
     say(f"deviation {result.deviation_before:.5g} -> {result.deviation_after:.5g}")
     return result
+
+
+def _build_surrogate(model: Model, params: list[Parameter], q: np.ndarray,
+                     outputs: Sequence, inputs: Sequence, kwargs: dict) -> tuple:
+    """:func:`build_surrogate` as a task for a worker (positional arguments only)."""
+    return build_surrogate(model, params, q, outputs, inputs, **kwargs)
 
 
 def _case_result(case: Case, sur0: Surrogate, sur: Surrogate, modes0, modes_after,

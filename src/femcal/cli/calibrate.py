@@ -20,6 +20,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, required=True, metavar="DIR",
                    help="results: report.json, report.html, the calibrated deck, pictures")
     p.add_argument("--workers", type=int, metavar="N", help="parallel processes for the starts")
+    p.add_argument("--engine", choices=("local", "dask"),
+                   help="where the starts run: this machine's processes (local, the default) "
+                   "or a Dask cluster (a LocalCluster of --workers processes, or --scheduler)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="a running Dask scheduler (tcp://host:8786) to run the starts on; "
+                   "implies --engine dask")
     p.add_argument("--starts", type=int, metavar="N", help="number of starts")
     p.add_argument("--fresh", action="store_true",
                    help="ignore starts finished by an earlier run into DIR")
@@ -43,10 +49,21 @@ def run(args: argparse.Namespace) -> int:
             print(f"femcal calibrate: --{name} {v}: expected {SETTINGS[name].expected}",
                   file=sys.stderr)  # fmt: skip
             return 2
+    if args.scheduler and args.engine == "local":
+        print("femcal calibrate: --scheduler needs the Dask engine (not --engine local)",
+              file=sys.stderr)  # fmt: skip
+        return 2
     try:
         cfg = read_config(args.config)
+        engine = None
+        if args.engine or args.scheduler:
+            from ..parallel.cluster import Engine
+
+            kind = "dask" if args.scheduler else args.engine
+            engine = Engine(kind, args.workers or cfg.workers,
+                            args.scheduler or (cfg.scheduler if kind == "dask" else None))
         result = calibrate(cfg, args.out, fresh=args.fresh, workers=args.workers,
-                           starts=args.starts, progress=progress)  # fmt: skip
+                           starts=args.starts, engine=engine, progress=progress)  # fmt: skip
     except (KeyError, ValueError) as e:
         progress.close()
         print(f"femcal calibrate: {message(e)}", file=sys.stderr)

@@ -31,6 +31,7 @@ from ..io.calibration import calibrated_deck_name, write_calibrated_deck, write_
 from ..io.identified import read_model, write_model, write_summary
 from ..model.build import load_model
 from ..model.model import Model
+from ..parallel.cluster import Engine
 from ..testdata.data import FRFData, convert_units
 from ..testdata.formats import read_frf
 from ..testdata.points import channel_names
@@ -120,12 +121,13 @@ def read_inputs(cfg: Config, say: Callable[[str], None] | None = None) -> Inputs
 
 
 def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | None = None,
-        starts: int | None = None,
+        starts: int | None = None, engine: Engine | None = None,
         progress: Callable[[str], None] | None = None) -> CalibrationResult:  # fmt: skip
     """Run the calibration of ``cfg`` into the folder ``out`` (see the module docstring).
 
-    ``fresh`` ignores finished starts of an earlier run; ``workers`` and ``starts``
-    override the configuration's. The finished starts in ``out/starts`` are resumed only
+    ``fresh`` ignores finished starts of an earlier run; ``workers``, ``starts`` and
+    ``engine`` (where the starts run: :class:`~femcal.parallel.cluster.Engine`) override
+    the configuration's. The finished starts in ``out/starts`` are resumed only
     by a run whose models, settings, tests and files (the decks with their INCLUDEs, the
     parameter, test, sensor and input files) are the same
     (:func:`femcal.calibrate.workflow.fingerprint`). Every file is written whole or not at
@@ -156,7 +158,8 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
                                 conf.zeta0, conf.model_units, names))  # fmt: skip
     sources = [f for c in cfg.configurations for f in c.sources]
     result = calibrate_setups(setups, cfg, truth=truth, state=out / "starts", fresh=fresh,
-                              workers=workers, starts=starts, progress=progress,
+                              workers=workers, starts=starts, engine=engine,
+                              progress=progress,
                               sources=sources)  # fmt: skip
     written: list[Path] = []
     for conf, params, case in zip(cfg.configurations, per_config, result.cases, strict=True):

@@ -927,6 +927,13 @@ def config_text(proposal: Proposal, folder: str | os.PathLike[str], parameters: 
         *key("workers", str(d["workers"]), f"Processes for the starts (default "
              f"{d['workers']}), each holding the surrogate in memory; `femcal calibrate "
              "--workers N` overrides it."),
+        *key("engine", '"local"', "Where the starts run: \"local\", this machine's "
+             "processes (the default), or \"dask\", a Dask LocalCluster of `workers` "
+             "processes or the scheduler below; the result is the same. `femcal calibrate "
+             "--engine dask` overrides it."),
+        *_comment("A running Dask scheduler to run the starts on (with engine = \"dask\"; "
+                  "`femcal calibrate --scheduler ADDRESS` gives it on the command line)."),
+        '# scheduler = "tcp://localhost:8786"',
         *key("seed", str(d["seed"]), f"Seed of the starts (default {d['seed']})."),
         *key("max_iterations", str(d["max_iterations"]),
              "Levenberg-Marquardt iterations per start and cycle (default "

@@ -1,7 +1,8 @@
 """Parallel work behind one interface, :class:`concurrent.futures.Executor`: serial, threads
-or processes here, and any engine that offers the same interface (see
-:mod:`femcal.parallel.executors`)."""
+or processes here (:mod:`femcal.parallel.executors`), and a Dask cluster for a job's
+independent tasks (:mod:`femcal.parallel.cluster`)."""
 
+from .cluster import Engine, Session
 from .executors import (
     KINDS,
     Kind,
@@ -17,9 +18,11 @@ from .executors import (
 
 __all__ = [
     "KINDS",
+    "Engine",
     "Kind",
     "ProcessPool",
     "SerialExecutor",
+    "Session",
     "die_with_parent",
     "executor",
     "in_background",

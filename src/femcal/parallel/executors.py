@@ -64,10 +64,14 @@ def usable_cores() -> int:
     return os.cpu_count() or 1
 
 
-def _process_context() -> multiprocessing.context.BaseContext:
+def _process_context(fresh: bool = False) -> multiprocessing.context.BaseContext:
     """Forked workers where the OS can fork (they inherit the parent's arrays without
-    pickling them), spawned ones elsewhere."""
-    return multiprocessing.get_context("fork" if os.name == "posix" else "spawn")
+    pickling them), spawned ones elsewhere or when ``fresh``: a forked child inherits the
+    parent's OpenMP runtime (GNU libgomp, which CHOLMOD's factorisation runs on) in a state
+    it cannot use, and hangs at its first parallel region; work that factorises needs
+    workers started afresh."""
+    return multiprocessing.get_context("fork" if os.name == "posix" and not fresh
+                                       else "spawn")  # fmt: skip
 
 
 #: Linux's prctl option that has the kernel signal a process when its parent ends.
@@ -161,12 +165,14 @@ class ProcessPool(ProcessPoolExecutor):
 
 def executor(kind: Kind, workers: int = 1, *, name: str = "femcal",
              initializer: Callable[..., object] | None = None,
-             initargs: tuple = ()) -> Executor:  # fmt: skip
+             initargs: tuple = (), fresh: bool = False) -> Executor:  # fmt: skip
     """An executor of ``kind`` with ``workers`` workers; one worker, or ``"serial"``, gives a
     :class:`SerialExecutor`. ``initializer(*initargs)`` prepares each worker thread or
     process; a serial executor has none, so it is not run. ``name`` prefixes the threads'
     names. Use it as a context manager, or call ``shutdown``. Processes come as a
-    :class:`ProcessPool` (see the module docstring).
+    :class:`ProcessPool` (see the module docstring), forked where the OS can fork, or
+    spawned (a fresh interpreter that imports what the tasks need) with ``fresh``, which
+    work that factorises sparse matrices needs (see :func:`_process_context`).
 
     Raises
     ------
@@ -182,7 +188,7 @@ def executor(kind: Kind, workers: int = 1, *, name: str = "femcal",
     if kind == "threads":
         return ThreadPoolExecutor(workers, thread_name_prefix=name, initializer=initializer,
                                   initargs=initargs)  # fmt: skip
-    return ProcessPool(workers, mp_context=_process_context(), initializer=initializer,
+    return ProcessPool(workers, mp_context=_process_context(fresh), initializer=initializer,
                        initargs=initargs)  # fmt: skip
 
 
