@@ -56,7 +56,7 @@ class FrameDimensions:
     liner_flange: float = 75.0
     liner_x: tuple[float, float] = (150.0, 3350.0)
     cross_x: tuple[float, ...] = (270.0, 1150.0, 2475.0, 2825.0)
-    cross_kinds: tuple[int, ...] = (0, 1, 2, 3)  # X1-X4 kinds (see _CROSS) of each member
+    cross_kinds: tuple[int, ...] = (0, 1, 2, 3)  # X1-X4 kinds (see CROSS_KINDS) of each member
     rear_bracket_drop: float = 290.0  # how far the rig-connection brackets reach below
     cross_height: tuple[float, ...] = (150.0, 90.0, 120.0, 120.0)
     tube_half_width: float = 50.0  # X2, along X
@@ -178,7 +178,7 @@ def _bolt(f: _Frame, pid: int, a, na, b, nb, *more, radius: float = 32.0) -> Non
 def _x_required(d: FrameDimensions) -> list[float]:
     req = [*d.liner_x, *_web_bolt_x(d), *_flange_bolt_x(d), *d.bellows_x]
     for i, xc in enumerate(d.cross_x):
-        req += [xc + o for o in _CROSS[d.cross_kinds[i]].bolt_dx] + [xc]
+        req += [xc + o for o in CROSS_KINDS[d.cross_kinds[i]].bolt_dx] + [xc]
     for x0 in d.bracket_x0:
         req += [x0, x0 + _BRACKET_LEN, *(x0 + b for b in _BRACKET_BOLT_DX)]
         if d.actuators or d.rear_tie:  # actuators or the tie hold the brackets' middle
@@ -218,7 +218,7 @@ class _CrossKind:
     gusset: float = 0.0  # triangular gusset leg (0: none)
 
 
-_CROSS = (
+CROSS_KINDS = (
     _CrossKind(4, 5, 200.0, 60.0, (-60.0, 80.0), 120.0, (-35.0, 35.0), 33),
     _CrossKind(8, None, 120.0, 50.0, (-70.0, 70.0), 90.0, (-35.0, 35.0), 34),  # tube +-50
     _CrossKind(7, 6, 220.0, -70.0, (-110.0, 110.0), 130.0, (-40.0, 66.0 + 22.0), 35, 66.0),
@@ -261,7 +261,7 @@ def _cross_members(f: _Frame) -> None:
     yl = d.half_width - d.liner_gap
     for i, xc in enumerate(d.cross_x):
         name = f"X{i + 1}"
-        kind = replace(_CROSS[d.cross_kinds[i]], height=d.cross_height[i])
+        kind = replace(CROSS_KINDS[d.cross_kinds[i]], height=d.cross_height[i])
         if kind.plate_pid is None:
             kind = replace(kind, flange=d.tube_half_width)
             _tube_on_cast_brackets(f, kind, xc, yl, name)
@@ -285,7 +285,7 @@ def _cross_members(f: _Frame) -> None:
         for s in (1.0, -1.0):
             m.patch(kind.plate_pid, (0, s * y_ep, 0), (1, 0, 0), (0, 0, s), px, pz * s)
             if kind.gusset:
-                sx = 1.0 if kind.flange < 0 else -1.0  # on the web's open side
+                sx = 1.0 if kind.flange < 0 else -1.0  # behind the web, away from its flanges
                 m.triangle_patch(kind.plate_pid, (xc, s * y_ep, 0.0), (sx, 0, 0), (0, -s, 0),
                                  3, kind.gusset, kind.gusset)  # fmt: skip
             for dx in kind.bolt_dx:

@@ -35,8 +35,10 @@ are solved to :data:`BAND_MARGIN` times the band's top so that a mode leaving th
 still found. A track lost at a point (no partner with MAC >= ``min_mac``) stays lost beyond
 it; modes of other points that pair to no tracked mode are counted, not tracked.
 
-The library never prints: progress goes to a ``progress`` callback (a
-:class:`~femcal.parallel.progress.Step` per point solved).
+The points are independent and may be solved side by side, in local worker processes or
+on a Dask cluster (:func:`run_study`'s ``engine``; ``femcal study --workers N``,
+``--engine dask``, ``--scheduler ADDRESS``). The library never prints: progress goes to a
+``progress`` callback (a :class:`~femcal.parallel.progress.Step` per point solved).
 """
 
 from __future__ import annotations
@@ -47,6 +49,7 @@ import tempfile
 import time
 import tomllib
 from collections.abc import Callable, Sequence
+from concurrent.futures import as_completed
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
@@ -54,9 +57,10 @@ import numpy as np
 
 from ..atomic import write_atomic, write_lines
 from ..correlate.shapes import pair_modes
-from ..errors import ConfigError
+from ..errors import ConfigError, FemcalError
 from ..model.analysis import EigenRequest
 from ..model.model import Model
+from ..parallel.cluster import Engine, killed_worker_error, one_blas_thread
 from ..parallel.progress import Progress, Step
 
 __all__ = [
@@ -107,7 +111,12 @@ def _truck_dims(variant: str):
 
 def _truck_check(variant: str, name: str, value: float) -> str:
     """Why ``value`` of cross_x_K cannot be built ("" if it can): it must stay between the
-    neighbouring cross members (100 mm clear) and inside the frame."""
+    neighbouring cross members (100 mm clear) and inside the frame; then the frame is built
+    and must hold together: the cross members' end plates (or cast brackets) may not
+    overlap, every bolt must land on the plies it joins, and no grid may belong to two bolt
+    spiders."""
+    from ..examples import truck_frame as tf
+
     d = _truck_dims(variant)
     k = int(name.rsplit("_", 1)[1]) - 1
     if not 0 <= k < len(d.cross_x):
@@ -118,6 +127,30 @@ def _truck_check(variant: str, name: str, value: float) -> str:
     if not (math.isfinite(value) and lo <= value <= hi):
         return f"expected {lo:g} <= x <= {hi:g} mm (100 mm clear of the neighbouring cross " \
                "members and the frame's ends)"  # fmt: skip
+    cross = [*d.cross_x]
+    cross[k] = float(value)
+    d = replace(d, cross_x=tuple(cross))
+    feet = [(x + tf.CROSS_KINDS[kind].plate_x[0], x + tf.CROSS_KINDS[kind].plate_x[1])
+            for x, kind in zip(d.cross_x, d.cross_kinds, strict=True)]  # fmt: skip
+    for i in range(len(feet) - 1):
+        if feet[i][1] > feet[i + 1][0]:
+            return (f"cross member {i + 1}'s end plates (x {feet[i][0]:g} to {feet[i][1]:g} "
+                    f"mm) overlap cross member {i + 2}'s ({feet[i + 1][0]:g} to "
+                    f"{feet[i + 1][1]:g} mm)")  # fmt: skip
+    try:
+        frame = tf.build_frame(d)
+    except KeyError:  # a bolt's point is not on the mesh of a ply it joins
+        return (f"the frame cannot be built there: a bolt of the cross member lands off the "
+                f"plies it joins (the inner liner runs from x {d.liner_x[0]:g} to "
+                f"{d.liner_x[1]:g} mm)")  # fmt: skip
+    except RuntimeError as e:  # a bolt spider without enough rim nodes
+        return f"the frame cannot be built there: {e}"
+    seen: dict[int, int] = {}
+    for centre, ring in frame.rbe2:
+        for g in ring:
+            if seen.setdefault(g, centre) != centre:
+                return (f"two bolt spiders share grid {g} (bolts at grids {seen[g]} and "
+                        f"{centre}): the cross member is too close to another bolt")  # fmt: skip
     return ""
 
 
@@ -364,18 +397,44 @@ def track_modes(cfg: StudyConfig, points: Sequence[Point]) -> tuple[list[Track],
     return tracks, untracked
 
 
-def run_study(cfg: StudyConfig, *, progress: Progress | None = None) -> StudyResult:
-    """Solve every point of the study (one after another) and track the modes."""
+def run_study(cfg: StudyConfig, *, engine: Engine | None = None,
+              progress: Progress | None = None) -> StudyResult:  # fmt: skip
+    """Solve every point of the study and track the modes. The points are independent:
+    with ``engine`` (:class:`~femcal.parallel.cluster.Engine`: local worker processes or a
+    Dask cluster) they are solved side by side, each with one BLAS thread; by default one
+    after another here.
+
+    Raises
+    ------
+    FemcalError
+        When a point's Dask workers died more often than the scheduler allows.
+    """
     say = progress or (lambda s: None)
     t0 = time.perf_counter()
-    points = []
+    engine = engine or Engine()
     task = f"study: {len(cfg.values)} points"
-    for i, v in enumerate(cfg.values):
-        pt = solve_point(cfg, v)
-        points.append(pt)
-        say(Step(f"{cfg.variable} = {v:g} {cfg.unit}: {len(pt.frequencies)} elastic modes, "
-                 f"{pt.n_dof} DOF, {pt.seconds:.1f} s", task=task, done=i + 1,
+    solved: dict[int, Point] = {}
+
+    def keep(i: int, pt: Point) -> None:
+        solved[i] = pt
+        say(Step(f"{cfg.variable} = {pt.value:g} {cfg.unit}: {len(pt.frequencies)} elastic "
+                 f"modes, {pt.n_dof} DOF, {pt.seconds:.1f} s", task=task, done=len(solved),
                  total=len(cfg.values)))  # fmt: skip
+
+    if engine.parallel and len(cfg.values) > 1:
+        with engine.open() as pool:
+            jobs = {pool.submit(one_blas_thread, solve_point, cfg, v): i
+                    for i, v in enumerate(cfg.values)}  # fmt: skip
+            for job in as_completed(jobs):
+                try:
+                    keep(jobs[job], job.result())
+                except killed_worker_error() as e:
+                    raise FemcalError(f"a point of the study failed on every Dask worker "
+                                      f"that took it ({e})") from None  # fmt: skip
+    else:
+        for i, v in enumerate(cfg.values):
+            keep(i, solve_point(cfg, v))
+    points = [solved[i] for i in range(len(cfg.values))]
     tracks, untracked = track_modes(cfg, points)
     return StudyResult(cfg, points, tracks, untracked, time.perf_counter() - t0)
 
