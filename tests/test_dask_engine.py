@@ -46,10 +46,16 @@ def on_the_pool(tiny, tmp_path_factory):  # noqa: F811
     return _calibrate(tiny, tmp_path_factory.mktemp("pool"), None)
 
 
-def test_a_local_dask_cluster_gives_the_pools_result(tiny, tmp_path, on_the_pool):  # noqa: F811
-    on_dask = _calibrate(tiny, tmp_path, Engine("dask", workers=2))
-    assert len(on_dask.cycles[0].starts) == 16
-    _same(on_dask, on_the_pool)
+@pytest.mark.parametrize("engine", [Engine("dask", workers=2), Engine("local", workers=1)],
+                         ids=["dask LocalCluster", "this process"])  # fmt: skip
+def test_the_starts_give_the_pools_result_wherever_they_run(tiny, tmp_path,  # noqa: F811
+                                                             on_the_pool, engine):  # fmt: skip
+    """On a Dask LocalCluster of two workers, or one after another in this process: the
+    same calibration as on two local worker processes, bit for bit (one BLAS thread per
+    start everywhere)."""
+    elsewhere = _calibrate(tiny, tmp_path, engine)
+    assert len(elsewhere.cycles[0].starts) == 16
+    _same(elsewhere, on_the_pool)
 
 
 def test_a_worker_killed_mid_run_costs_its_start_not_the_result(tiny, tmp_path,  # noqa: F811
@@ -158,3 +164,21 @@ def test_a_scheduler_that_does_not_answer_is_one_line(tiny, tmp_path, monkeypatc
     assert cli.main(["calibrate", str(cfg), "--out", str(tmp_path / "out"), "--engine",
                      "local", "--scheduler", "tcp://127.0.0.1:9"]) == 2  # fmt: skip
     assert "--scheduler needs the Dask engine" in capsys.readouterr().err
+
+
+def test_the_parts_of_an_identification_on_the_cluster():
+    """A noisy test split into three parts, each identified on a Dask worker (automatic
+    orders): the same poles and model as one after another here, to BLAS rounding."""
+    from femcal.identify import identify
+    from femcal.parallel.cluster import DaskExecutor
+
+    from .test_identify import BAND, modal_set
+
+    data, _ = modal_set(noise=0.02, seed=1, p=24)
+    here = identify(data, BAND, splits=(40.0, 60.0))
+    with DaskExecutor.start(2) as pool:
+        there = identify(data, BAND, splits=(40.0, 60.0), pool=pool)
+    assert [(p.band, p.order) for p in there.parts] == [(p.band, p.order) for p in here.parts]
+    assert len(there.parts) == 3
+    np.testing.assert_allclose(there.frequency_hz, here.frequency_hz, rtol=1e-9)
+    np.testing.assert_allclose(there.damping_ratio, here.damping_ratio, rtol=1e-6)

@@ -95,7 +95,9 @@ def run_starts(problem: Problem, starts: list[np.ndarray], *, workers: int = 1,
     as it arrives (its iterations are not reported from there). ``session`` (an engine held
     open for a whole job, :class:`~femcal.parallel.cluster.Session`) replaces ``engine``:
     its cluster is used and left open, and the problem is sent to it once. The results do
-    not depend on where the starts ran.
+    not depend on where the starts ran: each runs with one BLAS thread wherever it runs
+    (its matrices are small, and threads only contend for the cores), so the same start
+    gives the same numbers bit for bit in this process, a local worker or a Dask worker.
 
     Raises
     ------
@@ -153,7 +155,8 @@ def run_starts(problem: Problem, starts: list[np.ndarray], *, workers: int = 1,
                 say(Detail(f"start {k + 1}/{len(starts)} iteration {it}: deviation "
                            f"{2 * cost:.5g}"))  # fmt: skip
 
-            keep(run_one(problem, k, starts[k], report))
+            with threadpool_limits(1):  # as in a worker: the same rounding, and faster
+                keep(run_one(problem, k, starts[k], report))
     elif todo:
         q = message_queue("processes")
         with executor("processes", min(engine.workers, len(todo)), initializer=_init_worker,

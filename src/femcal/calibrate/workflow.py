@@ -202,10 +202,20 @@ def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
                             progress=progress, sources=conf.sources)  # fmt: skip
 
 
+def check_overrides(workers: int | None, starts: int | None) -> None:
+    """ConfigError for a ``workers`` or ``starts`` override (None: none) out of its
+    setting's range."""
+    for what, n in (("workers", workers), ("starts", starts)):
+        if n is not None and (isinstance(n, bool) or not isinstance(n, int)
+                              or not SETTINGS[what].accepts(n)):
+            raise ConfigError(f"{what} = {n!r}: expected {SETTINGS[what].expected}")
+
+
 def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
                      truth: np.ndarray | None = None, state: str | Path | None = None,
                      fresh: bool = False, workers: int | None = None,
                      starts: int | None = None, engine: Engine | None = None,
+                     session: Session | None = None,
                      progress: Callable[[str], None] | None = None,
                      sources: Sequence[str | Path] = ()) -> CalibrationResult:  # fmt: skip
     """Calibrate the parameters of one or more configurations, shared by name, against their
@@ -230,6 +240,8 @@ def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
     engine : where the starts (and the surrogates of several configurations) run; default
         the configuration's ``engine``, ``scheduler`` and ``workers``
         (:class:`~femcal.parallel.cluster.Engine`). The result does not depend on it.
+    session : an engine already open (a job's, :class:`~femcal.parallel.cluster.Session`):
+        used, and left open, in place of ``engine``.
     sources : the other files the run was read from (parameter, test, sensor and input
         files): their content enters the fingerprint.
 
@@ -244,16 +256,17 @@ def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
     if not setups:
         raise ValueError("calibrate needs at least one configuration")
     check_config(cfg)
-    for what, n in (("workers", workers), ("starts", starts)):
-        if n is not None and (isinstance(n, bool) or not isinstance(n, int)
-                              or not SETTINGS[what].accepts(n)):
-            raise ConfigError(f"{what} = {n!r}: expected {SETTINGS[what].expected}")
+    check_overrides(workers, starts)
+    if session is not None:
+        return _calibrate_setups(setups, cfg, truth=truth, state=state, fresh=fresh,
+                                 starts=starts, session=session, progress=progress,
+                                 sources=sources)  # fmt: skip
     engine = engine or Engine(cfg.engine, workers or cfg.workers, cfg.scheduler)
     if engine.kind == "dask" and progress is not None:
         progress(f"the starts run on {engine.describe()}")
-    with engine.session() as session:
+    with engine.session() as held:
         return _calibrate_setups(setups, cfg, truth=truth, state=state, fresh=fresh,
-                                 starts=starts, session=session, progress=progress,
+                                 starts=starts, session=held, progress=progress,
                                  sources=sources)  # fmt: skip
 
 

@@ -33,6 +33,7 @@ the channels whose fit is poor enough to suspect the sensor.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from concurrent.futures import Executor
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -288,7 +289,8 @@ def _dedupe(found: list[tuple[complex, tuple[float, float]]]) -> np.ndarray:
 def identify(data: FRFData, band: tuple[float, float], *,
              splits: Sequence[float] = (), orders: int | Sequence[int | None] | None = None,
              settings: Settings | None = None,
-             progress: Callable[[str], None] | None = None) -> IdentifiedModel:  # fmt: skip
+             progress: Callable[[str], None] | None = None,
+             pool: Executor | None = None) -> IdentifiedModel:  # fmt: skip
     """Identify a continuous-time model of ``data`` over ``band`` (see the module docstring).
 
     Parameters
@@ -300,6 +302,9 @@ def identify(data: FRFData, band: tuple[float, float], *,
         automatic), or None: automatic for all (stabilisation diagram up to
         ``settings.max_order``).
     progress : called with a line of text per step.
+    pool : an executor (e.g. a Dask cluster's, :mod:`femcal.parallel.cluster`) on which the
+        parts are identified side by side; None: one after another here. The result does
+        not depend on it.
 
     Raises
     ------
@@ -337,7 +342,7 @@ def identify(data: FRFData, band: tuple[float, float], *,
     consistency = consistency_error(Hs)
     odd = outliers(consistency, s.suspect_factor, s.suspect_floor)
     use = np.ones(len(odd), bool)
-    result = _identify_pass(data, f, Hs, so, si, edges, part_orders, use, s, say)
+    result = _identify_pass(data, f, Hs, so, si, edges, part_orders, use, s, say, pool)
     if odd.any() and (~odd).sum() >= 2:
         # a channel the others do not explain is either broken, or the one sensor that sees
         # some mode: identify without such channels too, and keep the model that fits the
@@ -346,7 +351,8 @@ def identify(data: FRFData, band: tuple[float, float], *,
         say(f"channels {', '.join(bad)} are not consistent with the others (leave-one-out "
             "error " + ", ".join(f"{e:.2f}" for e in consistency[odd])
             + "): identifying without them as well")  # fmt: skip
-        screened = _identify_pass(data, f, Hs, so, si, edges, part_orders, ~odd, s, say)
+        screened = _identify_pass(data, f, Hs, so, si, edges, part_orders, ~odd, s, say,
+                                  pool)
         if np.median(screened.fit_error[~odd]) < np.median(result.fit_error[~odd]):
             say("the model without them fits the other channels better: kept")
             result, use = screened, ~odd
@@ -357,7 +363,7 @@ def identify(data: FRFData, band: tuple[float, float], *,
         bad = [data.outputs[i].label for i in np.flatnonzero(result.suspect)]
         say(f"suspect channels {', '.join(bad)}: identified again without them")
         again = _identify_pass(data, f, Hs, so, si, edges, part_orders, ~result.suspect, s,
-                               say)  # fmt: skip
+                               say, pool)  # fmt: skip
         if np.median(again.fit_error[~result.suspect]) <= np.median(
                 result.fit_error[~result.suspect]):  # fmt: skip
             result = replace(again, consistency=consistency,
@@ -367,41 +373,53 @@ def identify(data: FRFData, band: tuple[float, float], *,
     return result
 
 
+def _identify_part(f: np.ndarray, H: np.ndarray, a: float, b: float, n: int | None,
+                   s: Settings) -> tuple[int, np.ndarray, Stabilization | None]:
+    """One part's physical poles: its order (``n``, or automatic from a stabilisation
+    diagram, which is returned too) and poles, from its frequencies ``f`` (K,) and FRFs
+    ``H`` (p, m, K) in [a, b] Hz. The subspace step sees the part scaled on its own (its
+    poles do not depend on it)."""
+    po, pi = _scales(H)
+    Hp = H / po[:, None, None] / pi[None, :, None]
+    if n is None:
+        diagram = stabilization(f, Hp, (a, b), orders=range(2, s.max_order + 1, 2),
+                                zeta_max=s.zeta_max, stable_system=s.stable)  # fmt: skip
+        n_use = diagram.auto_order
+        at = next(op for op in diagram.orders if op.order == n_use)
+        return n_use, at.poles[poles_at_modes(at, diagram.modes_hz)], diagram
+    basis = subspace_basis(f, Hp, default_block_rows(int(n), H.shape[0]))
+    A, C = model_of_order(basis, int(n), stable=s.stable)
+    lam, _ = physical_poles(A, C, (a, b), s.zeta_max)
+    return int(n), lam, None
+
+
 def _identify_pass(data: FRFData, f: np.ndarray, Hs: np.ndarray, so: np.ndarray,
                    si: np.ndarray, edges: list[float], part_orders: list[int | None],
-                   use: np.ndarray, s: Settings, say: Callable[[str], None]
-                   ) -> IdentifiedModel:  # fmt: skip
+                   use: np.ndarray, s: Settings, say: Callable[[str], None],
+                   pool: Executor | None = None) -> IdentifiedModel:  # fmt: skip
     """One identification: poles and B from the channels in ``use`` (p,), C and D of every
-    channel for those."""
+    channel for those; the parts' poles on ``pool`` when given."""
     Hu = Hs[use]
-    p = Hu.shape[0]
     found: list[tuple[complex, tuple[float, float]]] = []
     parts: list[Part] = []
-    for a, b, n in zip(edges[:-1], edges[1:], part_orders, strict=True):
-        ps = (f >= a) & (f <= b)
+    bands = list(zip(edges[:-1], edges[1:], part_orders, strict=True))
+    masks = [(f >= a) & (f <= b) for a, b, _ in bands]
+    for (a, b, n), ps in zip(bands, masks, strict=True):
         if ps.sum() < 4:
             raise FRFError(f"part {a:g}-{b:g} Hz holds {ps.sum()} frequencies; expected at "
                            "least 4")  # fmt: skip
-        # the subspace step sees the part scaled on its own (its poles do not depend on it)
-        po, pi = _scales(Hu[:, :, ps])
-        Hp = Hu[:, :, ps] / po[:, None, None] / pi[None, :, None]
-        diagram = None
-        if n is None:
-            diagram = stabilization(f[ps], Hp, (a, b),
-                                    orders=range(2, s.max_order + 1, 2), zeta_max=s.zeta_max,
-                                    stable_system=s.stable)  # fmt: skip
-            n_use = diagram.auto_order
-            at = next(op for op in diagram.orders if op.order == n_use)
-            lam = at.poles[poles_at_modes(at, diagram.modes_hz)]
-        else:
-            n_use = int(n)
+        if n is not None:
             limit = min(MAX_ORDER, int(ps.sum()) // 2)
-            if not 1 <= n_use <= limit:
-                raise FRFError(f"order {n_use} is outside 1..{limit} for part {a:g}-{b:g} "
+            if not 1 <= int(n) <= limit:
+                raise FRFError(f"order {int(n)} is outside 1..{limit} for part {a:g}-{b:g} "
                                f"Hz ({ps.sum()} frequencies)")  # fmt: skip
-            basis = subspace_basis(f[ps], Hp, default_block_rows(n_use, p))
-            A, C = model_of_order(basis, n_use, stable=s.stable)
-            lam, _ = physical_poles(A, C, (a, b), s.zeta_max)
+    args = [(f[ps], Hu[:, :, ps], a, b, n, s) for (a, b, n), ps in zip(bands, masks, strict=True)]
+    if pool is not None and len(bands) > 1:  # the parts are independent: side by side
+        jobs = [pool.submit(_identify_part, *x) for x in args]
+        done = (job.result() for job in jobs)
+    else:
+        done = (_identify_part(*x) for x in args)
+    for (a, b, n), (n_use, lam, diagram) in zip(bands, done, strict=True):
         fr, z = poles_to_modal(lam)
         say(f"part {a:g}-{b:g} Hz: order {n_use}{' (automatic)' if n is None else ''}, "
             + (", ".join(f"{x:.2f} Hz ({100 * y:.2f} %)" for x, y in zip(fr, z, strict=True))

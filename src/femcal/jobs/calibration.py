@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from concurrent.futures import Executor
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -25,22 +26,24 @@ from ..calibrate.cases import TestSetup
 from ..calibrate.config import Config, Configuration
 from ..calibrate.parameters import Parameter, read_parameters, read_truth, share_parameters
 from ..calibrate.result import CalibrationResult
-from ..calibrate.workflow import calibrate_setups
+from ..calibrate.workflow import calibrate_setups, check_overrides
 from ..identify import IdentifiedModel, Settings, identify
 from ..io.calibration import calibrated_deck_name, write_calibrated_deck, write_report_json
 from ..io.identified import read_model, write_model, write_summary
 from ..model.build import load_model
 from ..model.model import Model
-from ..parallel.cluster import Engine
+from ..parallel.cluster import Engine, Session
 from ..testdata.data import FRFData, convert_units
 from ..testdata.formats import read_frf
 from ..testdata.points import channel_names
 
 
-def load_test(conf: Configuration, out: Path, say: Callable[[str], None]
+def load_test(conf: Configuration, out: Path, say: Callable[[str], None],
+              pool: Executor | None = None
               ) -> tuple[FRFData | None, IdentifiedModel | None]:  # fmt: skip
     """The measured FRFs (in the model's units) and the identified model of one
-    configuration: identified here (written to ``out``) or read from its file.
+    configuration: identified here (written to ``out``; its parts on ``pool`` when given)
+    or read from its file.
 
     Raises
     ------
@@ -58,7 +61,7 @@ def load_test(conf: Configuration, out: Path, say: Callable[[str], None]
         say(f"{conf.name}: identifying the test FRFs over {s.band[0]:g}-{s.band[1]:g} Hz")
         ident = identify(data, s.band, splits=s.splits, orders=s.orders,
                          settings=Settings(gamma=s.gamma, beta=s.beta, max_order=s.max_order),
-                         progress=say)  # fmt: skip
+                         progress=say, pool=pool)  # fmt: skip
         write_model(out / "model.npz", ident)
         write_summary(out / "identify.json", ident)
     elif conf.test_model is not None:
@@ -143,13 +146,30 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
     t0 = time.perf_counter()
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    several = len(cfg.configurations) > 1
+    check_overrides(workers, starts)
     inputs = read_inputs(cfg, say)
+    engine = engine or Engine(cfg.engine, workers or cfg.workers, cfg.scheduler)
+    with engine.session() as session:
+        return _run(cfg, out, inputs, session, fresh=fresh, starts=starts, say=say,
+                    progress=progress, t0=t0)  # fmt: skip
+
+
+def _run(cfg: Config, out: Path, inputs: Inputs, session: Session, *, fresh: bool,
+         starts: int | None, say: Callable[[str], None],
+         progress: Callable[[str], None] | None, t0: float) -> CalibrationResult:  # fmt: skip
+    """:func:`run` once its inputs are read, on an open engine ``session``: a Dask
+    cluster identifies the tests' parts and runs the starts."""
+    several = len(cfg.configurations) > 1
+    pool = None
+    if session.engine.kind == "dask":
+        say(f"the identification's parts and the calibration's starts run on "
+            f"{session.engine.describe()}")  # fmt: skip
+        pool = session.pool()
     models, per_config, truth = inputs.models, inputs.parameters, inputs.truth
     setups = []
     for conf, model, params in zip(cfg.configurations, models, per_config, strict=True):
         data, ident = load_test(conf, out / "identify" / conf.name if several
-                                else out / "identify", say)  # fmt: skip
+                                else out / "identify", say, pool)  # fmt: skip
         names = {}
         for points in (conf.sensors, conf.inputs):
             if points is not None:
@@ -158,8 +178,7 @@ def run(cfg: Config, out: str | Path, *, fresh: bool = False, workers: int | Non
                                 conf.zeta0, conf.model_units, names))  # fmt: skip
     sources = [f for c in cfg.configurations for f in c.sources]
     result = calibrate_setups(setups, cfg, truth=truth, state=out / "starts", fresh=fresh,
-                              workers=workers, starts=starts, engine=engine,
-                              progress=progress,
+                              starts=starts, session=session, progress=progress,
                               sources=sources)  # fmt: skip
     written: list[Path] = []
     for conf, params, case in zip(cfg.configurations, per_config, result.cases, strict=True):
