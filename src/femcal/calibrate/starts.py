@@ -39,21 +39,26 @@ def run_one(problem: Problem, start: int, p0: np.ndarray,
                        res.message, time.perf_counter() - t)  # fmt: skip
 
 
+#: A local worker process's message queue and problem, set when the worker starts.
 _QUEUE = None
+_PROBLEM: Problem | None = None
 
 
-def _init_worker(q) -> None:
-    global _QUEUE
-    _QUEUE = q
+def _init_worker(q, problem: Problem) -> None:
+    """Prepare a local worker: its queue and the problem (inherited at the fork, not
+    pickled: the demo's is 57 MB, which per start cost more than half a start's time)."""
+    global _QUEUE, _PROBLEM
+    _QUEUE, _PROBLEM = q, problem
     threadpool_limits(1)  # one BLAS thread per worker: the workers are the parallelism
 
 
-def _worker(problem: Problem, start: int, p0: np.ndarray) -> StartResult:
+def _worker(start: int, p0: np.ndarray) -> StartResult:
     def report(s: int, it: int, cost: float) -> None:
         if _QUEUE is not None:
             _QUEUE.put((s, it, 2 * cost))
 
-    return run_one(problem, start, p0, report)
+    assert _PROBLEM is not None, "a start submitted to a pool without its problem"
+    return run_one(_PROBLEM, start, p0, report)
 
 
 def _finished(folder: Path, k: int, p0: np.ndarray, fingerprint: str) -> StartResult | None:
@@ -160,8 +165,8 @@ def run_starts(problem: Problem, starts: list[np.ndarray], *, workers: int = 1,
     elif todo:
         q = message_queue("processes")
         with executor("processes", min(engine.workers, len(todo)), initializer=_init_worker,
-                      initargs=(q,)) as pool:  # fmt: skip
-            pending = {pool.submit(_worker, problem, k, starts[k]) for k in todo}
+                      initargs=(q, problem)) as pool:  # fmt: skip
+            pending = {pool.submit(_worker, k, starts[k]) for k in todo}
             while pending:
                 done, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
                 while True:

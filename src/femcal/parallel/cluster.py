@@ -14,7 +14,9 @@ the code that submits the tasks is the same for both engines. What Dask adds:
   processes with one thread each and no dashboard, and closes it when the block ends.
   ``Engine("dask", scheduler="tcp://host:8786")`` connects to a running scheduler (started
   with ``dask scheduler`` and ``dask worker ADDRESS --nthreads 1`` on each machine, each
-  with femcal installed) and leaves it running.
+  with femcal installed; ``DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED=False`` in the
+  workers' environment spares the tasks Dask's profiler, as the LocalCluster does) and
+  leaves it running.
 - **Lost workers.** When a worker dies mid-task (killed, out of memory, its machine gone),
   the scheduler runs the task again on another worker (up to
   ``distributed.scheduler.allowed-failures`` times, 3 by default; then the task fails with
@@ -204,9 +206,14 @@ class DaskExecutor(Executor):
                 raise FemcalError(f"cannot reach the Dask scheduler at {scheduler!r} within "
                                   f"{CONNECT_TIMEOUT:g} s: {e}") from None  # fmt: skip
             return cls(client)
-        cluster = distributed.LocalCluster(
-            n_workers=workers, threads_per_worker=1, processes=True,
-            dashboard_address=None, silence_logs=logging.ERROR)  # fmt: skip
+        import dask
+
+        # no statistical profiler in the workers: it samples the task's thread every 10 ms,
+        # which costs a Python-heavy task (a Levenberg-Marquardt start) a fifth of its time
+        with dask.config.set({"distributed.worker.profile.enabled": False}):
+            cluster = distributed.LocalCluster(
+                n_workers=workers, threads_per_worker=1, processes=True,
+                dashboard_address=None, silence_logs=logging.ERROR)  # fmt: skip
         try:
             client = distributed.Client(cluster)
         except BaseException:
