@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.femcal-setup
 
-.PHONY: setup demo test test-slow lint bench-parse bench-deck-edit bench-assembly bench-eigen bench-identify bench-calibration bench-fuzz clean
+.PHONY: setup demo test test-slow lint bench-parse bench-deck-edit bench-assembly bench-eigen bench-identify bench-calibration bench-fuzz bench-scaling setup-slepc bench-slepc clean
 
 setup: $(STAMP)
 
@@ -57,6 +57,23 @@ bench-identify: setup .venv-ema/.ok
 # hammer frame's parameters.
 bench-calibration: setup
 	$(PY) benchmarks/calibration.py
+
+# The calibration's starts and the design study's points on 1 and 2 workers: this process,
+# local worker processes and a Dask LocalCluster (docs/scaling.md).
+bench-scaling: setup
+	$(PY) benchmarks/scaling.py
+
+# The optional SLEPc backend (femcal solve --backend slepc under mpirun): Debian's petsc4py,
+# slepc4py (PETSc 3.18 with MUMPS) and Open MPI in .venv-slepc/ (as root, apt-get).
+setup-slepc: .venv-slepc/.femcal-setup
+
+.venv-slepc/.femcal-setup: pyproject.toml tools/setup_slepc.sh
+	@bash tools/setup_slepc.sh
+	@touch $@
+
+# SLEPc on 1 and 2 ranks against the default solver: the clamped plate at 242k and 1 M DOF.
+bench-slepc: setup setup-slepc
+	$(PY) benchmarks/slepc_scaling.py
 
 # The long fuzz run: mutated reference decks (10 000), FRF files, calibration configs and RPC III files; prints
 # the outcomes per harness (0 crashes, hangs and wrong answers is the target).

@@ -16,23 +16,13 @@ have_cholmod_headers() {
     [ -f /usr/include/suitesparse/cholmod.h ] || [ -f /usr/include/cholmod.h ]
 }
 
-missing=()
+# shellcheck source=tools/apt.sh
+. tools/apt.sh
 if command -v dpkg >/dev/null 2>&1; then
-    for pkg in libsuitesparse-dev libopenblas0-pthread; do
-        dpkg -s "$pkg" >/dev/null 2>&1 || missing+=("$pkg")
-    done
+    apt_install libsuitesparse-dev libopenblas0-pthread \
+        || say "missing $APT_MISSING and no root/apt-get: CHOLMOD may be skipped (SuperLU fallback)"
 elif ! have_cholmod_headers; then
-    missing+=(libsuitesparse-dev)
-fi
-if [ ${#missing[@]} -gt 0 ]; then
-    if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then
-        say "installing ${missing[*]} with apt-get"
-        export DEBIAN_FRONTEND=noninteractive
-        apt-get update -qq >/dev/null
-        apt-get install -y -qq "${missing[@]}" >/dev/null
-    else
-        say "missing ${missing[*]} and no root/apt-get: CHOLMOD may be skipped (SuperLU fallback)"
-    fi
+    say "missing libsuitesparse-dev and no dpkg: CHOLMOD may be skipped (SuperLU fallback)"
 fi
 
 if [ ! -x .venv/bin/python ]; then

@@ -1,11 +1,17 @@
-"""``femcal solve DECK [--modes N] [--json FILE] [--out DIR] [--png DIR] [--gif DIR
-[--gif-modes N]] [--html FILE] [--pch FILE] [--uff FILE [--at SENSORS_CSV]]``: SOL 103 normal
-modes."""
+"""``femcal solve DECK [--modes N] [--backend lanczos|slepc] [--json FILE] [--out DIR]
+[--png DIR] [--gif DIR [--gif-modes N]] [--html FILE] [--pch FILE] [--uff FILE [--at
+SENSORS_CSV]]``: SOL 103 normal modes.
+
+With ``--backend slepc`` the command may run under ``mpirun -n N``: every rank reads the deck
+and takes part in the solution (:mod:`femcal.solve.slepc`); rank 0 alone prints, writes the
+files and reports an error the ranks share (the others end with the same status, silently).
+"""
 
 from __future__ import annotations
 
 import argparse
-import sys
+import warnings
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
@@ -13,9 +19,10 @@ from ..assembly import Options, assemble
 from ..assembly.weight import weight_summary, weight_table
 from ..atomic import write_lines
 from ..deck import read_deck
+from ..errors import FemcalError
 from ..io.modes import eigen_table, modes_json, write_json, write_npz, write_vtu
 from ..model.build import build_model
-from ..solve.normal_modes import solve_normal_modes
+from ..solve.normal_modes import Modes, solve_normal_modes
 from .console import Console
 from .paths import UsageError, output_folder, output_path
 
@@ -24,12 +31,20 @@ PUNCH_SUFFIXES = (".pch", ".punch")
 UFF_SUFFIXES = (".unv", ".uff")
 #: Suffixes of the page --html writes.
 HTML_SUFFIXES = (".html", ".htm")
+#: --backend choices: femcal's own eigensolver (block shift-invert Lanczos on CHOLMOD, dense
+#: below 600 DOF), or SLEPc under MPI (optional: make setup-slepc).
+BACKENDS = ("lanczos", "slepc")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("solve", help="normal modes (SOL 103) of a NASTRAN deck")
     p.add_argument("deck", type=Path, help="NASTRAN input file")
     p.add_argument("--modes", type=int, metavar="N", help="number of modes (overrides EIGRL ND)")
+    p.add_argument("--backend", choices=BACKENDS, default="lanczos",
+                   help="eigensolver: lanczos (default; femcal's shift-invert block Lanczos on "
+                   "CHOLMOD, dense for small models) or slepc (SLEPc Krylov-Schur on MUMPS, "
+                   "run it as `mpirun -n N .venv-slepc/bin/femcal solve --backend slepc ...`; "
+                   "installed by `make setup-slepc`)")  # fmt: skip
     p.add_argument("--json", type=Path, metavar="FILE", help="write the eigenvalue table as JSON")
     p.add_argument("--out", type=Path, metavar="DIR",
                    help="write modes.npz, modes.vtu (ParaView) and eigenvalues.txt")  # fmt: skip
@@ -62,7 +77,31 @@ def _sensor_grids(path: Path) -> list[int]:
 
 
 def run(args: argparse.Namespace) -> int:
-    progress = Console()  # Lanczos as a bar on a terminal; its last step closes it
+    if args.backend != "slepc":
+        return _run(args, root=True)
+    from ..solve.slepc import mpi_rank_and_size
+
+    rank, _ = mpi_rank_and_size()
+    if rank == 0:
+        return _run(args, root=True)
+    # the other ranks: the same work, silently (rank 0 says what they all would)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            return _run(args, root=False)
+        except FemcalError:
+            return 2
+
+
+def _silent(msg: str) -> None:
+    """The progress callback of the ranks other than 0."""
+
+
+def _run(args: argparse.Namespace, *, root: bool) -> int:
+    """The command; ``root``: this process prints and writes (False on MPI ranks other than
+    0, which only take part in the SLEPc solution)."""
+    # Lanczos as a bar on a terminal; its last step closes it
+    progress: Callable[[str], None] = Console() if root else _silent
     output_folder(args.out, "--out")
     output_folder(args.png, "--png")
     output_folder(args.gif, "--gif")
@@ -92,12 +131,23 @@ def run(args: argparse.Namespace) -> int:
     request = model.eigen.request()
     if args.modes is not None:
         if args.modes < 1:
-            print(f"femcal solve: --modes {args.modes}: expected a number of modes >= 1",
-                  file=sys.stderr)  # fmt: skip
-            return 2
+            raise UsageError(f"--modes {args.modes}: expected a number of modes >= 1")
         request = replace(request, nd=args.modes)
-    mats = assemble(model, Options())
-    modes, _ = solve_normal_modes(model, matrices=mats, request=request, progress=progress)
+    mats = None
+    if args.backend != "slepc" or model.params.grdpnt is not None:
+        mats = assemble(model, Options())
+    if args.backend == "slepc":
+        # without GRDPNT the backend assembles itself (each rank with its share of the
+        # cores) and frees the g-set matrices before the factorisation
+        from ..solve.slepc import solve_normal_modes_slepc
+
+        solved = solve_normal_modes_slepc(model, matrices=mats, request=request,
+                                          progress=progress)  # fmt: skip
+        if solved is None:  # not rank 0: nothing to print or write
+            return 0
+        modes: Modes = solved[0]
+    else:
+        modes, _ = solve_normal_modes(model, matrices=mats, request=request, progress=progress)
     progress(f"{len(modes.eigenvalues)} modes ({modes.backend})")
     table = list(eigen_table(modes))
     print("\n".join(table))
@@ -106,7 +156,7 @@ def run(args: argparse.Namespace) -> int:
         more = f" and {len(modes.autospc) - 12} more" if len(modes.autospc) > 12 else ""
         print(f"\nAUTOSPC fixed {len(modes.autospc)} DOF (grid:component): {shown}{more}")
     summary = modes_json(modes, model)
-    if model.params.grdpnt is not None:
+    if model.params.grdpnt is not None and mats is not None:
         ws = weight_summary(model, mats.M, model.params.grdpnt)
         print()
         print("\n".join(weight_table(ws)))

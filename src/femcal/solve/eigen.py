@@ -149,27 +149,7 @@ def solve_modes(
         When the roots asked for would not fit in memory.
     """
     n = K.shape[0]
-    if n == 0:
-        raise SolverError("the model has no free DOF after constraints")
-    check_finite(K, M)
-    if not np.any(M.diagonal() != 0):
-        raise SolverError("the model has no mass on its free DOF, so it has no normal modes: "
-                          "expected a density (MAT1 RHO ...), a non-structural mass or mass "
-                          "elements (CONM2, CMASS)")  # fmt: skip
-    if request.nd is not None and request.nd > n:
-        warnings.warn(FemcalWarning(f"ND = {request.nd} roots asked for, the model has {n} "
-                                    f"free DOF: {n} roots at most"), stacklevel=2)  # fmt: skip
-        request = replace(request, nd=n)
-    # below the spectrum; V1 filters the roots afterwards
-    sigma = default_shift(K, M) if shift_hz is None else -_to_lambda(shift_hz)
-    if not np.isfinite(sigma):
-        raise SolverError(f"the stiffness-to-mass ratios K_ii / M_ii (median "
-                          f"{problem_scale(K, M):g}) are beyond double precision: expected "
-                          "densities and masses in the deck's units")  # fmt: skip
-    lam_lo = -np.inf if request.v1 is None else _to_lambda(request.v1) * (1 - 1e-9)
-    lam_hi = np.inf if request.v2 is None else _to_lambda(request.v2) * (1 + 1e-9)
-    if request.nd is None and request.v2 is None:
-        raise SolverError("EIGRL needs ND or V2 (how many roots, or up to which frequency)")
+    request, sigma, lam_lo, lam_hi = shift_and_range(K, M, request, shift_hz=shift_hz)
     if method not in ("block", "arpack"):
         raise ValueError(f"method {method!r}: expected 'block' or 'arpack'")
     many = request.nd is not None and request.nd >= DENSE_SHARE * n and n <= DENSE_ALL_LIMIT
@@ -192,6 +172,45 @@ def solve_modes(
     gm = np.einsum("ik,ik->k", vec, M @ vec)
     gk = np.einsum("ik,ik->k", vec, K @ vec)
     return EigenResult(lam, vec, gm, gk, name)
+
+
+def shift_and_range(
+    K: sp.spmatrix, M: sp.spmatrix, request: EigenRequest, *, shift_hz: float | None = None
+) -> tuple[EigenRequest, float, float, float]:
+    """What every eigensolver backend checks and derives before solving: ``(request, sigma,
+    lam_lo, lam_hi)``, the request with ND capped at the DOF (with a :class:`FemcalWarning`),
+    the negative shift (:func:`default_shift`, or -(2 pi shift_hz)^2) and the eigenvalue
+    range of [V1, V2] (Hz), widened by 1e-9 so that a root on a bound is kept.
+
+    Raises
+    ------
+    SolverError
+        For no free DOF, no mass, entries or a shift beyond double precision, or a request
+        with neither ND nor V2.
+    """
+    n = K.shape[0]
+    if n == 0:
+        raise SolverError("the model has no free DOF after constraints")
+    check_finite(K, M)
+    if not np.any(M.diagonal() != 0):
+        raise SolverError("the model has no mass on its free DOF, so it has no normal modes: "
+                          "expected a density (MAT1 RHO ...), a non-structural mass or mass "
+                          "elements (CONM2, CMASS)")  # fmt: skip
+    if request.nd is not None and request.nd > n:
+        warnings.warn(FemcalWarning(f"ND = {request.nd} roots asked for, the model has {n} "
+                                    f"free DOF: {n} roots at most"), stacklevel=3)  # fmt: skip
+        request = replace(request, nd=n)
+    # below the spectrum; V1 filters the roots afterwards
+    sigma = default_shift(K, M) if shift_hz is None else -_to_lambda(shift_hz)
+    if not np.isfinite(sigma):
+        raise SolverError(f"the stiffness-to-mass ratios K_ii / M_ii (median "
+                          f"{problem_scale(K, M):g}) are beyond double precision: expected "
+                          "densities and masses in the deck's units")  # fmt: skip
+    lam_lo = -np.inf if request.v1 is None else _to_lambda(request.v1) * (1 - 1e-9)
+    lam_hi = np.inf if request.v2 is None else _to_lambda(request.v2) * (1 + 1e-9)
+    if request.nd is None and request.v2 is None:
+        raise SolverError("EIGRL needs ND or V2 (how many roots, or up to which frequency)")
+    return request, sigma, lam_lo, lam_hi
 
 
 def _arpack(K, M, sigma, solve, k):

@@ -8,6 +8,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
 
 from ..assembly import Matrices, Options, assemble
 from ..assembly.constraints import Reduction, autospc, build_reduction
@@ -84,11 +85,50 @@ def solve_normal_modes(
     SolverError
         For a mechanism, or an iteration that does not converge.
     """
+    problem = a_set_problem(model, matrices=matrices, request=request, progress=progress)
+    res: EigenResult = solve_modes(problem.K, problem.M, problem.request, progress=progress,
+                                   on_factor=on_factor)  # fmt: skip
+    return g_set_modes(model, problem.reduction, res), problem.reduction
+
+
+@dataclass(frozen=True)
+class ASetProblem:
+    """The eigenproblem SOL 103 solves: K_aa phi = lambda M_aa phi on the a-set.
+
+    Attributes
+    ----------
+    K, M : (n_a, n_a) CSR, the constrained (reduced) stiffness and mass.
+    reduction : u_g = T u_a, AUTOSPC applied.
+    request : which roots (the model's METHOD, or the caller's request).
+    """
+
+    K: sp.csr_matrix
+    M: sp.csr_matrix
+    reduction: Reduction
+    request: EigenRequest
+
+
+def a_set_problem(
+    model: Model,
+    *,
+    matrices: Matrices | None = None,
+    request: EigenRequest | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> ASetProblem:
+    """The a-set eigenproblem of a model, as :func:`solve_normal_modes` solves it: the model
+    checked, K and M assembled (unless given), constraints and AUTOSPC applied. Every
+    eigensolver backend starts from here, so that all of them solve the same problem.
+
+    Raises
+    ------
+    ModelError
+        As :func:`solve_normal_modes`.
+    """
     say = progress or (lambda s: None)
     if model.solution_number not in MODES_SOLUTIONS:
         warnings.warn(FemcalWarning(
             f"the deck asks for SOL {model.solution}, which femcal does not run: it is solved "
-            "as SOL 103 (normal modes)"), stacklevel=2)  # fmt: skip
+            "as SOL 103 (normal modes)"), stacklevel=3)  # fmt: skip
     if model.unsupported:
         raise ModelError("the deck uses features that change the SOL 103 answer and are not "
                          f"supported: {'; '.join(model.unsupported)} (femcal solves the full "
@@ -103,12 +143,15 @@ def solve_normal_modes(
     if len(red.autospc):
         K_aa, M_aa = red.reduce(mats.K), red.reduce(mats.M)
     say(f"a-set {len(red.a_dofs)} DOF; solving for modes")
-    res: EigenResult = solve_modes(K_aa, M_aa, req, progress=progress, on_factor=on_factor)
+    return ASetProblem(K_aa, M_aa, red, req)
+
+
+def g_set_modes(model: Model, red: Reduction, res: EigenResult) -> Modes:
+    """:class:`Modes` on the g-set from an a-set eigensolution (any backend's)."""
     shapes = red.expand(res.vectors)
     node, comp = model.dof_owner(red.autospc)
-    modes = Modes(
+    return Modes(
         res.eigenvalues, res.generalized_mass, res.generalized_stiffness, np.asarray(shapes),
         model.node_ids, model.dof_start, model.is_grid,
         np.column_stack([model.node_ids[node], comp]), len(red.a_dofs), res.backend,
     )  # fmt: skip
-    return modes, red
