@@ -171,6 +171,14 @@ def solve_modes(
         vec = vec / np.sqrt(np.where(gm > 0, gm, 1.0))
     gm = np.einsum("ik,ik->k", vec, M @ vec)
     gk = np.einsum("ik,ik->k", vec, K @ vec)
+    if name != "dense":
+        # the vectors' Rayleigh quotients, not the Lanczos Ritz values: these carry the
+        # rounding of every solve with the factor of K - sigma M (on a 1 M DOF plate the
+        # lowest is 1.7e-7 from the 80-bit quotient of its vector), the quotients only the
+        # vectors' error squared and the rounding of two products
+        lam = gk / gm
+        order = np.argsort(lam, kind="stable")
+        lam, vec, gm, gk = lam[order], vec[:, order], gm[order], gk[order]
     return EigenResult(lam, vec, gm, gk, name)
 
 
