@@ -157,3 +157,78 @@ def test_points_solved_side_by_side_give_the_same_study(study, kind):
     assert [t.modes for t in res.tracks] == [t.modes for t in serial.tracks]
     for a, b in zip(res.tracks, serial.tracks, strict=True):
         np.testing.assert_allclose(a.mac, b.mac, rtol=1e-7)
+
+
+def _plate_deck(nx: int = 8, ny: int = 4) -> str:
+    """A cantilever plate (mm, tonne, s) of two halves, each with its own PSHELL and MAT1 (both
+    steel), clamped along x = 0; fixed-field cards, so the edits must keep the columns."""
+    lines = ["SOL 103", "CEND", "METHOD = 1", "SPC = 1", "BEGIN BULK",
+             "EIGRL   1                       8",
+             "MAT1    1       210000.         .3      7.85-9",
+             "MAT1    2       210000.         .3      7.85-9",
+             "PSHELL  1       1       4.      1               1",
+             "PSHELL  2       2       4.      2               2"]  # fmt: skip
+    gid = lambda i, j: 1 + i + (nx + 1) * j  # noqa: E731
+    for j in range(ny + 1):
+        for i in range(nx + 1):
+            lines.append(f"GRID,{gid(i, j)},,{50.0 * i!r},{40.0 * j!r},0.")
+    for j in range(ny):
+        for i in range(nx):
+            lines.append(f"CQUAD4,{1 + i + nx * j},{1 if i < nx // 2 else 2},{gid(i, j)},"
+                         f"{gid(i + 1, j)},{gid(i + 1, j + 1)},{gid(i, j + 1)}")  # fmt: skip
+    lines.append("SPC1,1,123456," + ",".join(str(gid(0, j)) for j in range(ny + 1)))
+    return "\n".join([*lines, "ENDDATA"]) + "\n"
+
+
+def _deck_study(tmp_path, **variable) -> dict:
+    (tmp_path / "plate.bdf").write_text(_plate_deck())
+    var = {"name": "E", "unit": "MPa", "fields": [["MAT1", 1, "E"], ["MAT1", 2, "E"]],
+           "values": [210000.0, 105000.0]} | variable  # fmt: skip
+    return {"model": {"deck": "plate.bdf"}, "variable": [var], "solve": {"modes": 6},
+            "pairing": {"min_mac": 0.9}}
+
+
+def test_a_deck_whose_fields_are_the_variable(tmp_path):
+    """A deck as the template: both materials' E set to each value, in the deck's own text.
+    Halving E halves every stiffness (membrane, bending, shear, drilling) and leaves the mass:
+    every frequency falls by sqrt(2) exactly, the shapes stay, and the tracks pair mode k to
+    mode k."""
+    cfg = study_config(_deck_study(tmp_path), "s.toml", tmp_path)
+    assert cfg.deck == tmp_path / "plate.bdf" and cfg.unit == "MPa" and cfg.source == "plate.bdf"
+    res = run_study(cfg)
+    a, b = res.points
+    assert len(res.tracks) == 6 and a.n_dof == b.n_dof
+    np.testing.assert_allclose(a.frequencies / b.frequencies, np.sqrt(2.0), rtol=1e-9)
+    for k, t in enumerate(res.tracks):
+        assert t.modes == [k, k] and t.mac[1] > 1 - 1e-9
+    paths = write_study(res, tmp_path / "out")
+    assert json.loads(paths[1].read_text())["config"]["deck"] == str(tmp_path / "plate.bdf")
+    # one field alone: the half with the softer material moves the modes less than sqrt(2)
+    one = run_study(study_config(_deck_study(tmp_path, fields=[["MAT1", 2, "E"]]), "s.toml",
+                                 tmp_path))  # fmt: skip
+    ratio = one.points[0].frequencies / one.points[1].frequencies
+    assert np.all(ratio > 1.0) and np.all(ratio < np.sqrt(2.0) - 1e-3)
+
+
+@pytest.mark.parametrize(("variable", "message"), [
+    ({"fields": [["MAT1", 9, "E"]]}, "variable.values: E = 210000: "),
+    ({"fields": [["MAT1", 1]]}, "variable.fields: expected a list of [card, id, field]"),
+    ({"name": ""}, "variable.name: expected a name for the variable"),
+])  # fmt: skip
+def test_deck_study_errors_named(tmp_path, variable, message):
+    with pytest.raises(ConfigError) as e:
+        study_config(_deck_study(tmp_path, **variable), "s.toml", tmp_path)
+    assert str(e.value).startswith(f"s.toml: {message}"), str(e.value)
+    if "MAT1" in str(variable) and "9" in str(variable):
+        assert "MAT1 9" in str(e.value), str(e.value)
+
+
+def test_deck_or_generator_not_both(tmp_path):
+    data = _deck_study(tmp_path)
+    data["model"]["generator"] = "truck-frame"
+    with pytest.raises(ConfigError, match=r"give a generator .* or a deck, not both"):
+        study_config(data, "s.toml", tmp_path)
+    data = _deck_study(tmp_path)
+    data["model"]["deck"] = "nope.bdf"
+    with pytest.raises(ConfigError, match=r"model\.deck: no such file"):
+        study_config(data, "s.toml", tmp_path)

@@ -1,6 +1,7 @@
-"""A design study (``femcal study``): a model generator run over a set of values of a design
-variable, each point solved for its normal modes, the modes tracked across the points by MAC,
-and the frequencies written as a table and a plot against the variable.
+"""A design study (``femcal study``): a model generator, or a deck as a template, run over a
+set of values of a design variable, each point solved for its normal modes, the modes tracked
+across the points by MAC, and the frequencies written as a table and a plot against the
+variable.
 
 The configuration (TOML)::
 
@@ -16,11 +17,29 @@ The configuration (TOML)::
     min_mac = 0.8
     reference = 0                  # the point (0-based) whose modes are tracked
 
+or, with a deck of one's own as the template::
+
+    [model]
+    deck = "frame.bdf"             # relative to the configuration file
+    [[variable]]
+    name = "t_rail"
+    unit = "mm"
+    fields = [["PSHELL", 1, "T"], ["PSHELL", 9, "T"]]   # (card, id, field): each set to the value
+    values = [8.0, 7.2, 6.4]
+
+Each point of a deck study is the deck's own text with those fields changed
+(:mod:`femcal.deck.edit`: in each card's format, its INCLUDEs kept resolving), read back and
+solved; every value is tried on the fields when the configuration is read, so a card or field
+missing from the deck, or a value that does not fit its field, is named (file, card, id,
+field) before any solve. A field may be any real field the deck's card layouts name (a
+thickness, a modulus, an area, a spring rate, a mass, a grid coordinate).
+
 **Common stations.** The generator puts grid lines at the cross members, so the meshes of
 two points differ. Shapes are compared at a fixed set of stations the generator names (the
 truck frame: the two rails' top-flange centre lines every :data:`STATION_STEP` mm), each
 point's nearest grid to each station standing for it; the translations there, in the basic
-frame, are the shape vector MAC is computed on.
+frame, are the shape vector MAC is computed on. A deck study's points share the deck's
+grids: shapes are compared at all of them.
 
 **Elastic modes.** Modes below ``rigid_below`` Hz (default :data:`RIGID_BELOW`: the frame's
 six suspension modes on its soft bellows are at 1-4 Hz) are left out; so is anything below the
@@ -189,9 +208,11 @@ GENERATORS: dict[str, Generator] = {
 
 @dataclass(frozen=True)
 class StudyConfig:
-    """A design study: ``generator`` (of :data:`GENERATORS`) and its ``variant``; the design
-    variable ``variable`` (its ``unit``) and its ``values``; ``band`` (Hz) or ``n_modes``;
-    ``min_mac`` and ``reference`` (0-based index into ``values``); ``rigid_below`` (Hz)."""
+    """A design study: ``generator`` (of :data:`GENERATORS`) and its ``variant``, or a
+    ``deck`` whose ``fields`` ((card, id, field name), each set to the variable's value) are
+    the design variable; the variable ``variable`` (its ``unit``) and its ``values``;
+    ``band`` (Hz) or ``n_modes``; ``min_mac`` and ``reference`` (0-based index into
+    ``values``); ``rigid_below`` (Hz)."""
 
     generator: str
     variant: str
@@ -203,11 +224,53 @@ class StudyConfig:
     min_mac: float = 0.8
     reference: int = 0
     rigid_below: float = RIGID_BELOW
+    deck: Path | None = None
+    fields: tuple[tuple[str, int, str], ...] = ()
+
+    @property
+    def source(self) -> str:
+        """What is studied, for titles: the deck's name, or the generator and variant."""
+        return self.deck.name if self.deck is not None else f"{self.generator} ({self.variant})"
 
 
-def study_config(data: dict, where: str = "study") -> StudyConfig:
+def _deck_edits(cfg_fields: Sequence[tuple[str, int, str]], name: str,
+                value: float) -> list:  # fmt: skip
+    from ..deck.edit import FieldEdit
+
+    return [FieldEdit(card, ident, field, value, note=name) for card, ident, field in cfg_fields]
+
+
+def _deck_fields(var: dict, bad: Callable[[str, str], ConfigError]) -> tuple:
+    """A deck study's ``fields``: a non-empty list of [card, id, field] (e.g. ["PSHELL",
+    7, "T"])."""
+    fields = var.get("fields")
+    ok = isinstance(fields, list) and fields and all(
+        isinstance(f, list) and len(f) == 3 and isinstance(f[0], str)
+        and isinstance(f[1], int) and not isinstance(f[1], bool) and isinstance(f[2], str)
+        for f in fields)  # fmt: skip
+    if not ok:
+        raise bad("variable.fields", f"expected a list of [card, id, field], e.g. "
+                  f"[[\"PSHELL\", 7, \"T\"]], got {fields!r}")  # fmt: skip
+    return tuple((f[0].upper(), int(f[1]), f[2].upper()) for f in fields)
+
+
+def _deck_check(deck: Path, fields: tuple, name: str, value: float) -> str:
+    """Why the deck's ``fields`` cannot take ``value`` ("" if they can): a card or field
+    not in the deck, or a value that does not fit its field (file:line, card, id, field)."""
+    from ..deck.edit import edit_deck
+    from ..errors import FemcalError
+
+    try:
+        edit_deck(deck, _deck_edits(fields, name, value))
+    except FemcalError as e:
+        return str(e)
+    return ""
+
+
+def study_config(data: dict, where: str = "study", folder: str | Path = ".") -> StudyConfig:
     """A :class:`StudyConfig` from parsed TOML; :class:`ConfigError` naming the key that is
-    wrong (``where``: the file's name for the messages)."""
+    wrong (``where``: the file's name for the messages; ``folder``: where a ``deck`` path is
+    relative to)."""
 
     def bad(key: str, text: str) -> ConfigError:
         return ConfigError(f"{where}: {key}: {text}")
@@ -223,15 +286,26 @@ def study_config(data: dict, where: str = "study") -> StudyConfig:
         if k not in known:
             raise bad(k, f"unknown section; expected one of {', '.join(sorted(known))}")
     model = table("model")
-    gen_name = model.get("generator")
-    if gen_name not in GENERATORS:
-        raise bad("model.generator", f"unknown generator {gen_name!r}; expected one of "
-                  f"{', '.join(repr(g) for g in GENERATORS)}")  # fmt: skip
-    gen = GENERATORS[gen_name]
-    variant = model.get("variant", gen.variants[0])
-    if variant not in gen.variants:
-        raise bad("model.variant", f"unknown {gen_name} variant {variant!r}; expected one of "
-                  f"{', '.join(repr(v) for v in gen.variants)}")  # fmt: skip
+    deck: Path | None = None
+    if "deck" in model:
+        if "generator" in model or "variant" in model:
+            raise bad("model", "give a generator (and its variant) or a deck, not both")
+        if not isinstance(model["deck"], str):
+            raise bad("model.deck", f"expected a file name, got {model['deck']!r}")
+        deck = Path(folder) / model["deck"]
+        if not deck.is_file():
+            raise bad("model.deck", f"no such file: {deck}")
+        gen_name, variant = "", ""
+    else:
+        gen_name = model.get("generator")
+        if gen_name not in GENERATORS:
+            raise bad("model.generator", f"unknown generator {gen_name!r}; expected one of "
+                      f"{', '.join(repr(g) for g in GENERATORS)}, or a deck")  # fmt: skip
+        gen = GENERATORS[gen_name]
+        variant = model.get("variant", gen.variants[0])
+        if variant not in gen.variants:
+            raise bad("model.variant", f"unknown {gen_name} variant {variant!r}; expected one "
+                      f"of {', '.join(repr(v) for v in gen.variants)}")  # fmt: skip
     variables = data.get("variable")
     if not isinstance(variables, list) or not variables:
         raise bad("variable", "expected one [[variable]] table (name, values)")
@@ -241,9 +315,19 @@ def study_config(data: dict, where: str = "study") -> StudyConfig:
     if not isinstance(var, dict):
         raise bad("variable", "expected a [[variable]] table (name, values)")
     name = var.get("name")
-    if name not in gen.variables:
+    fields: tuple = ()
+    if deck is not None:
+        if not isinstance(name, str) or not name.strip():
+            raise bad("variable.name", f"expected a name for the variable, got {name!r}")
+        unit = var.get("unit", "")
+        if not isinstance(unit, str):
+            raise bad("variable.unit", f"expected a unit name, got {unit!r}")
+        fields = _deck_fields(var, bad)
+    elif name not in gen.variables:
         raise bad("variable.name", f"unknown {gen_name} variable {name!r}; expected one of "
                   f"{', '.join(gen.variables)}")  # fmt: skip
+    else:
+        unit = gen.variables[name][0]
     values = var.get("values")
     if not isinstance(values, list) or not values:
         raise bad("variable.values", f"expected a non-empty list of numbers for {name}")
@@ -251,7 +335,8 @@ def study_config(data: dict, where: str = "study") -> StudyConfig:
         raise bad("variable.values", f"expected numbers, got {values!r}")
     values = tuple(float(v) for v in values)
     for v in values:
-        why = gen.check(variant, name, v)
+        why = (_deck_check(deck, fields, name, v) if deck is not None
+               else gen.check(variant, name, v))  # fmt: skip
         if why:
             raise bad("variable.values", f"{name} = {v:g}: {why}")
     if len(set(values)) != len(values):
@@ -282,8 +367,8 @@ def study_config(data: dict, where: str = "study") -> StudyConfig:
     if not (isinstance(ref, int) and not isinstance(ref, bool) and 0 <= ref < len(values)):
         raise bad("pairing.reference", f"expected a point index 0 to {len(values) - 1}, got "
                   f"{ref!r}")  # fmt: skip
-    return StudyConfig(gen_name, variant, name, values, gen.variables[name][0], band, n_modes,
-                       float(min_mac), ref, float(rigid_below))  # fmt: skip
+    return StudyConfig(gen_name, variant, name, values, unit, band, n_modes, float(min_mac),
+                       ref, float(rigid_below), deck, fields)  # fmt: skip
 
 
 def read_study_config(path: str | Path) -> StudyConfig:
@@ -293,7 +378,7 @@ def read_study_config(path: str | Path) -> StudyConfig:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as e:
         raise ConfigError(f"{path}: not valid TOML: {e}") from None
-    return study_config(data, str(path))
+    return study_config(data, str(path), path.parent)
 
 
 # ----------------------------------------------------------------------------- the run
@@ -345,6 +430,12 @@ def _station_shapes(model: Model, modes, stations: np.ndarray, keep: np.ndarray)
     grid = np.nonzero(model.is_grid)[0]
     xyz = model.xyz[grid]
     near = np.array([grid[np.argmin(np.linalg.norm(xyz - s, axis=1))] for s in stations])
+    return _translations(model, modes, near, keep)
+
+
+def _translations(model: Model, modes, near: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    """Translations (basic frame) of modes ``keep`` at the nodes ``near`` (indices):
+    (3 n, k)."""
     frames = model.cd_frames[near]  # (n, 3, 3): columns are the CD axes in basic
     dof = model.dof_start[near][:, None] + np.arange(3)
     u = modes.shapes[dof][:, :, keep]  # (n, 3, k) in CD frames
@@ -357,13 +448,34 @@ def solve_point(cfg: StudyConfig, value: float) -> Point:
     from ..solve.normal_modes import solve_normal_modes
 
     t0 = time.perf_counter()
-    model, stations = GENERATORS[cfg.generator].build(cfg.variant, {cfg.variable: value})
+    if cfg.deck is not None:
+        model = _deck_point(cfg, value)
+    else:
+        model, stations = GENERATORS[cfg.generator].build(cfg.variant, {cfg.variable: value})
     modes, _ = solve_normal_modes(model, request=_request(cfg))
     hz = modes.frequencies_hz
     lo = max(cfg.rigid_below, cfg.band[0] if cfg.band else 0.0)
     keep = np.nonzero(hz >= lo)[0]
-    shapes = _station_shapes(model, modes, stations, keep)
+    if cfg.deck is not None:  # the same grids at every point: compare at all of them
+        grids = np.nonzero(model.is_grid)[0]
+        shapes = _translations(model, modes, grids[np.argsort(model.node_ids[grids])], keep)
+    else:
+        shapes = _station_shapes(model, modes, stations, keep)
     return Point(value, hz[keep].copy(), shapes, model.n_dof, time.perf_counter() - t0)
+
+
+def _deck_point(cfg: StudyConfig, value: float) -> Model:
+    """The study's deck with its fields set to ``value``: the deck's own text with those
+    fields changed (:mod:`femcal.deck.edit`), written to a temporary folder (its INCLUDEs
+    kept resolving) and read back."""
+    from ..deck.edit import edit_deck, write_edited_deck
+    from ..model.build import load_model
+
+    assert cfg.deck is not None
+    edited = edit_deck(cfg.deck, _deck_edits(cfg.fields, cfg.variable, value))
+    with tempfile.TemporaryDirectory(prefix="femcal-study-") as tmp:
+        deck = write_edited_deck(edited, Path(tmp) / cfg.deck.name, tag="study")[0]
+        return load_model(deck)
 
 
 def _tracked(cfg: StudyConfig, ref: Point) -> np.ndarray:
@@ -469,7 +581,7 @@ def _json_value(x: float) -> float | None:
 def result_json(res: StudyResult) -> dict:
     cfg = res.config
     return {
-        "config": asdict(cfg),
+        "config": {**asdict(cfg), "deck": str(cfg.deck) if cfg.deck is not None else None},
         "points": [{"value": p.value, "n_dof": p.n_dof, "seconds": round(p.seconds, 3),
                     "elastic_frequencies_hz": [float(f) for f in p.frequencies],
                     "untracked": u}
@@ -495,8 +607,7 @@ def plot_frequencies(res: StudyResult, path: Path) -> Path:
     unit = f" ({cfg.unit})" if cfg.unit else ""
     ax.set_xlabel(f"{cfg.variable}{unit}")
     ax.set_ylabel("frequency (Hz)")
-    ax.set_title(f"{cfg.generator} ({cfg.variant}): elastic modes, tracked by MAC >= "
-                 f"{cfg.min_mac:g}")  # fmt: skip
+    ax.set_title(f"{cfg.source}: elastic modes, tracked by MAC >= {cfg.min_mac:g}")
     ax.grid(True, alpha=0.3)
     if res.tracks:
         ax.legend(fontsize="small", loc="best")
