@@ -150,7 +150,13 @@ def test_the_shipped_rig_test_is_what_its_command_makes():
                           truth_path=FRAME / "hammer_test.truth.toml")  # fmt: skip
     assert shipped.names == again.data.names and shipped.units == again.data.units
     step = np.abs(again.data.values).max(axis=1, keepdims=True) / 32767  # 16-bit storage
-    assert (np.abs(shipped.values - again.data.values) <= 0.5 * step * (1 + 1e-6)).all()
+    # each sample rounds to the code nearest the simulation; a simulation that differs in
+    # the last digits (another BLAS, the eigensolver's rounding) may put a sample that lay
+    # half-way onto the neighbouring code: within one code always, within half of it nearly
+    # always
+    off = np.abs(shipped.values - again.data.values)
+    assert (off <= step * (1 + 1e-6)).all()
+    assert (off <= 0.5 * step * (1 + 1e-6)).mean() > 0.9999
     assert made["support_x_mm"] == again.support_x
     # its H1 FRFs are the hidden frame's where the coherence is high
     from femcal.testdata.estimate import FRFSettings, estimate_frfs
