@@ -182,3 +182,53 @@ def test_the_parts_of_an_identification_on_the_cluster():
     assert len(there.parts) == 3
     np.testing.assert_allclose(there.frequency_hz, here.frequency_hz, rtol=1e-9)
     np.testing.assert_allclose(there.damping_ratio, here.damping_ratio, rtol=1e-6)
+
+
+def _die() -> None:
+    os.kill(os.getpid(), signal.SIGKILL)  # as the system's out-of-memory killer would
+
+
+def _fail() -> None:
+    raise ValueError("the task's own error")
+
+
+def _sleep(seconds: float) -> float:
+    time.sleep(seconds)
+    return seconds
+
+
+def test_a_lost_local_worker_is_one_line():
+    """A local worker process killed mid-task: a ResourceError that says what was lost and
+    what is kept, not the pool's BrokenProcessPool."""
+    from femcal.errors import ResourceError
+    from femcal.parallel.cluster import result_of
+
+    with Engine("local", workers=2).open() as pool:
+        job = pool.submit(_die)
+        with pytest.raises(ResourceError, match=r"a worker process ended without the result "
+                                                r"of a test task .*; nothing else lost"):
+            result_of(job, "a test task", "nothing else lost")
+
+
+def test_dask_failures_are_one_line_and_dask_prints_nothing(capfd):
+    """On a Dask LocalCluster: a task's own error comes back as it is, and neither the
+    worker nor the client prints Dask's log of it; a cluster that goes away mid-task is a
+    one-line FemcalError."""
+    from femcal.errors import FemcalError
+    from femcal.parallel.cluster import DaskExecutor, result_of
+
+    with DaskExecutor.start(1) as pool:
+        with pytest.raises(ValueError, match="the task's own error"):
+            result_of(pool.submit(_fail), "a test task")
+    err = capfd.readouterr().err
+    assert "distributed" not in err and "Traceback" not in err, err
+    pool = DaskExecutor.start(1)
+    try:
+        job = pool.submit(_sleep, 30.0)
+        time.sleep(1.0)
+        pool.cluster.close()
+        with pytest.raises(FemcalError, match="a test task was cancelled|connection to the "
+                                              "Dask cluster was lost"):  # fmt: skip
+            result_of(job, "a test task")
+    finally:
+        pool.shutdown(wait=False, cancel_futures=True)

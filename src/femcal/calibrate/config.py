@@ -52,11 +52,12 @@
     starts = 8                              # Latin hypercube starts (the nominal is one;
                                             #  1 to 10000)
     workers = 2                             # parallel processes for the starts (1 to 256)
-    engine = "local"                        # or "dask": the starts, and the surrogates of
-                                            #  several configurations, run on a Dask
-                                            #  LocalCluster of `workers` processes, or on
-    scheduler = ""                          #  the running Dask scheduler at this address
-                                            #  (tcp://host:port; engine "dask" only)
+    engine = "local"                        # or "dask": the starts, the surrogates of
+                                            #  several configurations and the identification
+                                            #  parts run on a Dask LocalCluster of `workers`
+                                            #  processes, or on the scheduler below
+    scheduler = ""                          # a running Dask scheduler (tcp://host:port;
+                                            #  engine "dask" only)
     seed = 1                                # >= 0
     max_iterations = 30                     # per start and cycle
     max_cycles = 5                          # surrogates built (the first at the nominal);
@@ -141,7 +142,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import ConfigError
-from ..parallel.cluster import ENGINES
+from ..parallel.cluster import ENGINES, EngineKind
 from .metric import METRICS
 
 #: The hold-out validation's kinds (femcal.calibrate.holdout).
@@ -211,7 +212,7 @@ class Config:
     exact_gradient: bool = True
     starts: int = 8
     workers: int = 2
-    engine: str = "local"
+    engine: EngineKind = "local"
     scheduler: str | None = None
     seed: int = 1
     max_iterations: int = 30

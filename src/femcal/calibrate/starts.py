@@ -8,7 +8,6 @@ import queue as queue_mod
 import time
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, wait
-from concurrent.futures.process import BrokenProcessPool
 from contextlib import nullcontext
 from pathlib import Path
 
@@ -16,9 +15,8 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from ..atomic import write_atomic
-from ..errors import FemcalError
 from ..parallel import executor, message_queue
-from ..parallel.cluster import Engine, Session, killed_worker_error, share
+from ..parallel.cluster import Engine, Session, result_of, share
 from ..parallel.progress import Detail, Step
 from .lm import levenberg_marquardt
 from .problem import Problem
@@ -77,6 +75,11 @@ def _finished(folder: Path, k: int, p0: np.ndarray, fingerprint: str) -> StartRe
         return None
 
 
+def kept(finished: int) -> str:
+    """What an engine's failure leaves of a search: the finished starts, for a resume."""
+    return f"the {finished} starts finished are kept: run again to resume"
+
+
 def run_starts(problem: Problem, starts: list[np.ndarray], *, workers: int = 1,
                engine: Engine | None = None, session: Session | None = None,
                folder: Path | None = None,
@@ -108,8 +111,8 @@ def run_starts(problem: Problem, starts: list[np.ndarray], *, workers: int = 1,
     ------
     FemcalError
         When a local worker process ends without its result (killed from outside, or for
-        want of memory), or a start's Dask workers died more often than the scheduler
-        allows.
+        want of memory), a start's Dask workers died more often than the scheduler allows,
+        or the Dask scheduler went away (:func:`~femcal.parallel.cluster.result_of`).
     """
     say = progress or (lambda _m: None)
     results: dict[int, StartResult] = {}
@@ -147,13 +150,7 @@ def run_starts(problem: Problem, starts: list[np.ndarray], *, workers: int = 1,
             while pending:
                 done, pending = wait(pending, return_when=FIRST_COMPLETED)
                 for fut in done:
-                    try:
-                        keep(fut.result())
-                    except killed_worker_error() as e:
-                        raise FemcalError(
-                            f"a Levenberg-Marquardt start failed on every Dask worker that "
-                            f"took it ({e}); the {len(results)} starts finished are kept: "
-                            "run again to resume") from None  # fmt: skip
+                    keep(result_of(fut, "a Levenberg-Marquardt start", kept(len(results))))
     elif engine.workers <= 1 or len(todo) <= 1:
         for k in todo:
             def report(s, it, cost, k=k):
@@ -177,13 +174,7 @@ def run_starts(problem: Problem, starts: list[np.ndarray], *, workers: int = 1,
                     say(Detail(f"start {s + 1}/{len(starts)} iteration {it}: deviation "
                                f"{dev:.5g}"))  # fmt: skip
                 for fut in done:
-                    try:
-                        res = fut.result()
-                    except BrokenProcessPool:
-                        raise FemcalError(
-                            "a worker process of the Levenberg-Marquardt starts ended without "
-                            "its result (killed from outside, or by the system for want of "
-                            f"memory); the {len(results)} starts finished are kept: run again "
-                            "to resume, with fewer workers if memory is short") from None
-                    keep(res)
+                    keep(result_of(fut, "a Levenberg-Marquardt start",
+                                   kept(len(results)) + ", with fewer workers if memory is "
+                                   "short"))  # fmt: skip
     return [results[k] for k in range(len(starts))]

@@ -62,7 +62,7 @@ from ..atomic import write_atomic
 from ..correlate import mac, pair_modes, pseudo_orthogonality, serep_mass
 from ..identify import IdentifiedModel
 from ..model.model import Model
-from ..parallel.cluster import Engine, Session
+from ..parallel.cluster import Engine, Session, result_of
 from ..parallel.progress import Detail
 from ..response.frf import channel_matrix
 from ..testdata.data import FRFData
@@ -239,7 +239,9 @@ def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
         configuration's (at least 1).
     engine : where the starts (and the surrogates of several configurations) run; default
         the configuration's ``engine``, ``scheduler`` and ``workers``
-        (:class:`~femcal.parallel.cluster.Engine`). The result does not depend on it.
+        (:class:`~femcal.parallel.cluster.Engine`). The starts give the same numbers on
+        every engine; surrogates built on a Dask worker (one BLAS thread) differ from those
+        built here in the last digits.
     session : an engine already open (a job's, :class:`~femcal.parallel.cluster.Session`):
         used, and left open, in place of ``engine``.
     sources : the other files the run was read from (parameter, test, sensor and input
@@ -341,7 +343,9 @@ def _calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *, truth: np.nda
                                         *rest, kwargs))  # fmt: skip
             say(f"surrogates of {len(cases)} configurations building on "
                 f"{session.engine.describe()}")  # fmt: skip
-            built = [surrogate_at(k, p, job.result()) for k, job in enumerate(jobs)]
+            built = [surrogate_at(k, p, result_of(job, f"the surrogate of configuration "
+                                                       f"{cases[k].name}"))
+                     for k, job in enumerate(jobs)]  # fmt: skip
         else:
             built = [surrogate_at(k, p) for k in range(len(cases))]
         return [b[0] for b in built], [b[1] for b in built]

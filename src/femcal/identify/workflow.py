@@ -38,6 +38,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..parallel.cluster import result_of
 from ..response.statespace import StateSpace, frequency_response, poles_to_modal
 from ..testdata.data import Channel, FRFData, FRFError
 from .channels import consistency_error, outliers
@@ -303,8 +304,8 @@ def identify(data: FRFData, band: tuple[float, float], *,
         ``settings.max_order``).
     progress : called with a line of text per step.
     pool : an executor (e.g. a Dask cluster's, :mod:`femcal.parallel.cluster`) on which the
-        parts are identified side by side; None: one after another here. The result does
-        not depend on it.
+        parts are identified side by side; None: one after another here. A worker's BLAS
+        may round differently from this process's: the poles agree to the last digits.
 
     Raises
     ------
@@ -416,7 +417,8 @@ def _identify_pass(data: FRFData, f: np.ndarray, Hs: np.ndarray, so: np.ndarray,
     args = [(f[ps], Hu[:, :, ps], a, b, n, s) for (a, b, n), ps in zip(bands, masks, strict=True)]
     if pool is not None and len(bands) > 1:  # the parts are independent: side by side
         jobs = [pool.submit(_identify_part, *x) for x in args]
-        done = (job.result() for job in jobs)
+        done = (result_of(job, f"the identification of part {a:g}-{b:g} Hz")
+                for job, (a, b, _) in zip(jobs, bands, strict=True))  # fmt: skip
     else:
         done = (_identify_part(*x) for x in args)
     for (a, b, n), (n_use, lam, diagram) in zip(bands, done, strict=True):

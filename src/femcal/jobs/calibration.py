@@ -162,9 +162,10 @@ def _run(cfg: Config, out: Path, inputs: Inputs, session: Session, *, fresh: boo
     several = len(cfg.configurations) > 1
     pool = None
     if session.engine.kind == "dask":
-        say(f"the identification's parts and the calibration's starts run on "
-            f"{session.engine.describe()}")  # fmt: skip
-        pool = session.pool()
+        parts = any(c.identify is not None for c in cfg.configurations)
+        say(f"{'the identification parts and ' if parts else ''}the calibration's starts "
+            f"run on {session.engine.describe()}")  # fmt: skip
+        pool = session.pool() if parts else None
     models, per_config, truth = inputs.models, inputs.parameters, inputs.truth
     setups = []
     for conf, model, params in zip(cfg.configurations, models, per_config, strict=True):

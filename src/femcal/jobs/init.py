@@ -929,8 +929,8 @@ def config_text(proposal: Proposal, folder: str | os.PathLike[str], parameters: 
              "--workers N` overrides it."),
         *key("engine", '"local"', "Where the starts run: \"local\", this machine's "
              "processes (the default), or \"dask\", a Dask LocalCluster of `workers` "
-             "processes or the scheduler below; the result is the same. `femcal calibrate "
-             "--engine dask` overrides it."),
+             "processes or the scheduler below; every start gives the same numbers on "
+             "either. `femcal calibrate --engine dask` overrides it."),
         *_comment("A running Dask scheduler to run the starts on (with engine = \"dask\"; "
                   "`femcal calibrate --scheduler ADDRESS` gives it on the command line)."),
         '# scheduler = "tcp://localhost:8786"',

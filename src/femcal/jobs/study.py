@@ -76,10 +76,10 @@ import numpy as np
 
 from ..atomic import write_atomic, write_lines
 from ..correlate.shapes import pair_modes
-from ..errors import ConfigError, FemcalError
+from ..errors import ConfigError
 from ..model.analysis import EigenRequest
 from ..model.model import Model
-from ..parallel.cluster import Engine, killed_worker_error, one_blas_thread
+from ..parallel.cluster import Engine, one_blas_thread, result_of
 from ..parallel.progress import Progress, Step
 
 __all__ = [
@@ -292,7 +292,7 @@ def study_config(data: dict, where: str = "study", folder: str | Path = ".") -> 
             raise bad("model", "give a generator (and its variant) or a deck, not both")
         if not isinstance(model["deck"], str):
             raise bad("model.deck", f"expected a file name, got {model['deck']!r}")
-        deck = Path(folder) / model["deck"]
+        deck = (Path(folder) / model["deck"]).resolve()
         if not deck.is_file():
             raise bad("model.deck", f"no such file: {deck}")
         gen_name, variant = "", ""
@@ -519,7 +519,9 @@ def run_study(cfg: StudyConfig, *, engine: Engine | None = None,
     Raises
     ------
     FemcalError
-        When a point's Dask workers died more often than the scheduler allows.
+        When a point's worker process ended without its result, its Dask workers died more
+        often than the scheduler allows, or the scheduler went away
+        (:func:`~femcal.parallel.cluster.result_of`).
     """
     say = progress or (lambda s: None)
     t0 = time.perf_counter()
@@ -533,16 +535,14 @@ def run_study(cfg: StudyConfig, *, engine: Engine | None = None,
                  f"modes, {pt.n_dof} DOF, {pt.seconds:.1f} s", task=task, done=len(solved),
                  total=len(cfg.values)))  # fmt: skip
 
-    if engine.parallel and len(cfg.values) > 1:
+    if engine.kind == "dask" or (engine.parallel and len(cfg.values) > 1):
         with engine.open() as pool:
             jobs = {pool.submit(one_blas_thread, solve_point, cfg, v): i
                     for i, v in enumerate(cfg.values)}  # fmt: skip
             for job in as_completed(jobs):
-                try:
-                    keep(jobs[job], job.result())
-                except killed_worker_error() as e:
-                    raise FemcalError(f"a point of the study failed on every Dask worker "
-                                      f"that took it ({e})") from None  # fmt: skip
+                i = jobs[job]
+                keep(i, result_of(job, f"the study's point {cfg.variable} = "
+                                       f"{cfg.values[i]:g}"))  # fmt: skip
     else:
         for i, v in enumerate(cfg.values):
             keep(i, solve_point(cfg, v))

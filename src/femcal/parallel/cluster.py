@@ -29,17 +29,19 @@ installation is a :class:`~femcal.errors.FemcalError` that says how to install i
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import warnings
 from collections.abc import Callable
-from concurrent.futures import Executor, Future
+from concurrent.futures import CancelledError, Executor, Future
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from typing import Any, Literal, TypeVar
 
 from threadpoolctl import threadpool_limits
 
-from ..errors import FemcalError
-from .executors import executor
+from ..errors import FemcalError, ResourceError
+from .executors import ProcessPool, executor
 
 R = TypeVar("R")
 
@@ -137,10 +139,14 @@ class Session:
 
     def close(self, failed: bool = False) -> None:
         """Close the executor if it was opened; ``failed`` cancels the tasks not finished
-        rather than waiting for them."""
+        rather than waiting for them (and ends a local pool's workers at once)."""
         pool, self._pool = self._pool, None
         self._shared.clear()
-        if pool is not None:
+        if pool is None:
+            return
+        if failed and isinstance(pool, ProcessPool):
+            pool.terminate()
+        else:
             pool.shutdown(wait=not failed, cancel_futures=failed)
 
     def __enter__(self) -> Session:
@@ -149,6 +155,55 @@ class Session:
     def __exit__(self, exc_type, exc, tb) -> bool:
         self.close(failed=exc_type is not None)
         return False
+
+
+def result_of(future: Future[R], what: str, kept: str = "") -> R:
+    """The result of a task on an engine, with the ways an engine fails as one-line femcal
+    errors about ``what`` (e.g. "a Levenberg-Marquardt start"), ``kept`` added (what is
+    kept, what to do): a local worker process that ended without its result
+    (``BrokenProcessPool``), a task whose Dask workers died more often than the scheduler
+    allows (``KilledWorker``), a task cancelled or a connection lost because the scheduler
+    went away. An error of the task itself is raised as it is.
+
+    Raises
+    ------
+    ResourceError
+        For a lost worker (killed from outside, or for want of memory).
+    FemcalError
+        For a lost scheduler or cluster.
+    """
+    tail = f"; {kept}" if kept else ""
+    try:
+        return future.result()
+    except BrokenProcessPool:
+        raise ResourceError(f"a worker process ended without the result of {what} (killed "
+                            f"from outside, or by the system for want of memory){tail}"
+                            ) from None  # fmt: skip
+    except killed_worker_error() as e:
+        raise ResourceError(f"{what} failed on every Dask worker that took it: they died "
+                            f"(killed, or for want of memory) ({e}){tail}") from None  # fmt: skip
+    except CancelledError:
+        raise FemcalError(f"{what} was cancelled: the Dask scheduler or its workers went "
+                          f"away{tail}") from None  # fmt: skip
+    except _comm_closed_error() as e:
+        raise FemcalError(f"the connection to the Dask cluster was lost during {what} ({e})"
+                          f"{tail}") from None  # fmt: skip
+
+
+def _closed_client_error() -> type[BaseException] | tuple[()]:
+    try:
+        from distributed.client import ClosedClientError
+    except ImportError:
+        return ()
+    return ClosedClientError
+
+
+def _comm_closed_error() -> type[BaseException] | tuple[()]:
+    try:
+        from distributed.comm.core import CommClosedError
+    except ImportError:
+        return ()
+    return CommClosedError
 
 
 def one_blas_thread(fn: Callable[..., R], *args: Any) -> R:
@@ -173,6 +228,28 @@ def _import_distributed():
     return distributed
 
 
+class _Quiet:
+    """Dask's loggers in this process held at CRITICAL until :meth:`restore` (it logs a
+    worker's failure, a lost connection and its own shutdown on standard error, where femcal
+    reports them itself, in one line)."""
+
+    ROOTS = ("distributed", "tornado")
+
+    def __init__(self) -> None:
+        names = {*self.ROOTS, *(n for n in logging.root.manager.loggerDict
+                                if n.split(".", 1)[0] in self.ROOTS)}  # fmt: skip
+        # Dask's configuration gives some of its loggers levels of their own
+        # (distributed.client: warning), which their parent's level does not override
+        self._levels = {n: logging.getLogger(n).level for n in names}
+        for n in names:
+            logging.getLogger(n).setLevel(logging.CRITICAL)
+
+    def restore(self) -> None:
+        for n, level in self._levels.items():
+            logging.getLogger(n).setLevel(level)
+        self._levels = {}
+
+
 class DaskExecutor(Executor):
     """A :class:`concurrent.futures.Executor` on a Dask cluster: ``submit`` returns a
     ``concurrent.futures.Future`` (Dask's own ``ClientExecutor`` underneath); ``shutdown``
@@ -182,9 +259,11 @@ class DaskExecutor(Executor):
     docstring).
     """
 
-    def __init__(self, client: Any, cluster: Any | None = None) -> None:
+    def __init__(self, client: Any, cluster: Any | None = None, *,
+                 quiet: _Quiet | None = None) -> None:  # fmt: skip
         self.client = client
         self.cluster = cluster
+        self._quiet = quiet
         self._executor = client.get_executor(pure=False)
 
     @classmethod
@@ -199,39 +278,44 @@ class DaskExecutor(Executor):
             :data:`CONNECT_TIMEOUT` seconds.
         """
         distributed = _import_distributed()
-        if scheduler is not None:
-            try:
-                client = distributed.Client(scheduler, timeout=CONNECT_TIMEOUT)
-            except (OSError, TimeoutError, ValueError) as e:
-                raise FemcalError(f"cannot reach the Dask scheduler at {scheduler!r} within "
-                                  f"{CONNECT_TIMEOUT:g} s: {e}") from None  # fmt: skip
-            return cls(client)
-        import dask
-
-        # no statistical profiler in the workers: it samples the task's thread every 10 ms,
-        # which costs a Python-heavy task (a Levenberg-Marquardt start) a fifth of its time
-        with dask.config.set({"distributed.worker.profile.enabled": False}):
-            cluster = distributed.LocalCluster(
-                n_workers=workers, threads_per_worker=1, processes=True,
-                dashboard_address=None, silence_logs=logging.ERROR)  # fmt: skip
+        quiet = _Quiet()  # the library never prints: Dask's logs stay below critical
         try:
-            client = distributed.Client(cluster)
-        except BaseException:
-            cluster.close()
-            raise
-        return cls(client, cluster)
+            if scheduler is not None:
+                try:
+                    client = distributed.Client(scheduler, timeout=CONNECT_TIMEOUT)
+                except (OSError, TimeoutError, ValueError) as e:
+                    raise FemcalError(f"cannot reach the Dask scheduler at {scheduler!r} "
+                                      f"within {CONNECT_TIMEOUT:g} s: {e}") from None  # fmt: skip
+                return cls(client, quiet=quiet)
+            import dask
 
-    @property
-    def workers(self) -> int:
-        """The workers the scheduler knows now."""
-        return len(self.client.scheduler_info().get("workers", {}))
+            # no statistical profiler in the workers: it samples the task's thread every
+            # 10 ms, which costs a Python-heavy task (a Levenberg-Marquardt start) a fifth of
+            # its time; no memory limit: femcal checks the memory its arrays need itself, and
+            # the nanny would kill a worker at 95 % of an equal share of the machine's
+            with dask.config.set({"distributed.worker.profile.enabled": False}):
+                cluster = distributed.LocalCluster(
+                    n_workers=workers, threads_per_worker=1, processes=True,
+                    dashboard_address=None, silence_logs=logging.CRITICAL,
+                    memory_limit=0)  # fmt: skip
+            try:
+                client = distributed.Client(cluster)
+            except BaseException:
+                cluster.close()
+                raise
+            return cls(client, cluster, quiet=quiet)
+        except BaseException:
+            quiet.restore()
+            raise
 
     def submit(self, fn: Callable[..., R], /, *args: Any, **kwargs: Any) -> Future[R]:
         if kwargs:
             raise TypeError("DaskExecutor.submit takes positional arguments only")
+        if fn is not one_blas_thread:
+            fn, args = one_blas_thread, (fn, *args)
         with warnings.catch_warnings():  # Dask's "large object in task graph" note
             warnings.simplefilter("ignore", UserWarning)
-            return self._executor.submit(one_blas_thread, fn, *args)
+            return self._executor.submit(fn, *args)
 
     def share(self, obj: R) -> R:
         """``obj`` held once on the cluster, for many tasks: pass what this returns in its
@@ -242,10 +326,18 @@ class DaskExecutor(Executor):
             return self.client.submit(_same, obj, pure=False)
 
     def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
-        self._executor.shutdown(wait=wait and not cancel_futures)
-        self.client.close()
-        if self.cluster is not None:
-            self.cluster.close()
+        try:
+            # a client whose scheduler is gone is closed already: nothing left to cancel
+            with contextlib.suppress(_closed_client_error()):
+                self._executor.shutdown(wait=wait and not cancel_futures)
+            self.client.close()
+        finally:
+            try:
+                if self.cluster is not None:
+                    self.cluster.close()
+            finally:
+                if self._quiet is not None:
+                    self._quiet.restore()
 
     def __exit__(self, exc_type, exc, tb) -> bool:
         self.shutdown(wait=exc_type is None, cancel_futures=exc_type is not None)

@@ -374,7 +374,10 @@ def _solve(
         vec, gm, gk = _vectors(PETSc, eps, K, M, take)
         # the Rayleigh quotients of the converged vectors (see the module's docstring)
         lam = np.where(gm > 0, gk / np.where(gm > 0, gm, 1.0), lam[keep][: len(take)])
-        return lam, vec, gm, gk
+        up = np.argsort(lam, kind="stable")  # close roots may swap places as quotients
+        if vec is not None:
+            vec = vec[:, up]
+        return lam[up], vec, gm[up], gk[up]
     finally:
         eps.destroy()
         if start is not None:
