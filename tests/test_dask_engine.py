@@ -217,9 +217,8 @@ def test_dask_failures_are_one_line_and_dask_prints_nothing(capfd):
     from femcal.errors import FemcalError
     from femcal.parallel.cluster import DaskExecutor, result_of
 
-    with DaskExecutor.start(1) as pool:
-        with pytest.raises(ValueError, match="the task's own error"):
-            result_of(pool.submit(_fail), "a test task")
+    with DaskExecutor.start(1) as pool, pytest.raises(ValueError, match="the task's own error"):
+        result_of(pool.submit(_fail), "a test task")
     err = capfd.readouterr().err
     assert "distributed" not in err and "Traceback" not in err, err
     pool = DaskExecutor.start(1)
@@ -227,7 +226,7 @@ def test_dask_failures_are_one_line_and_dask_prints_nothing(capfd):
         job = pool.submit(_sleep, 30.0)
         time.sleep(1.0)
         pool.cluster.close()
-        with pytest.raises(FemcalError, match="a test task was cancelled|connection to the "
+        with pytest.raises(FemcalError, match=r"a test task was cancelled|connection to the "
                                               "Dask cluster was lost"):  # fmt: skip
             result_of(job, "a test task")
     finally:

@@ -9,11 +9,14 @@ from pathlib import Path
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("study", help="design study: modes of a generated model over a variable",
-                       description="Run a model generator over the values of a design "
-                       "variable, solve each point's normal modes, track the elastic modes "
-                       "across the points by MAC at common stations, and write study.csv, "
-                       "study.json and frequencies.png.")  # fmt: skip
+    p = sub.add_parser("study", help="design study: modes of a generated model or a deck over a "
+                       "variable",
+                       description="Run a model generator, or a deck with the fields a "
+                       "design variable sets, over the variable's values, solve each "
+                       "point's normal modes, track the elastic modes across the points by "
+                       "MAC at common stations, and write study.csv, "
+                       "study.json and frequencies.png. Each solved point is kept in "
+                       "DIR/points/, so a stopped study resumes.")  # fmt: skip
     p.add_argument("config", type=Path, help="study configuration (TOML)")
     p.add_argument("--out", required=True, type=Path, metavar="DIR", help="folder to write into")
     p.add_argument("--workers", type=int, default=1, metavar="N",
@@ -45,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
     cfg = read_study_config(args.config)
     progress = Console()
     try:
-        result = run_study(cfg, engine=engine, progress=progress)
+        result = run_study(cfg, engine=engine, state=args.out / "points", progress=progress)
     finally:
         progress.close()
     print("\n".join(summary_lines(result)))

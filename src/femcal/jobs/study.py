@@ -62,6 +62,8 @@ on a Dask cluster (:func:`run_study`'s ``engine``; ``femcal study --workers N``,
 
 from __future__ import annotations
 
+import hashlib
+import inspect
 import json
 import math
 import tempfile
@@ -509,12 +511,76 @@ def track_modes(cfg: StudyConfig, points: Sequence[Point]) -> tuple[list[Track],
     return tracks, untracked
 
 
+def point_key(cfg: StudyConfig, value: float, model: list | None = None) -> str:
+    """A hash of everything that decides the point at ``value``: the study's model
+    (``model``, :func:`model_key`'s, computed when not given), the variable, the value, the
+    solve's settings, and femcal's version."""
+    from .. import __version__
+
+    text = json.dumps([__version__, model if model is not None else model_key(cfg),
+                       cfg.variable, repr(float(value)), cfg.band, cfg.n_modes,
+                       cfg.rigid_below, STATION_STEP, BAND_MARGIN, EXTRA_ROOTS])  # fmt: skip
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def model_key(cfg: StudyConfig) -> list:
+    """What the study's models are made from, for :func:`point_key`: the generator and its
+    variant with the source of the generator's modules, or the content of the deck's files
+    (with its INCLUDEs) and the fields the variable sets."""
+    from ..calibrate.workflow import file_digest
+
+    if cfg.deck is not None:
+        from ..deck import read_deck
+
+        model = [cfg.deck.name, *(file_digest(f) for f in read_deck(cfg.deck).files),
+                 *(list(f) for f in cfg.fields)]  # fmt: skip
+    else:
+        build = GENERATORS[cfg.generator].build
+        model = [cfg.generator, cfg.variant, file_digest(inspect.getfile(build)),
+                 *(file_digest(inspect.getfile(m)) for m in _generator_modules(cfg))]  # fmt: skip
+    return model
+
+
+def _generator_modules(cfg: StudyConfig) -> list:
+    """The modules a generator's models come from (their source enters a point's key)."""
+    from ..examples import truck_frame
+
+    return [truck_frame] if cfg.generator == "truck-frame" else []
+
+
+def _saved_point(folder: Path, k: int, key: str) -> Point | None:
+    """Point k as an earlier run wrote it with the same key, or None."""
+    f = folder / f"point_{k + 1:03d}.npz"
+    if not f.is_file():
+        return None
+    try:
+        with np.load(f, allow_pickle=False) as z:
+            if str(z["key"]) != key:
+                return None
+            return Point(float(z["value"]), z["frequencies"].copy(), z["shapes"].copy(),
+                         int(z["n_dof"]), float(z["seconds"]))  # fmt: skip
+    except (OSError, KeyError, ValueError):  # another run's, or a file that does not read
+        return None
+
+
+def _save_point(folder: Path, k: int, key: str, pt: Point) -> None:
+    def dump(tmp: str) -> None:
+        with open(tmp, "wb") as fh:
+            np.savez(fh, key=key, value=pt.value, frequencies=pt.frequencies,
+                     shapes=pt.shapes, n_dof=pt.n_dof, seconds=pt.seconds)  # fmt: skip
+
+    write_atomic(folder / f"point_{k + 1:03d}.npz", dump)
+
+
 def run_study(cfg: StudyConfig, *, engine: Engine | None = None,
+              state: str | Path | None = None,
               progress: Progress | None = None) -> StudyResult:  # fmt: skip
     """Solve every point of the study and track the modes. The points are independent:
     with ``engine`` (:class:`~femcal.parallel.cluster.Engine`: local worker processes or a
     Dask cluster) they are solved side by side, each with one BLAS thread; by default one
-    after another here.
+    after another here. With ``state`` (a folder), each solved point is kept there
+    (``point_NNN.npz``, written whole or not at all, with :func:`point_key`), and a run
+    solves only the points not kept with their own key: a stopped study resumes.
 
     Raises
     ------
@@ -529,23 +595,37 @@ def run_study(cfg: StudyConfig, *, engine: Engine | None = None,
     task = f"study: {len(cfg.values)} points"
     solved: dict[int, Point] = {}
 
-    def keep(i: int, pt: Point) -> None:
-        solved[i] = pt
-        say(Step(f"{cfg.variable} = {pt.value:g} {cfg.unit}: {len(pt.frequencies)} elastic "
-                 f"modes, {pt.n_dof} DOF, {pt.seconds:.1f} s", task=task, done=len(solved),
-                 total=len(cfg.values)))  # fmt: skip
+    folder = Path(state) if state is not None else None
+    made_of = model_key(cfg) if folder is not None else []
+    keys = [point_key(cfg, v, made_of) for v in cfg.values] if folder is not None else []
 
-    if engine.kind == "dask" or (engine.parallel and len(cfg.values) > 1):
+    def keep(i: int, pt: Point, earlier: bool = False) -> None:
+        solved[i] = pt
+        if folder is not None and not earlier:
+            _save_point(folder, i, keys[i], pt)
+        say(Step(f"{cfg.variable} = {pt.value:g} {cfg.unit}: {len(pt.frequencies)} elastic "
+                 f"modes, {pt.n_dof} DOF, " + ("solved earlier" if earlier else
+                                                f"{pt.seconds:.1f} s"),
+                 task=task, done=len(solved), total=len(cfg.values)))  # fmt: skip
+
+    if folder is not None:
+        folder.mkdir(parents=True, exist_ok=True)
+        for i in range(len(cfg.values)):
+            pt = _saved_point(folder, i, keys[i])
+            if pt is not None:
+                keep(i, pt, earlier=True)
+    todo = [i for i in range(len(cfg.values)) if i not in solved]
+    if todo and (engine.kind == "dask" or (engine.parallel and len(todo) > 1)):
         with engine.open() as pool:
-            jobs = {pool.submit(one_blas_thread, solve_point, cfg, v): i
-                    for i, v in enumerate(cfg.values)}  # fmt: skip
+            jobs = {pool.submit(one_blas_thread, solve_point, cfg, cfg.values[i]): i
+                    for i in todo}  # fmt: skip
             for job in as_completed(jobs):
                 i = jobs[job]
                 keep(i, result_of(job, f"the study's point {cfg.variable} = "
                                        f"{cfg.values[i]:g}"))  # fmt: skip
     else:
-        for i, v in enumerate(cfg.values):
-            keep(i, solve_point(cfg, v))
+        for i in todo:
+            keep(i, solve_point(cfg, cfg.values[i]))
     points = [solved[i] for i in range(len(cfg.values))]
     tracks, untracked = track_modes(cfg, points)
     return StudyResult(cfg, points, tracks, untracked, time.perf_counter() - t0)
