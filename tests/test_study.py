@@ -232,3 +232,29 @@ def test_deck_or_generator_not_both(tmp_path):
     data["model"]["deck"] = "nope.bdf"
     with pytest.raises(ConfigError, match=r"model\.deck: no such file"):
         study_config(data, "s.toml", tmp_path)
+
+
+def test_a_stopped_study_resumes_from_its_kept_points(tmp_path):
+    """Each solved point is kept in the state folder with a key of what decides it: a second
+    run solves none, the same result; a point whose file was spoilt, or a study with other
+    solve settings, is solved again."""
+    cfg = study_config(_deck_study(tmp_path, values=[210000.0, 180000.0, 150000.0]), "s.toml",
+                       tmp_path)  # fmt: skip
+    state = tmp_path / "points"
+    first = run_study(cfg, state=state)
+    assert sorted(f.name for f in state.iterdir()) == [f"point_00{k}.npz" for k in (1, 2, 3)]
+    messages: list = []
+    again = run_study(cfg, state=state, progress=messages.append)
+    assert sum("solved earlier" in m for m in messages) == 3
+    for a, b in zip(again.points, first.points, strict=True):
+        np.testing.assert_array_equal(a.frequencies, b.frequencies)
+        np.testing.assert_array_equal(a.shapes, b.shapes)
+    (state / "point_002.npz").write_bytes(b"not a point")
+    messages.clear()
+    run_study(cfg, state=state, progress=messages.append)
+    assert sum("solved earlier" in m for m in messages) == 2
+    messages.clear()
+    from dataclasses import replace
+
+    run_study(replace(cfg, n_modes=4), state=state, progress=messages.append)
+    assert not any("solved earlier" in m for m in messages)
