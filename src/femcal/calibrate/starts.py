@@ -8,7 +8,6 @@ import queue as queue_mod
 import time
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, wait
-from contextlib import nullcontext
 from pathlib import Path
 
 import numpy as np
@@ -80,8 +79,7 @@ def kept(finished: int) -> str:
     return f"the {finished} starts finished are kept: run again to resume"
 
 
-def run_starts(problem: Problem, starts: list[np.ndarray], *, workers: int = 1,
-               engine: Engine | None = None, session: Session | None = None,
+def run_starts(problem: Problem, starts: list[np.ndarray], *, session: Session | None = None,
                folder: Path | None = None,
                fingerprint: str = "",
                progress: Callable[[str], None] | None = None,
@@ -93,19 +91,20 @@ def run_starts(problem: Problem, starts: list[np.ndarray], *, workers: int = 1,
 
     With ``folder``, each finished start is written there (``start_NNN.json``, atomically,
     with ``fingerprint``) and starts already there with the same fingerprint are read
-    instead of run again. With ``workers`` > 1 the starts run in that many processes
-    (:func:`femcal.parallel.executor`), their progress coming back through a queue; the
-    workers ignore Ctrl-C and die with this process, and an exception here (Ctrl-C's
-    KeyboardInterrupt among them) ends them at once, the starts finished being kept.
-    ``engine`` (default: the local pool of ``workers`` processes) may put them on a Dask
-    cluster instead (:mod:`femcal.parallel.cluster`): the problem is sent once, a start
-    whose worker is lost runs again elsewhere, and each finished start is reported and kept
-    as it arrives (its iterations are not reported from there). ``session`` (an engine held
-    open for a whole job, :class:`~femcal.parallel.cluster.Session`) replaces ``engine``:
-    its cluster is used and left open, and the problem is sent to it once. The results do
-    not depend on where the starts ran: each runs with one BLAS thread wherever it runs
-    (its matrices are small, and threads only contend for the cores), so the same start
-    gives the same numbers bit for bit in this process, a local worker or a Dask worker.
+    instead of run again.
+
+    Where they run is ``session``'s engine (:class:`~femcal.parallel.cluster.Session`; none:
+    one after another in this process). On the local engine with more than one worker they
+    run in that many processes (:func:`femcal.parallel.executor`), which inherit the problem
+    at the fork and send their progress back through a queue; the workers ignore Ctrl-C and
+    die with this process, and an exception here (Ctrl-C's KeyboardInterrupt among them)
+    ends them at once, the starts finished being kept. On a Dask engine they run on the
+    session's cluster, which is left open: the problem is sent once, a start whose worker
+    is lost runs again elsewhere, and each finished start is reported and kept as it
+    arrives (its iterations are not reported from there). The results do not depend on
+    where the starts ran: each runs with one BLAS thread wherever it runs (its matrices are
+    small, and threads only contend for the cores), so the same start gives the same
+    numbers bit for bit in this process, a local worker or a Dask worker.
 
     Raises
     ------
@@ -139,18 +138,15 @@ def run_starts(problem: Problem, starts: list[np.ndarray], *, workers: int = 1,
                          lambda tmp: Path(tmp).write_text(text))  # fmt: skip
 
     todo = [k for k in range(len(starts)) if k not in results]
-    if session is not None:
-        engine = session.engine
-    engine = engine or Engine("local", max(1, workers))
+    engine = session.engine if session is not None else Engine()
     if engine.kind == "dask" and todo:
-        with nullcontext(session) if session is not None else engine.session() as held:
-            pool = held.pool()
-            shared = share(pool, problem)
-            pending = {pool.submit(run_one, shared, k, starts[k]) for k in todo}
-            while pending:
-                done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                for fut in done:
-                    keep(result_of(fut, "a Levenberg-Marquardt start", kept(len(results))))
+        pool = session.pool()
+        shared = share(pool, problem)
+        pending = {pool.submit(run_one, shared, k, starts[k]) for k in todo}
+        while pending:
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for fut in done:
+                keep(result_of(fut, "a Levenberg-Marquardt start", kept(len(results))))
     elif engine.workers <= 1 or len(todo) <= 1:
         for k in todo:
             def report(s, it, cost, k=k):
