@@ -4,6 +4,7 @@ differences, SEREP pseudo-orthogonality, modal scale factors."""
 from .shapes import (
     Pair,
     frequency_difference,
+    in_scale_of,
     mac,
     modal_scale_factor,
     pair_modes,
@@ -15,6 +16,7 @@ from .shapes import (
 __all__ = [
     "Pair",
     "frequency_difference",
+    "in_scale_of",
     "mac",
     "modal_scale_factor",
     "pair_modes",

@@ -104,3 +104,12 @@ def modal_scale_factor(test_shape: np.ndarray, fe_shape: np.ndarray) -> complex:
     """The factor s minimising ``|test - s fe|``: ``fe^H test / fe^H fe``."""
     a = np.asarray(fe_shape)
     return complex(np.vdot(a, test_shape) / np.vdot(a, a))
+
+
+def in_scale_of(test_shape: np.ndarray, fe_shape: np.ndarray) -> np.ndarray:
+    """The test shape (p,) real, in the FE shape's scale and phase: divided by the modal scale
+    factor; a test shape with no part along the FE shape (factor 0) rotated to its best real
+    approximation (:func:`real_shapes`) instead."""
+    t = np.asarray(test_shape)
+    s = modal_scale_factor(t, fe_shape)
+    return (t / s).real if abs(s) > 0 else real_shapes(t[:, None])[:, 0]

@@ -44,7 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from ..atomic import write_atomic, write_lines
-from ..correlate import mac, modal_scale_factor, pair_modes, real_shapes
+from ..correlate import in_scale_of, mac, pair_modes
 from ..errors import FemcalError, message
 from ..identify.workflow import IdentifiedModel, Settings, identify
 from ..model.analysis import EigenRequest
@@ -862,15 +862,12 @@ def _pair_shapes(result: Correlation, r: PairedMode) -> tuple[np.ndarray, np.nda
     shape real in the FE shape's phase and scale (modal scale factor)."""
     col = int(np.flatnonzero(result.fe_index == r.fe_mode - 1)[0])
     a = result.fe_shapes[:, col]
-    t = result.test_shapes[:, r.test_mode - 1]
-    s = modal_scale_factor(t, a)
-    t = (t / s).real if abs(s) > 0 else real_shapes(t[:, None])[:, 0]
-    return t, a
+    return in_scale_of(result.test_shapes[:, r.test_mode - 1], a), a
 
 
 def vector_figure(result: Correlation):
     """Test against FE shape, channel by channel, one panel per pair."""
-    from ..viz.figures import pyplot
+    from ..viz.figures import pyplot, shape_scatter
 
     plt = pyplot()
     pairs = result.pairs
@@ -880,12 +877,7 @@ def vector_figure(result: Correlation):
     for n, r in enumerate(pairs):
         ax = axes[divmod(n, cols)]
         t, a = _pair_shapes(result, r)
-        ax.plot(a, t, ".", ms=4)
-        lim = float(np.abs(np.concatenate([a, t])).max()) * 1.05 or 1.0
-        ax.plot([-lim, lim], [-lim, lim], "k--", lw=0.7)
-        ax.set_xlim(-lim, lim)
-        ax.set_ylim(-lim, lim)
-        ax.set_aspect("equal")
+        shape_scatter(ax, a, t)
         ax.set_title(f"test {r.test_mode} ({r.test_hz:.1f} Hz) / FE {r.fe_mode} "
                      f"({r.fe_hz:.1f} Hz)\nMAC {r.mac:.3f}", fontsize=8)  # fmt: skip
         ax.set_xlabel("FE shape (mass-normalised)", fontsize=8)

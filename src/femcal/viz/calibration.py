@@ -14,9 +14,9 @@ from pathlib import Path
 import numpy as np
 
 from ..calibrate.result import CalibrationResult, CaseResult
-from ..correlate import modal_scale_factor
+from ..correlate import in_scale_of
 from ..response.frf import channel_matrix
-from .figures import pyplot, save_figure
+from .figures import pyplot, save_figure, shape_scatter
 
 
 @dataclass(frozen=True)
@@ -191,16 +191,9 @@ def vector_plot(path: Path, outcome: CaseResult) -> Path | None:
         ax.set_visible(False)
     unit = "mass-normalised, model units"
     for k, (ax, pr) in enumerate(zip(axes.flat[: len(pairs)], pairs, strict=True)):
-        t = outcome.test_shapes[:, pr.test_mode - 1]
         a = fe[:, k]
-        s = modal_scale_factor(t, a)
-        t_r = (t / s).real  # test shape in the FE shape's scale and phase
-        ax.plot(a, t_r, ".", ms=4)
-        lim = float(np.abs(np.concatenate([a, t_r])).max()) * 1.05
-        ax.plot([-lim, lim], [-lim, lim], "k--", lw=0.7)
-        ax.set_xlim(-lim, lim)
-        ax.set_ylim(-lim, lim)
-        ax.set_aspect("equal")
+        t_r = in_scale_of(outcome.test_shapes[:, pr.test_mode - 1], a)
+        lim = shape_scatter(ax, a, t_r)
         ax.set_title(f"test {pr.test_hz:.1f} Hz / FE {pr.fe_after_hz:.1f} Hz\n"
                      f"MAC {pr.mac_after:.3f}", fontsize=8)  # fmt: skip
         for o in np.argsort(np.abs(t_r - a))[::-1][:3]:  # the worst components by name

@@ -6,6 +6,8 @@ from __future__ import annotations
 import os
 from types import ModuleType
 
+import numpy as np
+
 from ..atomic import write_atomic
 
 
@@ -29,3 +31,15 @@ def save_figure(fig, path: str | os.PathLike[str], dpi: int = 110):
     finally:
         plt.close(fig)
     return fig
+
+
+def shape_scatter(ax, fe_shape: np.ndarray, test_shape: np.ndarray) -> float:
+    """A test shape against its FE shape, component by component, on equal axes with the
+    diagonal where they agree; returns the axes' half-width."""
+    ax.plot(fe_shape, test_shape, ".", ms=4)
+    lim = float(np.abs(np.concatenate([fe_shape, test_shape])).max()) * 1.05 or 1.0
+    ax.plot([-lim, lim], [-lim, lim], "k--", lw=0.7)
+    ax.set_xlim(-lim, lim)
+    ax.set_ylim(-lim, lim)
+    ax.set_aspect("equal")
+    return lim
