@@ -5,6 +5,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
+#: The plate's nine parameters as the noise-free tests make them (p = P / P0 - 1).
+TRUE_P = np.array([0.08, -0.05, 0.06, 0.1, -0.1, 0.12, 0.2, -0.15, 0.1])
+#: The tests' sensors and inputs on the plate deck.
+OUTS = [*(f"{g}:+Z" for g in (3, 5, 7, 10, 12, 14, 17, 19, 21, 24, 26, 28)), "28:+X", "14:+Y"]
+INS = ["28:+Z", "11:+Y"]
+
 
 def plate_deck(nx: int = 6, ny: int = 3, *, lx: float = 600.0, ly: float = 300.0) -> str:
     """SOL 103 deck (mm, tonne, s): a 5 mm steel plate clamped along x = 0, a CBAR stiffener
@@ -123,3 +131,23 @@ def write_plate(folder: Path):
     (folder / "p.toml").write_text(PARAMS_TOML)
     model = load_model(folder / "plate.bdf")
     return model, read_parameters(folder / "p.toml", model)
+
+
+def write_modal_test(path: Path, truth, outs: list[str], ins: list[str]) -> list:
+    """A noise-free test of the model ``truth``: its accelerances (40 modes, modal damping
+    0.02, 2-750 Hz every 0.25 Hz) at ``outs`` for ``ins`` (``GRID:+C`` labels), written as
+    NPZ to ``path``; returns the output channels."""
+    from femcal.model import EigenRequest
+    from femcal.response.frf import channel_matrix, modal_frf
+    from femcal.solve.normal_modes import solve_normal_modes
+    from femcal.testdata.data import Channel, FRFData
+    from femcal.testdata.formats.npz import write_npz
+
+    modes, _ = solve_normal_modes(truth, request=EigenRequest(nd=40))
+    o = [Channel.parse(x) for x in outs]
+    i = [Channel.parse(x) for x in ins]
+    f = np.arange(2.0, 750.0, 0.25)
+    H = modal_frf(modes.shapes, modes.radians, channel_matrix(truth, o),
+                  channel_matrix(truth, i).T, f, 0.02, "accelerance")  # fmt: skip
+    write_npz(path, FRFData(f, H, tuple(o), tuple(i), "accelerance", "mm/s^2/N"))
+    return o

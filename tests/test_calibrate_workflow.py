@@ -21,19 +21,20 @@ from femcal.calibrate.parameters import current_value, with_values
 from femcal.cli import main
 from femcal.deck import read_deck
 from femcal.jobs.calibration import run
-from femcal.model import EigenRequest
 from femcal.model.build import build_model
-from femcal.response.frf import channel_matrix, modal_frf
-from femcal.solve.normal_modes import solve_normal_modes
-from femcal.testdata.data import Channel, FRFData
-from femcal.testdata.formats.npz import write_npz
+from femcal.testdata.data import Channel
 
-from .calib_decks import PARAMS_TOML, plate_deck, write_plate
+from .calib_decks import (
+    INS,
+    OUTS,
+    PARAMS_TOML,
+    TRUE_P,
+    plate_deck,
+    write_modal_test,
+    write_plate,
+)
 from .processes import alive, children
 
-TRUE_P = np.array([0.08, -0.05, 0.06, 0.1, -0.1, 0.12, 0.2, -0.15, 0.1])
-OUTS = [*(f"{g}:+Z" for g in (3, 5, 7, 10, 12, 14, 17, 19, 21, 24, 26, 28)), "28:+X", "14:+Y"]
-INS = ["28:+Z", "11:+Y"]
 CONFIG = """
 [model]
 deck = "plate.bdf"
@@ -61,13 +62,7 @@ def study(tmp_path_factory):
     model, params = write_plate(d)
     true_model = with_values(model, params, [p.value(x) for p, x in zip(params, TRUE_P,
                                                                         strict=True)])  # fmt: skip
-    modes, _ = solve_normal_modes(true_model, request=EigenRequest(nd=40))
-    outs = [Channel.parse(s) for s in OUTS]
-    ins = [Channel.parse(s) for s in INS]
-    f = np.arange(2.0, 750.0, 0.25)
-    H = modal_frf(modes.shapes, modes.radians, channel_matrix(true_model, outs),
-                  channel_matrix(true_model, ins).T, f, 0.02, "accelerance")  # fmt: skip
-    write_npz(d / "test.npz", FRFData(f, H, tuple(outs), tuple(ins), "accelerance", "mm/s^2/N"))
+    write_modal_test(d / "test.npz", true_model, OUTS, INS)
     (d / "cal.toml").write_text(CONFIG)
     lines: list[str] = []
     outcome = run(read_config(d / "cal.toml"), d / "out", progress=lines.append)
@@ -434,14 +429,7 @@ def test_two_configurations_share_their_parameters_by_name(study, tmp_path):
     lparams = read_parameters(tmp_path / "loaded.toml", loaded)
     true_l = {"t": TRUE_P[0], "rho_steel": TRUE_P[2], "m_load": -0.2}
     truth = with_values(loaded, lparams, [p.value(true_l[p.name]) for p in lparams])
-    modes, _ = solve_normal_modes(truth, request=EigenRequest(nd=40))
-    outs = [Channel.parse(s) for s in OUTS[:8]]
-    ins = [Channel.parse("17:+Z")]
-    f = np.arange(2.0, 750.0, 0.25)
-    H = modal_frf(modes.shapes, modes.radians, channel_matrix(truth, outs),
-                  channel_matrix(truth, ins).T, f, 0.02, "accelerance")  # fmt: skip
-    write_npz(tmp_path / "loaded.npz", FRFData(f, H, tuple(outs), tuple(ins), "accelerance",
-                                               "mm/s^2/N"))  # fmt: skip
+    write_modal_test(tmp_path / "loaded.npz", truth, OUTS[:8], ["17:+Z"])
     (tmp_path / "multi.toml").write_text(MULTI)
     cfg = read_config(tmp_path / "multi.toml")
     assert [c.name for c in cfg.configurations] == ["bare", "loaded"]
@@ -598,13 +586,7 @@ def tiny(tmp_path_factory):
     for name, text in _deck_with_includes().items():
         (d / name).write_text(text)
     truth = with_values(model, params, [p.value(x) for p, x in zip(params, TRUE_P, strict=True)])
-    modes, _ = solve_normal_modes(truth, request=EigenRequest(nd=40))
-    outs = [Channel.parse(s) for s in OUTS]
-    ins = [Channel.parse(s) for s in INS]
-    f = np.arange(2.0, 750.0, 0.25)
-    H = modal_frf(modes.shapes, modes.radians, channel_matrix(truth, outs),
-                  channel_matrix(truth, ins).T, f, 0.02, "accelerance")  # fmt: skip
-    write_npz(d / "test.npz", FRFData(f, H, tuple(outs), tuple(ins), "accelerance", "mm/s^2/N"))
+    write_modal_test(d / "test.npz", truth, OUTS, INS)
     (d / "cal.toml").write_text(TINY)
     return d
 

@@ -17,7 +17,6 @@ import subprocess
 import tempfile
 import zlib
 
-import numpy as np
 import pytest
 
 from femcal import __version__
@@ -25,19 +24,11 @@ from femcal.calibrate.config import read_config
 from femcal.calibrate.parameters import with_values
 from femcal.io.html import command_line, outside_references
 from femcal.jobs.calibration import run
-from femcal.model import EigenRequest
-from femcal.response.frf import channel_matrix, modal_frf
-from femcal.solve.normal_modes import solve_normal_modes
-from femcal.testdata.data import Channel, FRFData
-from femcal.testdata.formats.npz import write_npz
 from femcal.viz.webview import find_browser
 
-from .calib_decks import plate_deck, write_plate
+from .calib_decks import INS, OUTS, TRUE_P, plate_deck, write_modal_test, write_plate
 
 PNG = b"\x89PNG\r\n\x1a\n"
-TRUE_P = np.array([0.08, -0.05, 0.06, 0.1, -0.1, 0.12, 0.2, -0.15, 0.1])
-OUTS = [*(f"{g}:+Z" for g in (3, 5, 7, 10, 12, 14, 17, 19, 21, 24, 26, 28)), "28:+X", "14:+Y"]
-INS = ["28:+Z", "11:+Y"]
 #: One start, one cycle, no hold-out: the files are what is tested, not the calibration.
 CONFIG = """
 [model]
@@ -88,13 +79,7 @@ def report(tmp_path_factory):
     for name, text in _split_deck().items():
         (d / name).write_text(text)
     truth = with_values(model, params, [p.value(x) for p, x in zip(params, TRUE_P, strict=True)])
-    modes, _ = solve_normal_modes(truth, request=EigenRequest(nd=40))
-    outs = [Channel.parse(s) for s in OUTS]
-    ins = [Channel.parse(s) for s in INS]
-    f = np.arange(2.0, 750.0, 0.25)
-    H = modal_frf(modes.shapes, modes.radians, channel_matrix(truth, outs),
-                  channel_matrix(truth, ins).T, f, 0.02, "accelerance")  # fmt: skip
-    write_npz(d / "test.npz", FRFData(f, H, tuple(outs), tuple(ins), "accelerance", "mm/s^2/N"))
+    outs = write_modal_test(d / "test.npz", truth, OUTS, INS)
     grids = sorted({c.grid for c in outs})
     (d / "sensors.csv").write_text("label,grid,directions\n"
                                    + "".join(f"S{g:02d},{g},123\n" for g in grids))  # fmt: skip
