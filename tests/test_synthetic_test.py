@@ -152,3 +152,81 @@ def test_a_parameter_file_a_calibration_refuses_makes_no_test(tmp_path, capsys, 
     assert code == 2 and not (tmp_path / "out").exists()
     assert re.search(r"femcal synth-test: .*p\.toml: parameter t: " + error, err), err
     assert err.count("\n") == 2  # the progress line, then the error
+
+
+def test_an_added_mass_is_the_one_difference_it_makes(tmp_path):
+    """The added mass lands on the three translations of the grid nearest the point and
+    nowhere else; every mode of the hidden frame is then lower or equal (adding mass lowers
+    each eigenvalue, Courant-Fischer), some markedly."""
+    from femcal.assembly import Options, assemble
+    from femcal.jobs.synthetic_test import SynthSettings, hidden_frame, with_added_mass
+    from femcal.model.build import load_model
+
+    from .calib_decks import PARAMS_TOML
+
+    deck, toml = _plate(tmp_path, PARAMS_TOML)
+    model = load_model(deck)
+    mats = assemble(model, Options())
+    assert with_added_mass(model, mats, (0.0, 0.0, 0.0), 0.0) is mats
+    at = (310.0, 140.0, 3.0)
+    new = with_added_mass(model, mats, at, 2e-3)
+    grids = np.flatnonzero(model.is_grid)
+    node = grids[np.argmin(np.linalg.norm(model.xyz[grids] - np.array(at), axis=1))]
+    diff = (new.M - mats.M).tocoo()
+    dofs = model.dof_start[node] + np.arange(3)
+    assert sorted(diff.row) == sorted(diff.col) == list(dofs)
+    assert np.all(diff.row == diff.col) and np.allclose(diff.data, 2e-3, rtol=1e-12)
+    assert (new.K != mats.K).nnz == 0
+    plain = SynthSettings(modes_to=300.0, support_stiffness=0.0)
+    heavy = SynthSettings(modes_to=300.0, support_stiffness=0.0, added_mass=2e-3,
+                          added_mass_at=at)  # fmt: skip
+    _, m0, _ = hidden_frame(deck, toml, plain, np.random.default_rng(0))
+    _, m1, _ = hidden_frame(deck, toml, heavy, np.random.default_rng(0))
+    n = min(len(m0.frequencies_hz), len(m1.frequencies_hz))
+    assert np.all(m1.frequencies_hz[:n] <= m0.frequencies_hz[:n] * (1 + 1e-9))
+    assert (1 - m1.frequencies_hz[:n] / m0.frequencies_hz[:n]).max() > 0.01
+
+
+@pytest.mark.parametrize("setting, error", [
+    (dict(added_mass=-1e-3), r"added_mass = -0.001: expected a mass, 0 or more"),
+    (dict(added_mass=float("nan")), r"added_mass = nan: expected a mass, 0 or more"),
+    (dict(added_mass_at=(1.0, 2.0)), r"added_mass_at = \(1.0, 2.0\): expected three"),
+    (dict(support_stiffness=-5.0), r"support_stiffness = -5.0: expected a stiffness"),
+])  # fmt: skip
+def test_model_form_settings_out_of_range_are_named(setting, error):
+    from femcal.jobs.synthetic_test import SynthSettings
+
+    with pytest.raises(ValueError, match=r"synthetic test: " + error):
+        SynthSettings(**setting)
+
+
+def test_the_command_makes_a_test_with_a_mass_the_model_lacks(tmp_path, capsys):
+    """``--added-mass`` and ``--added-mass-at`` reach the test: its truth file records them
+    and the hidden frame's modes are lower than without; a negative mass is one line."""
+    from femcal.cli import main
+
+    from .calib_decks import PARAMS_TOML
+
+    deck, toml = _plate(tmp_path, PARAMS_TOML)
+    (tmp_path / "s.csv").write_text("label,grid,directions\nA,7,123\nB,21,123\n")
+    (tmp_path / "i.csv").write_text("label,grid,direction\nH,28,3\n")
+    common = ["synth-test", str(deck), "--params", str(toml), "--sensors",
+              str(tmp_path / "s.csv"), "--inputs", str(tmp_path / "i.csv"),
+              "--support-stiffness", "0"]  # fmt: skip
+    assert main([*common, "--out", str(tmp_path / "plain")]) == 0
+    assert main([*common, "--out", str(tmp_path / "heavy"), "--added-mass", "0.002",
+                 "--added-mass-at", "310", "140", "3"]) == 0  # fmt: skip
+    plain = tomllib.loads((tmp_path / "plain" / "hammer_test.truth.toml").read_text())
+    heavy = tomllib.loads((tmp_path / "heavy" / "hammer_test.truth.toml").read_text())
+    assert "added_mass" not in plain and plain["support_stiffness_nmm_per_rad"] == 0.0
+    assert heavy["added_mass"] == 0.002 and heavy["added_mass_at_mm"] == [310.0, 140.0, 3.0]
+    f0 = np.array(plain["modes"]["frequency_hz"])
+    f1 = np.array(heavy["modes"]["frequency_hz"])
+    n = min(len(f0), len(f1))
+    assert np.all(f1[:n] <= f0[:n] * (1 + 1e-6)) and (f1[:n] < f0[:n] * 0.99).any()
+    capsys.readouterr()
+    code = main([*common, "--out", str(tmp_path / "bad"), "--added-mass", "-1"])
+    err = capsys.readouterr().err
+    assert code == 2 and not (tmp_path / "bad").exists()
+    assert "femcal synth-test: synthetic test: added_mass = -1.0: expected a mass" in err
+    assert err.count("\n") == 2

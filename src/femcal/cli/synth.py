@@ -1,5 +1,7 @@
-"""``femcal synth-test DECK --params TOML --sensors CSV --inputs CSV --out DIR [--seed N]``:
-lab-like hammer-test FRFs from a deck with hidden parameters (see femcal.jobs.synthetic_test)."""
+"""``femcal synth-test DECK --params TOML --sensors CSV --inputs CSV --out DIR [--seed N]
+[--support-x MM --support-stiffness K] [--added-mass M --added-mass-at X Y Z]``: lab-like
+hammer-test FRFs from a deck with hidden parameters and model-form differences (see
+femcal.jobs.synthetic_test)."""
 
 from __future__ import annotations
 
@@ -25,6 +27,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="folder to write")
     p.add_argument("--name", default="hammer_test", help="file stem (default hammer_test)")
     p.add_argument("--seed", type=int, default=SynthSettings.seed, help="random seed")
+    p.add_argument("--support-x", type=float, default=SynthSettings.support_x, metavar="MM",
+                   help="where along the frame the cross support the model lacks acts "
+                        f"(default {SynthSettings.support_x:g} mm)")  # fmt: skip
+    p.add_argument("--support-stiffness", type=float, default=SynthSettings.support_stiffness,
+                   metavar="K", help="its rotational stiffness about X and Z at each rail, "
+                   f"N mm/rad (default {SynthSettings.support_stiffness:g}; 0: none)")
+    p.add_argument("--added-mass", type=float, default=SynthSettings.added_mass, metavar="M",
+                   help="a point mass the model lacks, in the deck's mass unit (default 0: "
+                        "none)")  # fmt: skip
+    p.add_argument("--added-mass-at", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                   default=SynthSettings.added_mass_at,
+                   help="where: the grid nearest this point, basic coordinates (default "
+                        f"{' '.join(f'{x:g}' for x in SynthSettings.added_mass_at)})")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -32,8 +47,11 @@ def run(args: argparse.Namespace) -> int:
     output_folder(args.out, "--out")
     print(f"[{0.0:7.1f} s] making the synthetic test of {args.deck}", file=sys.stderr)
     try:
-        test = make_hammer_test(args.deck, args.params, args.sensors, args.inputs,
-                                SynthSettings(seed=args.seed))  # fmt: skip
+        settings = SynthSettings(seed=args.seed, support_x=args.support_x,
+                                 support_stiffness=args.support_stiffness,
+                                 added_mass=args.added_mass,
+                                 added_mass_at=tuple(args.added_mass_at))  # fmt: skip
+        test = make_hammer_test(args.deck, args.params, args.sensors, args.inputs, settings)
     except (KeyError, ValueError) as e:  # bad parameter, sensor or input files (TOML too)
         print(f"femcal synth-test: {message(e)}", file=sys.stderr)
         return 2

@@ -1,13 +1,16 @@
 """Synthetic hammer test: lab-like FRF data made from a deck the calibration will not see.
 
-The "real" frame differs from the FE model in three ways, as a test article does:
+The "real" frame differs from the FE model in up to four ways, as a test article does:
 
 * a hidden parameter set: every calibration parameter (PSHELL T, PBAR A, MAT1 E ...) drawn
   uniformly within ``spread`` (at most 1) times its bounds around the nominal
   (P = P0 (1 + p)), so within the bounds;
 * a model-form difference the FE model does not have: a cross support near a cross member
   that adds rotational stiffness (``support_stiffness`` N mm/rad about X and Z at the two
-  rail webs' mid-height nodes nearest ``support_x``);
+  rail webs' mid-height nodes nearest ``support_x``; none at zero stiffness);
+* optionally a second kind, a mass the FE model lacks (a component, a bracket, cabling):
+  ``added_mass`` in the deck's mass unit on the three translations of the grid nearest
+  ``added_mass_at``;
 * per-mode damping drawn between 0.5 % and 2 %.
 
 It is then "measured" as the study did: the sensor positions are visited a few triaxial
@@ -23,6 +26,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
+import scipy.sparse as sp
 
 from ..assembly import Options, assemble
 from ..calibrate.parameters import read_parameters, with_values
@@ -43,6 +47,8 @@ class SynthSettings:
     spread: float = 0.5  # fraction of each parameter's bounds the hidden values may use
     support_x: float = 2475.0  # mm, where the cross support acts (near cross member 3)
     support_stiffness: float = 2.0e8  # N mm/rad, about X and Z, at each rail
+    added_mass: float = 0.0  # in the deck's mass unit (tonne for the bundled frame)
+    added_mass_at: tuple[float, float, float] = (1800.0, -430.0, 0.0)  # mm, nearest grid
     damping: tuple[float, float] = (0.005, 0.02)
     f_max: float = 150.0
     df: float = 0.05
@@ -67,6 +73,13 @@ class SynthSettings:
             ("noise", self.noise, self.noise >= 0, "0 or more"),
             ("noise_floor", self.noise_floor, self.noise_floor >= 0, "0 or more"),
             ("modes_to", self.modes_to, self.modes_to > 0, "a positive frequency"),
+            ("support_stiffness", self.support_stiffness,
+             np.isfinite(self.support_stiffness) and self.support_stiffness >= 0,
+             "a stiffness, 0 or more"),
+            ("added_mass", self.added_mass,
+             np.isfinite(self.added_mass) and self.added_mass >= 0, "a mass, 0 or more"),
+            ("added_mass_at", self.added_mass_at, len(self.added_mass_at) == 3
+             and bool(np.all(np.isfinite(self.added_mass_at))), "three coordinates (x, y, z)"),
         )  # fmt: skip
         for name, value, ok, expected in checks:
             if not ok:
@@ -142,10 +155,25 @@ def with_cross_support(model, mats, support_x: float, stiffness: float):
     return replace(mats, K=K.tocsr())
 
 
+def with_added_mass(model, mats, at: tuple[float, float, float], mass: float):
+    """The matrices with a point mass the FE model lacks: ``mass`` (the deck's mass unit) on
+    the three translations of the grid nearest ``at`` (basic coordinates); unchanged for no
+    mass."""
+    if mass == 0:
+        return mats
+    grids = np.flatnonzero(model.is_grid)
+    node = int(grids[np.argmin(np.linalg.norm(model.xyz[grids] - np.asarray(at, float),
+                                              axis=1))])  # fmt: skip
+    d = int(model.dof_start[node]) + np.arange(3)
+    extra = sp.csr_matrix((np.full(3, float(mass)), (d, d)), shape=mats.M.shape)
+    return replace(mats, M=(mats.M + extra).tocsr())
+
+
 def hidden_frame(deck_path: str | Path, params_path: str | Path, settings: SynthSettings,
                  rng: np.random.Generator):  # fmt: skip
     """The "real" frame: the deck with hidden parameter values drawn from ``rng``
-    (:func:`hidden_values`) and the cross support (:func:`with_cross_support`), solved to
+    (:func:`hidden_values`), the cross support (:func:`with_cross_support`) and the added mass
+    (:func:`with_added_mass`), solved to
     ``settings.modes_to``.
 
     Returns
@@ -164,6 +192,7 @@ def hidden_frame(deck_path: str | Path, params_path: str | Path, settings: Synth
     model, truth = hidden_values(load_model(deck_path), params_path, s.spread, rng)
     mats = with_cross_support(model, assemble(model, Options()), s.support_x,
                               s.support_stiffness)  # fmt: skip
+    mats = with_added_mass(model, mats, s.added_mass_at, s.added_mass)
     modes, _ = solve_normal_modes(model, matrices=mats,
                             request=EigenRequest(v2=s.modes_to, nd=None))  # fmt: skip
     return model, modes, truth
@@ -210,6 +239,9 @@ def truth_toml(test: SynthTest) -> list[str]:
              f"support_x_mm = {s.support_x!r}", f"support_stiffness_nmm_per_rad = "
              f"{s.support_stiffness!r}", f"noise = {s.noise!r}", f"noise_floor = {s.noise_floor!r}",
              ""]  # fmt: skip
+    if s.added_mass:
+        at = ", ".join(repr(float(x)) for x in s.added_mass_at)
+        lines[-1:-1] = [f"added_mass = {s.added_mass!r}", f"added_mass_at_mm = [{at}]"]
     return lines + truth_tail(test.frequencies_hz, test.damping, test.parameters)
 
 
