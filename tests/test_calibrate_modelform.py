@@ -66,6 +66,28 @@ def test_a_missing_spring_or_mass_is_found_where_it_is(frf, extra, kind, grid, c
     assert all(c.fall <= best.fall for c in found)
 
 
+@pytest.mark.parametrize("extra, kind, grid, component, size", [
+    ("CELAS2,600,3000.,19,3", "spring to ground", 19, 3, 3000.0),
+    ("CONM2,601,10,,0.01", "point mass", 10, 0, 0.01),
+])  # fmt: skip
+def test_a_missing_element_that_moves_resonances_far_is_found_too(frf, extra, kind, grid,
+                                                                   component, size):  # fmt: skip
+    """Large enough to move modes by several half-power bandwidths, where the misfit's
+    first-order gain says little: the exact screening still names the grid, the component
+    and the size."""
+    f = np.geomspace(10.0, 400.0, 300)
+    model, modes, H_model = frf(plate_deck(), f)
+    _, modes_test, H_test = frf(plate_deck().replace("ENDDATA", extra + "\nENDDATA"), f)
+    shift = np.abs(modes_test.frequencies_hz[:6] / modes.frequencies_hz[:6] - 1.0)
+    assert shift.max() > 4 * ZETA  # beyond the first order's reach
+    eps = residuals(H_model, H_test, "complex-log")
+    best = missing_elements(model, modes, OUTS, INS, f, ZETA, eps, H_model, H_test,
+                            "complex-log", weights=robust_weights(eps))[0]  # fmt: skip
+    assert (best.kind, best.grid, best.component) == (kind, grid, component)
+    assert best.value == pytest.approx(size, rel=0.05)
+    assert best.fall > 0.95
+
+
 def test_diagnose_says_where_and_what_and_stays_quiet_within_the_noise(frf):
     f = np.geomspace(10.0, 400.0, 300)
     model, modes, H_model = frf(plate_deck(), f)
