@@ -100,6 +100,7 @@ def test_diagnose_says_where_and_what_and_stays_quiet_within_the_noise(frf):
     assert form.warning and form.typical_after > 2e-3
     text = " ".join(form.suggestions)
     assert "a spring to ground" in text and "GRID 19" in text and "k_spring" in text
+    assert "To test it, add a CELAS1 on GRID 19, component 3, and its PELAS of K = " in text
     assert len(form.band_edges_hz) == len(test_hz) + 1
     assert form.output_rms_after.shape == form.output_typical_after.shape == (len(OUTS),)
     assert form.band_typical_after.shape == (len(test_hz),)

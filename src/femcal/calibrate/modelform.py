@@ -100,6 +100,14 @@ class Candidate:
         return (f"a spring to ground of {self.value:.3g} at {at}, component {self.component} "
                 f"({name})")  # fmt: skip
 
+    def how_to_add(self) -> str:
+        """The cards that add it to a deck, with the field a calibration parameter takes."""
+        if self.kind == "point mass":
+            return (f"a CONM2 of mass {self.value:.3g} on GRID {self.grid}, with a parameter on "
+                    "its M")  # fmt: skip
+        return (f"a CELAS1 on GRID {self.grid}, component {self.component}, and its PELAS of "
+                f"K = {self.value:.3g}, with a parameter on the PELAS's K")  # fmt: skip
+
 
 @dataclass(frozen=True)
 class ModelForm:
@@ -524,7 +532,8 @@ def diagnose(model: Model, modes: Modes, outputs: Sequence[Channel],
                     else "mass there (a component, a bracket, fluid)")  # fmt: skip
             say.append(f"The model may lack {what}: {c.describe()} would remove about "
                        f"{100 * c.fall:.0f} % of the remaining deviation (robustly "
-                       "weighed)."
+                       f"weighed). To test it, add {c.how_to_add()} (bounds about a tenth "
+                       "to ten times its size), and calibrate again."
                        + ("" if len(useful) == 1 else " Others: " + "; ".join(
                            f"{d.describe()} ({100 * d.fall:.0f} %)" for d in useful[1:3])
                           + "."))  # fmt: skip
