@@ -22,6 +22,11 @@ checked the same way:
 
     .venv/bin/python benchmarks/calibration_trust.py                  # all, ~30 min on 2 cores
     .venv/bin/python benchmarks/calibration_trust.py --tests ship s7_x1150
+    .venv/bin/python benchmarks/calibration_trust.py --add-mass m3_mass 7129 0.00555
+
+``--add-mass`` takes the engineer's step after a model-form warning: the test calibrated again
+with the point mass its report named added to the deck as a parameter (row ``TEST+mass``;
+the checks on the 30 parameters the rig frame shares).
 
 The table covers every test run so far (benchmarks/_work/trust/trust.json keeps the rows;
 a test run again replaces its row).
@@ -44,6 +49,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 FRAME = ROOT / "models" / "truck_frame"
 WORK = ROOT / "benchmarks" / "_work" / "trust"
+ADDED_EID = 9999901  # the element id of an added mass (free in the hammer frame)
 
 
 @dataclass(frozen=True)
@@ -124,24 +130,58 @@ class Rig:
         return np.abs(100 * (m.frequencies_hz[j] / mt.frequencies_hz - 1))
 
 
-def check(name: str, rig: Rig) -> dict:
+def with_mass(name: str, grid: int, mass: float) -> tuple[str, Path, Path]:
+    """The engineer's step after a model-form warning: the deck with a CONM2 of ``mass`` on
+    ``grid`` (what the report named) and the parameter file with ``m_added`` on its M
+    (bounds a tenth to ten times it); (row name, deck, parameter file) in WORK."""
+    label = f"{name}+mass"
+    deck = WORK / f"{label}.bdf"
+    text = (FRAME / "hammer_frame.bdf").read_text()
+    card = f"CONM2,{ADDED_EID},{grid},,{mass!r}"
+    deck.write_text(text.replace("\nENDDATA", f"\n{card}\nENDDATA", 1))
+    params = WORK / f"{label}.params.toml"
+    params.write_text((FRAME / "hammer_frame.params.toml").read_text() + f"""
+[[parameter]]
+name = "m_added"
+description = "the point mass the model-form search named (t)"
+card = "CONM2"
+id = {ADDED_EID}
+field = "M"
+nominal = {mass!r}
+lower = {mass / 10!r}
+upper = {mass * 10!r}
+""")
+    return label, deck, params
+
+
+def check(name: str, rig: Rig, added: tuple[int, float] | None = None) -> dict:
+    """The checks of one hidden test (see the module docstring); with ``added`` (grid, mass)
+    the calibration's deck carries that mass as a parameter (:func:`with_mass`), and the
+    checks are made on the 30 parameters the rig frame shares."""
     from femcal.calibrate.config import read_config
     from femcal.calibrate.parameters import read_truth
     from femcal.io.calibration import report_dict
     from femcal.jobs.calibration import run
 
     uff, truth_file = hidden_test(name)
+    label, deck, params = (name, FRAME / "hammer_frame.bdf",
+                           FRAME / "hammer_frame.params.toml")  # fmt: skip
+    if added is not None:
+        label, deck, params = with_mass(name, *added)
     text = (FRAME / "hammer_calibration.toml").read_text()
-    for key, value in (("deck", FRAME / "hammer_frame.bdf"),
-                       ("parameters", FRAME / "hammer_frame.params.toml"), ("frf", uff),
+    for key, value in (("deck", deck), ("parameters", params), ("frf", uff),
                        ("truth", truth_file), ("sensors", FRAME / "hammer_frame.sensors.csv"),
                        ("inputs", FRAME / "hammer_frame.inputs.csv")):  # fmt: skip
         start = text.index(f"\n{key} = ")
         end = text.index("\n", start + 1)
         text = text[:start] + f'\n{key} = "{value}"' + text[end:]
+    if added is not None:  # the added mass has no hidden value: no truth for the report
+        start = text.index("\ntruth = ")
+        text = text[:start] + text[text.index("\n", start + 1):]
     WORK.mkdir(parents=True, exist_ok=True)
-    cfg_path = WORK / f"{name}.toml"
+    cfg_path = WORK / f"{label}.toml"
     cfg_path.write_text(text)
+    name = label
     t = time.perf_counter()
     result = run(read_config(cfg_path), WORK / name, fresh=True,
                  progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))  # fmt: skip
@@ -150,12 +190,16 @@ def check(name: str, rig: Rig) -> dict:
     (WORK / name / "report.json").write_text(json.dumps(rep, indent=1))
     truth = read_truth(truth_file, rig.params)
     nominal = np.array([q.nominal for q in rig.params])
-    values = np.array([r.calibrated for r in result.parameters])
+    shared = {q.name for q in rig.params}
+    results = [r for r in result.parameters if r.parameter.name in shared]
+    by_name = {r.parameter.name: r for r in results}
+    values = np.array([by_name[q.name].calibrated for q in rig.params])
     e_nom, e_cal = rig.errors(nominal, truth), rig.errors(values, truth)
     p_true = truth / nominal - 1.0
     p_cal = values / nominal - 1.0
     closer = np.abs(p_cal - p_true) < np.abs(p_true)
-    ident = np.array([r.identifiable for r in result.parameters])
+    ident = np.array([by_name[q.name].identifiable for q in rig.params])
+    held = np.array([by_name[q.name].held for q in rig.params])
     bound = [r.parameter.name for r in result.parameters if r.at_bound]
     warned = all(any(n in line and "ended on a bound" in line for line in rep["summary"])
                  for n in bound)  # fmt: skip
@@ -166,14 +210,18 @@ def check(name: str, rig: Rig) -> dict:
     ho = result.holdout
     form = result.cases[0].model_form
     return {
-        "name": name, "what": TESTS[name].what, "seconds": seconds,
+        "name": name, "what": TESTS[name.split("+")[0]].what + (
+            f", the named mass added as a parameter: {added[1]:g} on GRID {added[0]}"
+            if added else ""), "seconds": seconds,
         "rig_nominal": (float(e_nom.mean()), float(e_nom.max())),
         "rig_calibrated": (float(e_cal.mean()), float(e_cal.max())),
         "rig_better": bool(e_cal.mean() < e_nom.mean() and e_cal.max() < e_nom.max()),
-        "identifiable": [r.parameter.name for r in result.parameters if r.identifiable],
+        "identifiable": [q.name for q, i in zip(rig.params, ident, strict=True) if i],
         "identifiable_closer": int(closer[ident].sum()), "n_identifiable": int(ident.sum()),
-        "calibrated_closer": int(closer[~np.array([r.held for r in result.parameters])].sum()),
-        "n_calibrated": int(sum(not r.held for r in result.parameters)),
+        "calibrated_closer": int(closer[~held].sum()), "n_calibrated": int((~held).sum()),
+        "added": [f"{r.parameter.name} {r.calibrated:.4g} (nominal {r.parameter.nominal:.4g}"
+                  f"{', identifiable' if r.identifiable else ''})"
+                  for r in result.parameters if r.parameter.name not in shared],
         "at_bound": bound, "bounds_warned": warned,
         "modes_closer": int(sum(modes_closer)), "n_modes": len(modes),
         "worse_modes": [f"{m.test_hz:.2f} Hz: {m.frequency_error_before_pct:+.3f} -> "
@@ -198,7 +246,8 @@ def ideal(name: str) -> tuple[list[str], float] | None:
     path = WORK / name / "report.json"
     if not path.is_file():
         return None
-    ps = [q for q in json.loads(path.read_text())["parameters"] if q["identifiable"]]
+    ps = [q for q in json.loads(path.read_text())["parameters"]
+          if q["identifiable"] and "true_p" in q]
 
     def cdf(x: float) -> float:
         return 0.5 * (1.0 + erf(x / sqrt(2.0)))
@@ -222,15 +271,27 @@ def ideal(name: str) -> tuple[list[str], float] | None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--tests", nargs="*", default=list(TESTS), choices=list(TESTS))
+    ap.add_argument("--add-mass", nargs=3, metavar=("TEST", "GRID", "MASS"),
+                    help="calibrate TEST again with a CONM2 of MASS (t) on GRID as a "
+                         "parameter, as its report suggests (row TEST+mass)")  # fmt: skip
     args = ap.parse_args()
     rig = Rig()
     store = WORK / "trust.json"
     done = {r["name"]: r for r in json.loads(store.read_text())} if store.is_file() else {}
-    for name in args.tests:
+    runs = [(name, None) for name in args.tests]
+    if args.add_mass:
+        test, grid, mass = args.add_mass
+        if test not in TESTS:
+            ap.error(f"--add-mass: test {test!r}: expected one of {', '.join(TESTS)}")
+        extra = (test, (int(grid), float(mass)))
+        runs = [extra] if args.tests == list(TESTS) else [*runs, extra]  # alone by default
+    order = list(TESTS) + [f"{n}+mass" for n in TESTS]
+    for name, added in runs:
         print(f"{name}: {TESTS[name].what}", file=sys.stderr, flush=True)
-        done[name] = check(name, rig)
-        store.write_text(json.dumps([done[n] for n in TESTS if n in done], indent=1))
-    rows = [done[n] for n in TESTS if n in done]
+        row = check(name, rig, added)
+        done[row["name"]] = row
+        store.write_text(json.dumps([done[n] for n in order if n in done], indent=1))
+    rows = [done[n] for n in order if n in done]
     nan = float("nan")  # rows written by an older version of this script lack some figures
     print("| hidden test | rig mean / worst %, nominal | calibrated | identifiable closer "
           "| error / posterior std; an ideal estimator's chance of 75 % "
@@ -255,6 +316,9 @@ def main() -> None:
               f"| {r.get('misfit_rms', nan):.3f} / {r.get('typical_misfit', nan):.4f} / "
               f"{r.get('noise') or nan:.4f} ({'yes' if r.get('model_form_warning') else 'no'}) "
               f"| {r['settled']} | {r['seconds']:.0f} s |")
+    for r in rows:
+        if r.get("added"):
+            print(f"\n{r['name']}: added {'; '.join(r['added'])}")
     for r in rows:
         print(f"\n{r['name']}:")
         for line in r["summary"]:
