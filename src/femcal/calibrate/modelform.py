@@ -68,6 +68,11 @@ NOISE_FACTOR = 2.0
 #: order holds) to ten times it (the DOF nearly held, or a mass that dominates there).
 SCREEN_SIZES = 10.0 ** np.arange(-3.0, 1.01, 1.0)
 
+#: The screen's candidates go in blocks whose every complex temporary stays within this many
+#: bytes (a handful are alive at once), so a test with many channels and inputs screens in
+#: bounded memory.
+SCREEN_BLOCK_BYTES = 64 * 2**20
+
 
 @dataclass(frozen=True)
 class Candidate:
@@ -315,7 +320,7 @@ def missing_elements(model: Model, modes: Modes, outputs: Sequence[Channel],
         return np.where(np.isfinite(dev), dev, np.inf)
 
     def screen(dofs: np.ndarray, mass: bool, fsel: np.ndarray,
-               chunk: int = 256) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+               ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
         """(fall, size) of the best of ``SCREEN_SIZES`` for candidates on ``dofs`` (n_c, k):
         a spring on each single DOF (k = 1) or a mass on each grid's translations (k = 3),
         each added exactly to the modal receptance at the frequencies ``fsel``. The sizes
@@ -329,6 +334,10 @@ def missing_elements(model: Model, modes: Modes, outputs: Sequence[Channel],
         Rf = R[..., fsel]
         with np.errstate(divide="ignore", invalid="ignore"):
             ref_dev = deviations(base[None], fsel)[0]
+        # candidates per block: each complex (c, o, i, f) temporary within SCREEN_BLOCK_BYTES
+        per = 16 * max(len(outputs) * len(inputs) * len(fsel), dofs.shape[1] * len(fsel)
+                       * (len(outputs) + len(inputs) + dofs.shape[1]))  # fmt: skip
+        chunk = int(np.clip(SCREEN_BLOCK_BYTES // per, 1, 256))
         for a in range(0, len(dofs), chunk):
             P = Phi[dofs[a:a + chunk]]  # (c, k, m)
             k = P.shape[1]
