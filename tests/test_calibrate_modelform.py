@@ -88,6 +88,19 @@ def test_a_missing_element_that_moves_resonances_far_is_found_too(frf, extra, ki
     assert best.fall > 0.95
 
 
+@pytest.mark.parametrize("f, metric", [
+    (np.array([50.0]), "complex-log"),  # a single frequency: both screens use it
+    (np.geomspace(10.0, 400.0, 300), "log-magnitude"),
+])  # fmt: skip
+def test_the_search_works_on_one_frequency_and_on_magnitudes_alone(frf, f, metric):
+    model, modes, H_model = frf(plate_deck(), f)
+    _, _, H_test = frf(plate_deck().replace("ENDDATA", "CELAS2,600,30.,19,3\nENDDATA"), f)
+    eps = residuals(H_model, H_test, metric)
+    best = missing_elements(model, modes, OUTS, INS, f, ZETA, eps, H_model, H_test, metric)[0]
+    assert (best.kind, best.grid, best.component) == ("spring to ground", 19, 3)
+    assert best.value == pytest.approx(30.0, rel=0.01) and best.fall > 0.99
+
+
 def test_diagnose_says_where_and_what_and_stays_quiet_within_the_noise(frf):
     f = np.geomspace(10.0, 400.0, 300)
     model, modes, H_model = frf(plate_deck(), f)

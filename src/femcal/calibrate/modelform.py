@@ -401,7 +401,8 @@ def missing_elements(model: Model, modes: Modes, outputs: Sequence[Channel],
             near.update(grids[np.argsort(d)[:60]][np.sort(d)[:60] <= 2 * spacing].tolist())
         if len(picked) == 2 * n_best:
             break
-    found = candidates(np.array(sorted(near), dtype=np.int64), every[1::2]) if near else []
+    others = every[1::2] if len(every) > 1 else every
+    found = candidates(np.array(sorted(near), dtype=np.int64), others) if near else []
     found.sort(key=lambda c: -c.fall)
 
     def deviation_with(c: Candidate, size: float) -> float:
