@@ -192,6 +192,7 @@ def test_an_added_mass_is_the_one_difference_it_makes(tmp_path):
     (dict(added_mass=float("nan")), r"added_mass = nan: expected a mass, 0 or more"),
     (dict(added_mass_at=(1.0, 2.0)), r"added_mass_at = \(1.0, 2.0\): expected three"),
     (dict(support_stiffness=-5.0), r"support_stiffness = -5.0: expected a stiffness"),
+    (dict(support_x=float("inf")), r"support_x = inf: expected a position"),
 ])  # fmt: skip
 def test_model_form_settings_out_of_range_are_named(setting, error):
     from femcal.jobs.synthetic_test import SynthSettings

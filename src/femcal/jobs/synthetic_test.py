@@ -73,6 +73,8 @@ class SynthSettings:
             ("noise", self.noise, self.noise >= 0, "0 or more"),
             ("noise_floor", self.noise_floor, self.noise_floor >= 0, "0 or more"),
             ("modes_to", self.modes_to, self.modes_to > 0, "a positive frequency"),
+            ("support_x", self.support_x, bool(np.isfinite(self.support_x)),
+             "a position along the frame (mm)"),
             ("support_stiffness", self.support_stiffness,
              np.isfinite(self.support_stiffness) and self.support_stiffness >= 0,
              "a stiffness, 0 or more"),
