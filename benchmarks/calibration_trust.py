@@ -10,9 +10,10 @@ checked the same way:
 * identifiable: at least 75 % of the parameters the report calls identifiable end closer to
   their hidden values than the nominal ones. Beside it, what an ideal estimator would score:
   each identifiable parameter's error in posterior standard deviations, and the chance that
-  the check is met by the Bayesian estimate of a model that lacks nothing, whose data-only
-  error is Gaussian with the reported Cramer-Rao bound (scalar shrinkage by 1 - ratio^2,
-  the parameters independent). A hidden value near the nominal is "closer" only by luck:
+  the check is met by the Bayesian estimate of a model that lacks nothing: the data-only
+  estimate Gaussian about the hidden value, shrunk towards the nominal by 1 - ratio^2, with
+  the spread that gives the reported posterior standard deviation (each parameter taken
+  alone, the parameters independent). A hidden value near the nominal is "closer" only by luck:
   within 0.1 standard deviations of it, about one estimate in ten is;
 * bounds: no parameter on a bound without the report's warning;
 * test modes: every identified test mode in the band closer after calibration;
@@ -191,8 +192,7 @@ def check(name: str, rig: Rig, added: tuple[int, float] | None = None) -> dict:
     truth = read_truth(truth_file, rig.params)
     nominal = np.array([q.nominal for q in rig.params])
     shared = {q.name for q in rig.params}
-    results = [r for r in result.parameters if r.parameter.name in shared]
-    by_name = {r.parameter.name: r for r in results}
+    by_name = {r.parameter.name: r for r in result.parameters}
     values = np.array([by_name[q.name].calibrated for q in rig.params])
     e_nom, e_cal = rig.errors(nominal, truth), rig.errors(values, truth)
     p_true = truth / nominal - 1.0
@@ -283,7 +283,11 @@ def main() -> None:
         test, grid, mass = args.add_mass
         if test not in TESTS:
             ap.error(f"--add-mass: test {test!r}: expected one of {', '.join(TESTS)}")
-        extra = (test, (int(grid), float(mass)))
+        try:
+            extra = (test, (int(grid), float(mass)))
+        except ValueError:
+            ap.error(f"--add-mass: GRID {grid!r} and MASS {mass!r}: expected a grid id and a "
+                     "mass in tonne")  # fmt: skip
         runs = [extra] if args.tests == list(TESTS) else [*runs, extra]  # alone by default
     order = list(TESTS) + [f"{n}+mass" for n in TESTS]
     for name, added in runs:

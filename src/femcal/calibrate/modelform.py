@@ -300,13 +300,6 @@ def missing_elements(model: Model, modes: Modes, outputs: Sequence[Channel],
     complex_log = metric == "complex-log"
     wparts = _split(wts, shape)
 
-    def residuals_of(H: np.ndarray) -> np.ndarray:
-        ratio = H / H_test
-        mag = np.log10(np.abs(ratio)).ravel()
-        if not complex_log:
-            return mag
-        return np.concatenate([mag, (2.0 * np.sin(np.angle(ratio) / 2.0) / _LN10).ravel()])
-
     def deviations(ratio: np.ndarray, fsel: np.ndarray) -> np.ndarray:
         """(c,) the weighted deviation of model-over-test ratios (c, o, i, f) at ``fsel``,
         without trigonometry: log10|r| = ln(|r|^2) / (2 ln 10), and the phase part's square
@@ -319,8 +312,7 @@ def missing_elements(model: Model, modes: Modes, outputs: Sequence[Channel],
                         * wparts[1][..., fsel]).sum(axis=(1, 2, 3))  # fmt: skip
         return np.where(np.isfinite(dev), dev, np.inf)
 
-    def screen(dofs: np.ndarray, mass: bool, fsel: np.ndarray,
-               ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    def screen(dofs: np.ndarray, mass: bool, fsel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(fall, size) of the best of ``SCREEN_SIZES`` for candidates on ``dofs`` (n_c, k):
         a spring on each single DOF (k = 1) or a mass on each grid's translations (k = 3),
         each added exactly to the modal receptance at the frequencies ``fsel``. The sizes
@@ -332,8 +324,7 @@ def missing_elements(model: Model, modes: Modes, outputs: Sequence[Channel],
         Gf, w2 = G[fsel], w[fsel] ** 2
         base = (H_model / H_test)[..., fsel]
         Rf = R[..., fsel]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ref_dev = deviations(base[None], fsel)[0]
+        ref_dev = deviations(base[None], fsel)[0]
         # candidates per block: each complex (c, o, i, f) temporary within SCREEN_BLOCK_BYTES
         per = 16 * max(len(outputs) * len(inputs) * len(fsel), dofs.shape[1] * len(fsel)
                        * (len(outputs) + len(inputs) + dofs.shape[1]))  # fmt: skip
@@ -423,7 +414,7 @@ def missing_elements(model: Model, modes: Modes, outputs: Sequence[Channel],
               else -(w**2) * size)[:, None, None] * np.eye(n)[None]  # fmt: skip
         core = np.linalg.solve(np.eye(n)[None] + Rdd @ dz, dz)
         R_new = R - np.einsum("fok,fkl,fli->oif", Rod, core, Rdi, optimize=True)
-        e = residuals_of(H_model * (R_new / R))
+        e = residuals(H_model * (R_new / R), H_test, metric)
         return float(e @ (wts * e))
 
     def exact(c: Candidate) -> Candidate:
