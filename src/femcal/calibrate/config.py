@@ -93,6 +93,12 @@
                                             #  "auto" or "none" (femcal.calibrate.holdout)
     holdout_folds = 4                       # groups of sensor positions for "sensors"
                                             #  (>= 2)
+    augment_fall = 0.1                      # after a model-form warning, the element the
+                                            #  search names is added to the deck as a
+                                            #  parameter and the calibration runs again,
+                                            #  when it removes at least this fraction of
+                                            #  the deviation (in [0, 1); 0: never;
+                                            #  femcal.calibrate.augment)
     exclude_suspect_channels = true
 
     [output]
@@ -227,6 +233,7 @@ class Config:
     crlb_bands: tuple[tuple[float, float], ...] = ()
     holdout: str = "auto"
     holdout_folds: int = 4
+    augment_fall: float = 0.1
     exclude_suspect_channels: bool = True
     pictures: bool = True
     raw: dict = field(default_factory=dict)
@@ -279,6 +286,9 @@ SETTINGS: dict[str, Setting] = {
     "hold_ratio": Setting(float, 0.99, lambda v: 0 < v <= 1, "a fraction in (0, 1]"),
     "identifiable_ratio": Setting(float, 0.5, lambda v: 0 < v <= 1, "a fraction in (0, 1]"),
     "holdout_folds": Setting(int, 4, lambda v: v >= 2, "2 or more"),
+    "augment_fall": Setting(float, 0.1, lambda v: 0 <= v < 1,
+                            "a fraction in [0, 1): 0 never adds the element the model-form "
+                            "search names"),
 }  # fmt: skip
 
 #: The most frequencies a configuration's metric may have (the residuals, and the Jacobian

@@ -10,6 +10,7 @@ pictures are made from these at the edge (:mod:`femcal.io.calibration`,
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -17,6 +18,7 @@ from ..identify.workflow import IdentifiedModel
 from ..model.model import Model
 from ..solve.normal_modes import Modes
 from ..testdata.data import Channel, FRFData
+from .augment import AddedElement
 from .config import Config
 from .holdout import HoldOut
 from .identifiability import Identifiability
@@ -270,6 +272,8 @@ class CalibrationResult:
     posterior : at the solution. band_bounds : the posterior per band.
     holdout : the validation on data the fit did not see (None: not run).
     seconds : the run's wall time.
+    augmented : the calibration again with the element the model-form search named added
+        as a parameter (None: not run; :mod:`femcal.calibrate.augment`).
     """
 
     config: Config
@@ -284,6 +288,7 @@ class CalibrationResult:
     band_bounds: tuple[BandBounds, ...]
     seconds: float
     holdout: HoldOut | None = None
+    augmented: Augmentation | None = None
 
     @property
     def restarts(self) -> int:
@@ -309,3 +314,24 @@ class CalibrationResult:
     def deviation_after(self) -> float:
         """Every configuration's full-model deviation after calibration, summed."""
         return float(sum(c.deviation_after for c in self.cases))
+
+
+@dataclass(frozen=True)
+class Augmentation:
+    """A calibration run again with the missing element its model-form search named, added
+    to a configuration's deck as a parameter (:mod:`femcal.calibrate.augment`).
+
+    Attributes
+    ----------
+    added : the element, its cards and its parameter.
+    result : the calibration with it (its parameters: the first's and the added one).
+    deck : the configuration's deck with the element added (the calibration's input).
+    better : the data prefer the model with the element (on held-out data when both were
+        validated); reason : the figures that say so, in words.
+    """
+
+    added: AddedElement
+    result: CalibrationResult
+    deck: Path
+    better: bool
+    reason: str

@@ -108,9 +108,10 @@ def _starts_task(name: str) -> str:
 
 #: Config fields that do not change a start's result (where the files are, whose content
 #: enters through the models, the test FRFs and the files' own digests; the number of worker
-#: processes, pictures, the raw text). The configurations' settings enter on their own.
+#: processes, pictures, the raw text; whether a model-form element is added afterwards, which
+#: is another run). The configurations' settings enter on their own.
 _NOT_IN_FINGERPRINT = ("path", "configurations", "workers", "engine", "scheduler", "pictures",
-                       "raw")
+                       "raw", "augment_fall")
 
 
 def file_digest(path: str | Path) -> str:
@@ -228,7 +229,7 @@ def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
     cfg : the calibration's settings (its ``[calibration]`` section; the files of its
         configurations are not read here).
     truth : (n_p,) a synthetic test's known values P of the shared parameters, for the
-        report's errors only.
+        report's errors only (NaN: not known, e.g. an added element's).
     state : folder for the finished starts and cycles (``starts/`` in a job's output). Each
         start is kept with a fingerprint of everything that decides it (the models' arrays and
         tables, the parameters, the settings, the test FRFs and channels compared, the
@@ -536,7 +537,7 @@ def _calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *, truth: np.nda
     for i, par in enumerate(params):
         std = float(post.std[i])
         extra = {}
-        if truth is not None:  # a synthetic test: the error against the known value
+        if truth is not None and np.isfinite(truth[i]):  # a synthetic test's known value
             p_true = truth[i] / par.nominal - 1.0
             extra = dict(true=float(truth[i]), true_p=float(p_true),
                          error_pct=float(100 * (values[i] / truth[i] - 1.0)),

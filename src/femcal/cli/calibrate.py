@@ -74,6 +74,11 @@ def run(args: argparse.Namespace) -> int:
         from ..io.calibration import write_report
 
         write_report(result, args.out, progress=progress)
+        if result.augmented is not None:  # the calibration with the model-form element
+            from ..io.calibration import AUGMENTED_FOLDER
+
+            write_report(result.augmented.result, args.out / AUGMENTED_FOLDER,
+                         progress=progress)  # fmt: skip
     print(f"{'parameter':<10} {'nominal':>12} {'calibrated':>12} {'change %':>9} "
           f"{'prior %':>8} {'post. %':>8} status")
     for r in result.parameters:

@@ -712,6 +712,9 @@ def edit_deck(path: str | os.PathLike[str], edits: Sequence[FieldEdit], *,
 
 # ------------------------------------------------------------------------------ writing
 
+#: The line that ends the bulk data (added cards go before it).
+_ENDDATA = re.compile(r"\s*ENDDATA(?![A-Z0-9])", re.IGNORECASE)
+
 
 def _include_text(inc: Include, name: str) -> str:
     """The INCLUDE statement ``inc`` naming ``name`` instead, with its lines' endings; a
@@ -770,10 +773,14 @@ def changed_card_lines(edited: EditedDeck, header: Sequence[str] = ()) -> list[s
 def write_edited_deck(edited: EditedDeck, out: str | os.PathLike[str], *,
                       header: Sequence[str] = (), changes: str | os.PathLike[str] | None = None,
                       tag: str = "edited",
-                      keep: Iterable[str | os.PathLike[str]] = ()) -> list[Path]:  # fmt: skip
+                      keep: Iterable[str | os.PathLike[str]] = (),
+                      added: Sequence[str] = ()) -> list[Path]:  # fmt: skip
     """Write the edited deck to ``out``, the INCLUDE files it needs written beside it, and,
     when ``changes`` is given, the changed cards alone (:func:`changed_card_lines`) to
-    ``changes``; returns the files written, the deck first. ``header`` (comment lines, each
+    ``changes``; returns the files written, the deck first. ``added`` are bulk data lines
+    (new cards) written into the main deck before its ENDDATA (at its end if it has none;
+    whether they were read is the caller's to check, as a bulk section ended in an INCLUDE
+    file ends before them). ``header`` (comment lines, each
     starting with ``$``) goes at the top of the deck and of the changes file. Where files
     go, how INCLUDEs are kept or rewritten, and the order of writing: see the module
     docstring. ``keep`` are files not to write over besides the deck's own (those another
@@ -832,7 +839,8 @@ def write_edited_deck(edited: EditedDeck, out: str | os.PathLike[str], *,
     if changes is not None:
         written.append(write_lines(changes, changed_card_lines(edited, header),
                                    encoding="latin-1"))  # fmt: skip
-    written.insert(0, _write_file(files[0], out, *plans[0], header=header))
+    written.insert(0, _write_file(files[0], out, *plans[0], header=header,
+                                  added=[_latin1(a) for a in added]))  # fmt: skip
     return written
 
 
@@ -866,28 +874,37 @@ def _plan_file(edited: EditedDeck, s: int, dest: dict[int, Path], own: dict[str,
 
 
 def _write_file(src: str, dst: Path, replace: dict[int, str], drop: set[int], *,
-                header: Sequence[str]) -> Path:  # fmt: skip
+                header: Sequence[str], added: Sequence[str] = ()) -> Path:  # fmt: skip
     """Copy ``src`` to ``dst`` (atomically) line by line, with ``replace``d lines, without
-    ``drop``ped ones, and ``header`` first (after a UTF-8 byte order mark, if any), in the
-    first line's line ending."""
+    ``drop``ped ones, ``header`` first (after a UTF-8 byte order mark, if any) and the
+    ``added`` lines before the first ENDDATA (else at the end), in the first line's line
+    ending."""
 
     def copy(tmp: str) -> None:
         with (open(src, encoding="latin-1", newline="") as fin,
               open(tmp, "w", encoding="latin-1", newline="") as fout):  # fmt: skip
-            head = list(header)
+            head, tail, end, text = list(header), list(added), "\n", ""
             for n, line in enumerate(fin, 1):
                 if n in drop:
                     continue
                 text = replace.get(n, line)
+                if n == 1:
+                    end = _split_end(line)[1] or "\n"
                 if head:
                     if text.startswith("\xef\xbb\xbf"):
                         fout.write(text[:3])
                         text = text[3:]
-                    end = _split_end(line)[1] or "\n"
                     fout.write("".join(h + end for h in head))
                     head = []
+                if tail and _ENDDATA.match(text):
+                    fout.write("".join(a + end for a in tail))
+                    tail = []
                 fout.write(text)
             if head:
                 fout.write("".join(h + "\n" for h in head))
+            if tail:
+                if fout.tell() and not text.endswith(("\n", "\r")):
+                    fout.write(end)
+                fout.write("".join(a + end for a in tail))
 
     return write_atomic(dst, copy)

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..atomic import write_atomic, write_lines
+from ..calibrate.augment import AddedElement
 from ..calibrate.config import Config, Configuration
 from ..calibrate.modelform import NOISE_FACTOR
 from ..calibrate.parameters import Parameter
@@ -138,6 +139,41 @@ def summary_lines(result: CalibrationResult) -> list[str]:
                          "the calibrated values fit this test rather than the structure.")
     lines.append(f"Deviation {result.deviation_before:.6g} before, {result.deviation_after:.6g} "
                  "after.")  # fmt: skip
+    if result.augmented is not None:
+        lines += augmented_lines(result)
+    return lines
+
+
+def augmented_lines(result: CalibrationResult) -> list[str]:
+    """The summary's lines on the calibration run again with the model-form element added:
+    what was added, what it was calibrated to, and whether the data prefer it."""
+    a = result.augmented
+    if a is None:
+        return []
+    r = a.result
+    par = a.added.parameter
+    row = next(q for q in r.parameters if q.parameter.name == par.name)
+    status = ("held: the test cannot inform it" if row.held else
+              f"posterior std {row.posterior_std:.2g}, "
+              + ("identifiable" if row.identifiable else "weakly informed"))  # fmt: skip
+    form = [c.model_form for c in r.cases if c.model_form is not None]
+    still = any(f.warning for f in form)
+    lines = [f"Model form tested: the calibration ran again with {a.added.describe()} added "
+             f"as parameter {par.name}. It was calibrated to {row.calibrated:.4g} ({status}"
+             f"{', at a bound' if row.at_bound else ''}); the deviation after calibration is "
+             f"{r.deviation_after:.6g} with it, {result.deviation_after:.6g} without; "
+             f"{a.reason}."]  # fmt: skip
+    if a.better:
+        lines.append(f"The data prefer the model with the added element: its calibration is "
+                     f"in {AUGMENTED_FOLDER}/ (report.json, the deck with the element and its "
+                     "calibrated copy). Look on the structure for what it stands for (a "
+                     "component, a mount, a support) and model that"
+                     + ("; its model-form warning remains, so something else is missing too."
+                        if still else "."))  # fmt: skip
+    else:
+        lines.append("The data do not prefer the model with the added element: the "
+                     "calibration without it stands, and the misfit has another cause (see "
+                     "the model-form section).")  # fmt: skip
     return lines
 
 
@@ -267,7 +303,42 @@ def report_dict(result: CalibrationResult) -> dict:
         "surrogate": cfg.surrogate, "enrich_hz": cfg.enrich_hz,
         "enrich_vectors": cfg.enrich_vectors, "residual": cfg.residual,
         "modal_hz": cfg.modal_hz, "exact_gradient": cfg.exact_gradient,
+        "augment_fall": cfg.augment_fall, "augmented": _augmented(result),
         "seconds": result.seconds,
+    }  # fmt: skip
+
+
+#: The folder of a calibration's output that holds its run with the model-form element added
+#: (:mod:`femcal.jobs.calibration`).
+AUGMENTED_FOLDER = "augmented"
+
+
+def _augmented(result: CalibrationResult) -> dict | None:
+    """report.json's account of the calibration with the model-form element added."""
+    a = result.augmented
+    if a is None:
+        return None
+    r = a.result
+    par = a.added.parameter
+    row = next(q for q in r.parameters if q.parameter.name == par.name)
+    c = a.added.candidate
+    ho = r.holdout
+    return {
+        "configuration": a.added.configuration, "element": a.added.describe(),
+        "kind": c.kind, "grid": c.grid, "component": c.component,
+        "xyz": [float(x) for x in c.xyz], "search_fall": c.fall,
+        "cards": element_cards(a.added), "deck": f"{AUGMENTED_FOLDER}/{a.deck.name}",
+        "report": f"{AUGMENTED_FOLDER}/report.json",
+        "parameter": {"name": par.name, "card": par.card, "id": par.id, "field": par.field,
+                      "nominal": par.nominal, "lower": par.lower, "upper": par.upper,
+                      "calibrated": row.calibrated, "held": row.held,
+                      "identifiable": row.identifiable, "at_bound": row.at_bound,
+                      "posterior_std": row.posterior_std},
+        "deviation_after": r.deviation_after,
+        "heldout_calibrated": ho.deviation_calibrated if ho else None,
+        "model_form_warning": any(k.model_form.warning for k in r.cases if k.model_form),
+        "better": a.better, "reason": a.reason,
+        "parameters": {q.parameter.name: q.calibrated for q in r.parameters},
     }  # fmt: skip
 
 
@@ -317,6 +388,53 @@ def write_calibrated_deck(deck_path: str | os.PathLike[str], params: list[Parame
               f"{n_cards} card{'s' * (n_cards != 1)} (see {changes.name})"]  # fmt: skip
     return write_edited_deck(edited, out, header=header, changes=changes, tag="calibrated",
                              keep=keep)  # fmt: skip
+
+
+def element_cards(added: AddedElement) -> list[str]:
+    """The bulk data lines (small free field) of an added element: ``CONM2,eid,grid,,M``, or
+    ``CELAS1,eid,pid,grid,C`` and ``PELAS,pid,K``."""
+    from ..deck.edit import format_real
+
+    value = format_real(added.parameter.nominal, 8)
+    c = added.candidate
+    if c.kind == "point mass":
+        return [f"CONM2,{added.element_id},{c.grid},,{value}"]
+    return [f"CELAS1,{added.element_id},{added.property_id},{c.grid},{c.component}",
+            f"PELAS,{added.property_id},{value}"]  # fmt: skip
+
+
+def field_value(value: float) -> float:
+    """``value`` as a small free field holds it (7 significant digits at most): an added
+    element's size before it is written, so that its parameter's nominal is the deck's."""
+    from ..deck.edit import format_real
+    from ..deck.fields import parse_real
+
+    return parse_real(format_real(value, 8))
+
+
+def write_augmented_deck(deck_path: str | os.PathLike[str], cards: Iterable[str],
+                         out: str | os.PathLike[str], *, why: str = "") -> Path:
+    """Write the deck at ``deck_path`` to ``out`` with the bulk data lines ``cards`` added
+    before its ENDDATA (every other byte kept; its INCLUDEs pointed at the deck's own files
+    from ``out``'s folder) and a header of comments saying what was added and ``why``: no
+    date, so that the same element makes the same file (its content enters the resume
+    fingerprint). Atomic; returns ``out``.
+
+    Raises
+    ------
+    DeckEditError
+        When ``out`` would replace one of the deck's own files, or an INCLUDE cannot name
+        its file from there (a ValueError too).
+    """
+    from ..deck.edit import edit_deck, write_edited_deck
+
+    cards = list(cards)
+    header = ["$ femcal: the deck with the model-form element added",
+              f"$ from: {Path(deck_path).name}",
+              *([f"$ why: {why}"] if why else []),
+              *(f"$ added: {c}" for c in cards)]  # fmt: skip
+    return write_edited_deck(edit_deck(deck_path, []), out, header=header, tag="augmented",
+                             added=cards)[0]  # fmt: skip
 
 
 _table, _f = html_table, html_number
@@ -431,6 +549,32 @@ calibrated against {ho['deviation_nominal']:.6g} nominal ({'better' if ho['bette
  ""])}"""
 
 
+def _augmented_html(report: dict) -> str:
+    """The section on the calibration run again with the model-form element added: the
+    element, and each parameter without and with it."""
+    a = report.get("augmented")
+    if a is None:
+        return ""
+    q = a["parameter"]
+    first = {p["name"]: p for p in report["parameters"]}
+    rows = [[name, _f(first[name]["calibrated"], ".6g") if name in first else "(not in the model)",
+             _f(value, ".6g")] for name, value in a["parameters"].items()]  # fmt: skip
+    cards = "<br>".join(html.escape(c) for c in a["cards"])
+    return f"""<h2>Model form tested: the calibration with the missing element added</h2>
+<p>The model-form search named {html.escape(a['element'])} in configuration
+{html.escape(a['configuration'])}, removing about {100 * a['search_fall']:.0f} % of the
+deviation left after calibration. It was added to the deck (<code>{cards}</code>, in
+<code>{html.escape(a['deck'])}</code>) with parameter <b>{html.escape(q['name'])}</b> on its
+{html.escape(q['card'])} {html.escape(q['field'])} (bounds {q['lower']:.4g} to {q['upper']:.4g})
+and the calibration ran again: {html.escape(q['name'])} = {q['calibrated']:.4g}; deviation after
+calibration {a['deviation_after']:.6g} against {report['deviation']['after']:.6g} without;
+{html.escape(a['reason'])}. <b>{'The data prefer the model with it' if a['better'] else
+'The data do not prefer it: the calibration without it stands'}</b>{
+'; its model-form warning remains' if a['model_form_warning'] else ''}. Its own report:
+<code>{html.escape(a['report'])}</code>.</p>
+{_table(rows, ["parameter", "calibrated without it", "calibrated with it"])}"""
+
+
 def _configuration_html(c: dict, figures: list[ReportFigure], several: bool) -> str:
     """One configuration's section: its test, deviation, modes and figures (the renderings
     of the calibrated paired modes last)."""
@@ -543,6 +687,7 @@ the prior's; held: the test cannot narrow the prior by more than
 <ul>{why}</ul>
 {''.join(_figure(f) for f in figures if f.case is None)}
 {_holdout_html(report.get("holdout"))}
+{_augmented_html(report)}
 {sections}
 <h2>Runs</h2><p>Cycle 1 runs Levenberg-Marquardt from every start on the nominal model's
 surrogate; each later cycle rebuilds the surrogate at the candidate point, where it is the full

@@ -22,13 +22,29 @@ from pathlib import Path
 
 import numpy as np
 
+from ..calibrate.augment import added_element, choose, verdict
 from ..calibrate.cases import TestSetup
 from ..calibrate.config import Config, Configuration
-from ..calibrate.parameters import Parameter, read_parameters, read_truth, share_parameters
-from ..calibrate.result import CalibrationResult
+from ..calibrate.modelform import Candidate
+from ..calibrate.parameters import (
+    Parameter,
+    current_value,
+    read_parameters,
+    read_truth,
+    share_parameters,
+)
+from ..calibrate.result import Augmentation, CalibrationResult
 from ..calibrate.workflow import calibrate_setups, check_overrides
 from ..identify import IdentifiedModel, Settings, identify
-from ..io.calibration import calibrated_deck_name, write_calibrated_deck, write_report_json
+from ..io.calibration import (
+    AUGMENTED_FOLDER,
+    calibrated_deck_name,
+    element_cards,
+    field_value,
+    write_augmented_deck,
+    write_calibrated_deck,
+    write_report_json,
+)
 from ..io.identified import read_model, write_model, write_summary
 from ..model.build import load_model
 from ..model.model import Model
@@ -181,15 +197,92 @@ def _run(cfg: Config, out: Path, inputs: Inputs, session: Session, *, fresh: boo
     result = calibrate_setups(setups, cfg, truth=truth, state=out / "starts", fresh=fresh,
                               starts=starts, session=session, progress=progress,
                               sources=sources)  # fmt: skip
+    decks = [c.deck for c in cfg.configurations]
+    _write_decks(cfg, decks, per_config, result, out, say)
+    result = replace(result, seconds=time.perf_counter() - t0)  # the whole job's run time
+    path = write_report_json(out / "report.json", result)
+    say(f"wrote {path}")
+    pick = choose(((c.name, c.model_form.candidates[0], c.model_form.warning)
+                   for c in result.cases if c.model_form and c.model_form.candidates),
+                  cfg.augment_fall)  # fmt: skip
+    if pick is None:
+        return result
+    augmented = _augment(cfg, out / AUGMENTED_FOLDER, inputs, setups, result, pick, session,
+                         fresh=fresh, starts=starts, say=say, progress=progress,
+                         sources=sources)  # fmt: skip
+    result = replace(result, augmented=augmented, seconds=time.perf_counter() - t0)
+    path = write_report_json(out / "report.json", result)
+    say(f"wrote {path}")
+    return result
+
+
+def _write_decks(cfg: Config, decks: list[Path], per_config: list[list[Parameter]],
+                 result: CalibrationResult, out: Path, say: Callable[[str], None]) -> None:
+    """Each configuration's calibrated deck (from ``decks``) into ``out``."""
     written: list[Path] = []
-    for conf, params, case in zip(cfg.configurations, per_config, result.cases, strict=True):
+    for conf, deck_in, params, case in zip(cfg.configurations, decks, per_config, result.cases,
+                                           strict=True):  # fmt: skip
         deck = out / calibrated_deck_name(conf, cfg)
-        files = write_calibrated_deck(conf.deck, params, result.values[case.index], deck,
+        files = write_calibrated_deck(deck_in, params, result.values[case.index], deck,
                                       config=cfg.path, keep=written)  # fmt: skip
         written += files
         say(f"wrote {deck} ({', '.join(str(f.relative_to(out)) for f in files[1:])} "
             "beside it)")
-    result = replace(result, seconds=time.perf_counter() - t0)  # the whole job's run time
+
+
+def _augment(cfg: Config, out: Path, inputs: Inputs, setups: list[TestSetup],
+             first: CalibrationResult, pick: tuple[str, Candidate], session: Session, *,
+             fresh: bool, starts: int | None, say: Callable[[str], None],
+             progress: Callable[[str], None] | None,
+             sources: list[Path]) -> Augmentation:  # fmt: skip
+    """The calibration again with the element the model-form search named (``pick``: the
+    configuration's name and the candidate) added to that configuration's deck as a
+    parameter (:mod:`femcal.calibrate.augment`), into ``out``: the augmented deck, its
+    state (``out/starts``, resumed as the first run's), the calibrated decks and
+    report.json; the verdict set against ``first``.
+
+    Raises
+    ------
+    ValueError
+        When the added cards are not in the model read back (a bulk section that ends in an
+        INCLUDE file ends before them).
+    """
+    name, cand = pick
+    k = [c.name for c in cfg.configurations].index(name)
+    conf = cfg.configurations[k]
+    taken = {p.name for p in inputs.shared}
+    added = added_element(inputs.models[k], name, replace(cand, value=field_value(cand.value)),
+                          taken)  # fmt: skip
+    out.mkdir(parents=True, exist_ok=True)
+    deck = write_augmented_deck(conf.deck, element_cards(added), out / conf.deck.name,
+                                why=f"{cand.describe()} would remove about "
+                                    f"{100 * cand.fall:.0f} % of the deviation")  # fmt: skip
+    model = load_model(deck)
+    par = added.parameter
+    try:
+        current_value(model, par.card, par.id, par.field)
+    except ValueError:
+        raise ValueError(f"{deck}: the added {par.card} {par.id} was not read back (does "
+                         f"{conf.deck}'s bulk data end in an INCLUDE file?)") from None
+    say(f"model form: {cand.describe()} would remove about {100 * cand.fall:.0f} % of "
+        f"{name}'s deviation; calibrating again with {added.describe()} added as parameter "
+        f"{par.name} (bounds {par.lower:.3g} to {par.upper:.3g}), into {out}")  # fmt: skip
+    per_config = [list(p) for p in inputs.parameters]
+    per_config[k] = [*per_config[k], par]
+    setups = list(setups)
+    setups[k] = replace(setups[k], model=model, params=tuple(per_config[k]))
+    truth = None
+    if inputs.truth is not None:  # the added element has no known value
+        truth = np.append(inputs.truth, np.nan)
+    result = calibrate_setups(setups, cfg, truth=truth, state=out / "starts", fresh=fresh,
+                              starts=starts, session=session, progress=progress,
+                              sources=sources)  # fmt: skip
+    decks = [deck if i == k else c.deck for i, c in enumerate(cfg.configurations)]
+    _write_decks(cfg, decks, per_config, result, out, say)
     path = write_report_json(out / "report.json", result)
     say(f"wrote {path}")
-    return result
+    ho1, ho2 = first.holdout, result.holdout
+    better, why = verdict(ho1.deviation_calibrated if ho1 else None,
+                          ho2.deviation_calibrated if ho2 else None,
+                          first.deviation_after, result.deviation_after, cfg.augment_fall)
+    return Augmentation(added, result, deck, better, why)

@@ -972,6 +972,10 @@ def config_text(proposal: Proposal, folder: str | os.PathLike[str], parameters: 
              ", \"auto\" or \"none\"."),
         *key("holdout_folds", str(d["holdout_folds"]), "Groups of sensor positions for "
              f"\"sensors\" (default {d['holdout_folds']})."),
+        *key("augment_fall", f"{d['augment_fall']:g}", "After a model-form warning, the "
+             "element the search names is added to the deck as a parameter and the "
+             "calibration runs again into augmented/, when it removes at least this fraction "
+             f"of the deviation (default {d['augment_fall']:g}; 0: never)."),
         *key("exclude_suspect_channels", flag["exclude_suspect_channels"],
              "Leave out the channels the identification calls suspect (default true)."),
         "",
