@@ -15,6 +15,7 @@ from femcal.calibrate.augment import added_element, choose, element_ids, verdict
 from femcal.calibrate.config import read_config
 from femcal.calibrate.modelform import Candidate
 from femcal.calibrate.parameters import current_value, with_values
+from femcal.cli import main
 from femcal.io.calibration import element_cards, field_value, write_augmented_deck
 from femcal.jobs.calibration import run
 from femcal.model.build import load_model
@@ -208,3 +209,13 @@ def test_an_added_size_is_what_its_small_field_holds(tmp_path):
     for c in (_mass(value=v), _mass("spring to ground", 19, 3, field_value(123456.789e3))):
         cards = element_cards(added_element(model, "plate", c))
         assert all(len(f) <= 8 for line in cards for f in line.split(","))
+
+
+def test_the_command_line_prints_both_calibrations(lacking, capsys):
+    d, result, _ = lacking
+    assert main(["calibrate", str(d / "cal.toml"), "--out", str(d / "out")]) == 0
+    out = capsys.readouterr().out
+    par = result.augmented.added.parameter
+    assert f"with {result.augmented.added.describe()} added" in out
+    assert out.count("\nt ") == 2  # the parameter table without and with the element
+    assert par.name in out and "The data prefer the model with the added element" in out

@@ -7,8 +7,12 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..errors import message
+
+if TYPE_CHECKING:
+    from ..calibrate.result import CalibrationResult
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -79,14 +83,14 @@ def run(args: argparse.Namespace) -> int:
 
             write_report(result.augmented.result, args.out / AUGMENTED_FOLDER,
                          progress=progress)  # fmt: skip
-    print(f"{'parameter':<10} {'nominal':>12} {'calibrated':>12} {'change %':>9} "
-          f"{'prior %':>8} {'post. %':>8} status")
-    for r in result.parameters:
-        status = "held" if r.held else ("identifiable" if r.identifiable else "weak")
-        post = "-" if r.held else f"{100 * r.posterior_std_p:.2f}"
-        print(f"{r.parameter.name:<10} {r.parameter.nominal:12.6g} {r.calibrated:12.6g} "
-              f"{100 * r.p:+9.2f} {100 * r.prior_std_p:8.2f} {post:>8} {status}"
-              f"{' (at a bound!)' if r.at_bound else ''}")
+    _print_parameters(result)
+    if result.augmented is not None:
+        from ..io.calibration import AUGMENTED_FOLDER
+
+        print(f"\nwith {result.augmented.added.describe()} added "
+              f"({args.out / AUGMENTED_FOLDER}):")  # fmt: skip
+        _print_parameters(result.augmented.result)
+        print()
     def fmt(v, spec):
         return format(v, spec) if v is not None else "-"
 
@@ -105,3 +109,16 @@ def run(args: argparse.Namespace) -> int:
     for line in summary_lines(result):
         print(line)
     return 0
+
+
+def _print_parameters(result: CalibrationResult) -> None:
+    """The parameter table: nominal, calibrated, change, prior and posterior, status."""
+    w = max(10, *(len(r.parameter.name) for r in result.parameters))
+    print(f"{'parameter':<{w}} {'nominal':>12} {'calibrated':>12} {'change %':>9} "
+          f"{'prior %':>8} {'post. %':>8} status")
+    for r in result.parameters:
+        status = "held" if r.held else ("identifiable" if r.identifiable else "weak")
+        post = "-" if r.held else f"{100 * r.posterior_std_p:.2f}"
+        print(f"{r.parameter.name:<{w}} {r.parameter.nominal:12.6g} {r.calibrated:12.6g} "
+              f"{100 * r.p:+9.2f} {100 * r.prior_std_p:8.2f} {post:>8} {status}"
+              f"{' (at a bound!)' if r.at_bound else ''}")

@@ -8,8 +8,12 @@ stopped run resumes), and writes ``out/report.json``, each configuration's calib
 (the engineer's deck with the calibrated fields changed, its changed INCLUDE files and its
 changed cards alone: :func:`femcal.io.calibration.write_calibrated_deck`) and, when
 identified here, ``out/identify/`` (``out/identify/<name>/`` with several
-configurations: model.npz, identify.json). The pictures and ``report.html`` are
-:func:`femcal.io.calibration.write_report`'s.
+configurations: model.npz, identify.json). When the model-form warning fires and the
+element the search names removes at least ``augment_fall`` of the deviation, the element is
+added to its configuration's deck as a parameter and the calibration runs again into
+``out/augmented/`` (the deck with the element, ``starts/``, the calibrated decks,
+report.json; :mod:`femcal.calibrate.augment`), and the first report says what the data
+prefer. The pictures and ``report.html`` are :func:`femcal.io.calibration.write_report`'s.
 """
 
 from __future__ import annotations
