@@ -161,10 +161,12 @@ upper = {mass * 10!r}
     return label, deck, params
 
 
-def check(name: str, rig: Rig, added: tuple[int, float] | None = None) -> dict:
+def check(name: str, rig: Rig, added: tuple[int, float] | None = None,
+          augment_fall: float | None = None) -> dict:
     """The checks of one hidden test (see the module docstring); with ``added`` (grid, mass)
     the calibration's deck carries that mass as a parameter (:func:`with_mass`), and the
-    checks are made on the 30 parameters the rig frame shares."""
+    checks are made on the 30 parameters the rig frame shares; ``augment_fall`` in place of
+    the configuration's (row ``TEST@X``)."""
     from femcal.calibrate.config import read_config
     from femcal.calibrate.parameters import read_truth
     from femcal.io.calibration import report_dict
@@ -185,6 +187,10 @@ def check(name: str, rig: Rig, added: tuple[int, float] | None = None) -> dict:
     if added is not None:  # the added mass has no hidden value: no truth for the report
         start = text.index("\ntruth = ")
         text = text[:start] + text[text.index("\n", start + 1):]
+    if augment_fall is not None:
+        label = f"{label}@{augment_fall:g}"
+        text = text.replace("\n[calibration]\n",
+                            f"\n[calibration]\naugment_fall = {augment_fall!r}\n", 1)
     WORK.mkdir(parents=True, exist_ok=True)
     cfg_path = WORK / f"{label}.toml"
     cfg_path.write_text(text)
@@ -242,9 +248,10 @@ def check(name: str, rig: Rig, added: tuple[int, float] | None = None) -> dict:
                 rig.errors(rig_values(result), truth))),
         }  # fmt: skip
     return {
-        "name": name, "what": TESTS[name.split("+")[0]].what + (
+        "name": name, "what": TESTS[name.split("+")[0].split("@")[0]].what + (
             f", the named mass added as a parameter: {added[1]:g} on GRID {added[0]}"
-            if added else ""), "seconds": seconds,
+            if added else "") + (f", augment_fall = {augment_fall:g}"
+                                 if augment_fall is not None else ""), "seconds": seconds,
         "answer": "augmented" if answer is not result else "first",
         "augmented": augmented,
         "rig_nominal": (float(e_nom.mean()), float(e_nom.max())),
@@ -313,6 +320,9 @@ def main() -> None:
     ap.add_argument("--add-mass", nargs=3, metavar=("TEST", "GRID", "MASS"),
                     help="calibrate TEST again with a CONM2 of MASS (t) on GRID as a "
                          "parameter, as its report suggests (row TEST+mass)")  # fmt: skip
+    ap.add_argument("--augment-fall", type=float, metavar="X",
+                    help="run the tests with augment_fall = X in place of the demo's "
+                         "(rows TEST@X)")  # fmt: skip
     args = ap.parse_args()
     rig = Rig()
     store = WORK / "trust.json"
@@ -328,10 +338,14 @@ def main() -> None:
             ap.error(f"--add-mass: GRID {grid!r} and MASS {mass!r}: expected a grid id and a "
                      "mass in tonne")  # fmt: skip
         runs = [extra] if args.tests == list(TESTS) else [*runs, extra]  # alone by default
+    if args.augment_fall is not None and not 0 <= args.augment_fall < 1:
+        ap.error(f"--augment-fall {args.augment_fall}: expected a fraction in [0, 1)")
     order = list(TESTS) + [f"{n}+mass" for n in TESTS]
+    order += [f"{n}@{args.augment_fall:g}" for n in order] if args.augment_fall is not None else []
+    order += [n for n in done if n not in order]
     for name, added in runs:
         print(f"{name}: {TESTS[name].what}", file=sys.stderr, flush=True)
-        row = check(name, rig, added)
+        row = check(name, rig, added, args.augment_fall)
         done[row["name"]] = row
         store.write_text(json.dumps([done[n] for n in order if n in done], indent=1))
     rows = [done[n] for n in order if n in done]
