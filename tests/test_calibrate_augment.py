@@ -219,3 +219,37 @@ def test_the_command_line_prints_both_calibrations(lacking, capsys):
     assert f"with {result.augmented.added.describe()} added" in out
     assert out.count("\nt ") == 2  # the parameter table without and with the element
     assert par.name in out and "The data prefer the model with the added element" in out
+
+
+def test_with_two_configurations_the_element_joins_the_one_that_lacks_it(lacking, tmp_path):
+    """The plate tested bare, and tested again carrying the mass the model lacks: the element
+    is added to the second configuration's deck alone, its parameter is that
+    configuration's own, and the shared parameters come back to their hidden values."""
+    d, _, _ = lacking
+    _, params = write_plate(tmp_path)
+    (tmp_path / "lacking.npz").write_bytes((d / "test.npz").read_bytes())
+    bare = with_values(load_model(tmp_path / "plate.bdf"), params,
+                       [p.value(x) for p, x in zip(params, TRUE_P, strict=True)])  # fmt: skip
+    write_modal_test(tmp_path / "bare.npz", bare, OUTS, INS)
+    calibration = CONFIG[CONFIG.index("[calibration]"):].replace('holdout = "inputs"',
+                                                                 'holdout = "none"')  # fmt: skip
+    (tmp_path / "two.toml").write_text("".join(
+        f'[[configuration]]\nname = "{n}"\ndeck = "plate.bdf"\nparameters = "p.toml"\n'
+        f'frf = "{n}.npz"\n\n' for n in ("bare", "lacking")) + calibration)  # fmt: skip
+    result = run(read_config(tmp_path / "two.toml"), tmp_path / "out")
+    a = result.augmented
+    assert a is not None and a.better and a.added.configuration == "lacking"
+    r = a.result
+    names = [q.parameter.name for q in r.parameters]
+    assert names == [p.name for p in params] + [a.added.parameter.name]
+    assert len(r.cases[0].index) == len(params) and r.cases[1].index[-1] == len(params)
+    assert r.values[-1] == pytest.approx(HIDDEN_MASS, rel=0.01)
+    np.testing.assert_allclose(r.p_final[:-1], TRUE_P, atol=0.005)
+    written = sorted(p.name for p in (tmp_path / "out" / "augmented").glob("*.bdf"))
+    lacking_deck = next(n for n in written if "lacking" in n and "changes" not in n)
+    bare_deck = next(n for n in written if "bare" in n and "changes" not in n)
+    calibrated = load_model(tmp_path / "out" / "augmented" / lacking_deck)
+    assert current_value(calibrated, "CONM2", a.added.parameter.id, "M") == pytest.approx(
+        HIDDEN_MASS, rel=0.01)  # fmt: skip
+    bare_model = load_model(tmp_path / "out" / "augmented" / bare_deck)
+    assert a.added.element_id not in bare_model.elements["CONM2"].ids  # the plate's tip mass
