@@ -121,6 +121,21 @@ upper_rel = 0.5
 
 
 
+#: The parameters of the plate carrying a load (a CONM2 301 at grid 17, added to the plate
+#: deck): two of the plate's (t, rho_steel) and the load's mass.
+LOADED_PARAMS = "".join(
+    "\n[[parameter]]" + block for block in PARAMS_TOML.split("[[parameter]]")
+    if 'name = "t"' in block or 'name = "rho_steel"' in block) + """
+[[parameter]]
+name = "m_load"
+card = "CONM2"
+id = 301
+field = "M"
+lower_rel = -0.5
+upper_rel = 0.5
+"""
+
+
 def write_plate(folder: Path):
     """Write ``plate.bdf`` and ``p.toml`` (all nine parameters) into ``folder``; return the
     deck's model and the parameters."""

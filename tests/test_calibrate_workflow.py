@@ -26,6 +26,7 @@ from femcal.testdata.data import Channel
 
 from .calib_decks import (
     INS,
+    LOADED_PARAMS,
     OUTS,
     PARAMS_TOML,
     TRUE_P,
@@ -397,19 +398,6 @@ max_cycles = 8
 noise_sigma = 0.01
 identifiable_ratio = 0.1
 """
-
-LOADED_PARAMS = "".join(
-    "\n[[parameter]]" + block for block in PARAMS_TOML.split("[[parameter]]")
-    if 'name = "t"' in block or 'name = "rho_steel"' in block) + """
-[[parameter]]
-name = "m_load"
-card = "CONM2"
-id = 301
-field = "M"
-lower_rel = -0.5
-upper_rel = 0.5
-"""
-
 
 def test_two_configurations_share_their_parameters_by_name(study, tmp_path):
     """The plate and the same plate carrying a load, each with its own test: the parameters

@@ -14,9 +14,9 @@ calibration, not the search, decides it; the cards' text is
 :func:`femcal.io.calibration.element_cards`). The calibration is then run again with it
 (:mod:`femcal.jobs.calibration`), and the two are set side by side on data neither fit saw
 (:func:`verdict`): an element that only fits the noise does not predict held-out data
-better. This is the step Friswell and Mottershead describe after error localisation (Finite
-Element Model Updating in Structural Dynamics, ch. 8): the localised candidate becomes an
-updating parameter.
+better (without held-out data the verdict is left open). This is the step Friswell and
+Mottershead describe after error localisation (Finite Element Model Updating in Structural
+Dynamics, ch. 8): the localised candidate becomes an updating parameter.
 """
 
 from __future__ import annotations
@@ -55,7 +55,7 @@ class AddedElement:
     property_id: int | None = None
 
     def describe(self) -> str:
-        """``CONM2 9001 on GRID 7129 (a point mass, 0.00555 from the search)``."""
+        """``CONM2 9001 on GRID 7129 (a point mass, 0.00555 as the search sized it)``."""
         c = self.candidate
         what = (f"CONM2 {self.element_id} on GRID {c.grid} (a point mass"
                 if c.kind == "point mass" else
@@ -108,10 +108,13 @@ def property_ids(model: Model) -> list[int]:
 
 
 def added_element(model: Model, configuration: str, candidate: Candidate,
-                  taken: Iterable[str] = ()) -> AddedElement:  # fmt: skip
+                  taken: Iterable[str] = (), *, other_element_ids: Iterable[int] = (),
+                  other_property_ids: Iterable[int] = ()) -> AddedElement:  # fmt: skip
     """The element and the parameter that add ``candidate`` to ``model`` (see the module
     docstring), of the candidate's size (round it first to what its field holds): new ids
-    one above the model's largest; the parameter named
+    one above the largest of the model's and of ``other_element_ids`` /
+    ``other_property_ids`` (the deck's cards the model does not hold: dampers, plot
+    elements); the parameter named
     ``added_mass_<grid>`` or ``added_spring_<grid>_<component>`` (with a number after it if
     that is in ``taken``).
 
@@ -123,7 +126,7 @@ def added_element(model: Model, configuration: str, candidate: Candidate,
     c = candidate
     if not (np.isfinite(c.value) and c.value > 0):
         raise ValueError(f"the model-form candidate {c.describe()} has no positive size")
-    eid = _free_id(element_ids(model))
+    eid = _free_id([*element_ids(model), *other_element_ids])
     value = float(c.value)
     names = set(taken)
     if c.kind == "point mass":
@@ -131,7 +134,7 @@ def added_element(model: Model, configuration: str, candidate: Candidate,
         ident = eid
         what = f"a point mass on GRID {c.grid} that the model-form search named"
     else:
-        pid = _free_id(property_ids(model))
+        pid = _free_id([*property_ids(model), *other_property_ids])
         base, card, field = f"added_spring_{c.grid}_{c.component}", "PELAS", "K"
         ident = pid
         what = (f"a spring to ground on GRID {c.grid}, component {c.component}, that the "
@@ -144,21 +147,14 @@ def added_element(model: Model, configuration: str, candidate: Candidate,
     return AddedElement(configuration, c, par, eid, pid)
 
 
-def verdict(heldout_first: float | None, heldout_added: float | None,
-            deviation_first: float, deviation_added: float, least_fall: float
-            ) -> tuple[bool, str]:  # fmt: skip
-    """Whether the calibration with the added element is the better model, and why: on
-    held-out data when both calibrations were validated (the added parameter always lowers
-    the fitted deviation; only data the fit did not see can say it stands for something
-    real), else when it removed at least ``least_fall`` of the first calibration's
-    deviation."""
-    if heldout_first is not None and heldout_added is not None:
-        better = heldout_added < heldout_first
-        return better, (f"held-out deviation {heldout_added:.5g} with it against "
-                        f"{heldout_first:.5g} without")  # fmt: skip
-    fall = 1.0 - deviation_added / deviation_first if deviation_first > 0 else 0.0
-    better = fall >= least_fall
-    return better, (f"no held-out validation: the deviation after calibration fell "
-                    f"{100 * fall:.3g} % with it ({deviation_first:.5g} -> "
-                    f"{deviation_added:.5g}; at least {100 * least_fall:.3g} % counts as "
-                    "better)")  # fmt: skip
+def verdict(heldout_first: float | None, heldout_added: float | None
+            ) -> tuple[bool | None, str]:  # fmt: skip
+    """Whether the data prefer the calibration with the added element, and why, on held-out
+    data (both calibrations validated): the added parameter always lowers the fitted
+    deviation, and the element was chosen because it lowers it, so only data the fits did
+    not see can say it stands for something real. None when there are none to judge by."""
+    if heldout_first is None or heldout_added is None:
+        return None, ("not judged: no held-out data (holdout = \"none\"), and a fit with one "
+                      "more parameter is always closer")  # fmt: skip
+    return heldout_added < heldout_first, (f"held-out deviation {heldout_added:.5g} with it "
+                                           f"against {heldout_first:.5g} without")  # fmt: skip

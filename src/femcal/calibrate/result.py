@@ -274,6 +274,7 @@ class CalibrationResult:
     seconds : the run's wall time.
     augmented : the calibration again with the element the model-form search named added
         as a parameter (None: not run; :mod:`femcal.calibrate.augment`).
+    augment_error : why that element could not be added (None: no error).
     """
 
     config: Config
@@ -289,6 +290,7 @@ class CalibrationResult:
     seconds: float
     holdout: HoldOut | None = None
     augmented: Augmentation | None = None
+    augment_error: str | None = None
 
     @property
     def restarts(self) -> int:
@@ -326,12 +328,12 @@ class Augmentation:
     added : the element, its cards and its parameter.
     result : the calibration with it (its parameters: the first's and the added one).
     deck : the configuration's deck with the element added (the calibration's input).
-    better : the data prefer the model with the element (on held-out data when both were
-        validated); reason : the figures that say so, in words.
+    better : the held-out data prefer the model with the element (None: no held-out data to
+        judge by); reason : the figures that say so, in words.
     """
 
     added: AddedElement
     result: CalibrationResult
     deck: Path
-    better: bool
+    better: bool | None
     reason: str

@@ -113,7 +113,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _print_parameters(result: CalibrationResult) -> None:
     """The parameter table: nominal, calibrated, change, prior and posterior, status."""
-    w = max(10, *(len(r.parameter.name) for r in result.parameters))
+    w = max((len(r.parameter.name) for r in result.parameters), default=10)
+    w = max(w, 10)
     print(f"{'parameter':<{w}} {'nominal':>12} {'calibrated':>12} {'change %':>9} "
           f"{'prior %':>8} {'post. %':>8} status")
     for r in result.parameters:

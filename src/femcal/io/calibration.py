@@ -141,6 +141,10 @@ def summary_lines(result: CalibrationResult) -> list[str]:
                  "after.")  # fmt: skip
     if result.augmented is not None:
         lines += augmented_lines(result)
+    if result.augment_error is not None:
+        lines.append(f"Model form: the element the search named could not be added to the "
+                     f"deck and calibrated ({result.augment_error}); add it by hand as the "
+                     "model-form section says.")  # fmt: skip
     return lines
 
 
@@ -170,6 +174,10 @@ def augmented_lines(result: CalibrationResult) -> list[str]:
                      "component, a mount, a support) and model that"
                      + ("; its model-form warning remains, so something else is missing too."
                         if still else "."))  # fmt: skip
+    elif a.better is None:
+        lines.append(f"Whether the data prefer the model with the added element is not "
+                     f"judged (no held-out data): both calibrations are reported, its own in "
+                     f"{AUGMENTED_FOLDER}/; validate on held-out data (holdout) to decide.")
     else:
         lines.append("The data do not prefer the model with the added element: the "
                      "calibration without it stands, and the misfit has another cause (see "
@@ -304,6 +312,7 @@ def report_dict(result: CalibrationResult) -> dict:
         "enrich_vectors": cfg.enrich_vectors, "residual": cfg.residual,
         "modal_hz": cfg.modal_hz, "exact_gradient": cfg.exact_gradient,
         "augment_fall": cfg.augment_fall, "augmented": _augmented(result),
+        "augment_error": result.augment_error,
         "seconds": result.seconds,
     }  # fmt: skip
 
@@ -401,6 +410,28 @@ def element_cards(added: AddedElement) -> list[str]:
         return [f"CONM2,{added.element_id},{c.grid},,{value}"]
     return [f"CELAS1,{added.element_id},{added.property_id},{c.grid},{c.component}",
             f"PELAS,{added.property_id},{value}"]  # fmt: skip
+
+
+def unread_card_ids(deck_path: str | os.PathLike[str]) -> tuple[list[int], list[int]]:
+    """The ids of the deck's cards femcal reads but does not model (dampers, gaps, plot
+    elements, rigid elements of other kinds and their properties): (element ids, property
+    ids), so that an added element takes neither. Generous: any unread card named C... (not
+    CORD...), R... or PLOTEL with a whole number first is taken as an element, any P... as a
+    property; a number taken for nothing only moves the new id up."""
+    from ..deck import read_deck
+
+    elements: list[int] = []
+    properties: list[int] = []
+    for card in read_deck(deck_path).unused.items:
+        first = card.fields[0].strip() if card.fields else ""
+        if not first.isdigit():
+            continue
+        name = card.name.upper()
+        if name.startswith("P") and name != "PLOTEL":
+            properties.append(int(first))
+        elif name.startswith(("C", "R", "PLOTEL")) and not name.startswith("CORD"):
+            elements.append(int(first))
+    return elements, properties
 
 
 def field_value(value: float) -> float:
@@ -560,6 +591,9 @@ def _augmented_html(report: dict) -> str:
     rows = [[name, _f(first[name]["calibrated"], ".6g") if name in first else "(not in the model)",
              _f(value, ".6g")] for name, value in a["parameters"].items()]  # fmt: skip
     cards = "<br>".join(html.escape(c) for c in a["cards"])
+    verdict = {True: "The data prefer the model with it",
+               False: "The data do not prefer it: the calibration without it stands",
+               None: "Not judged: no held-out data"}[a["better"]]  # fmt: skip
     return f"""<h2>Model form tested: the calibration with the missing element added</h2>
 <p>The model-form search named {html.escape(a['element'])} in configuration
 {html.escape(a['configuration'])}, removing about {100 * a['search_fall']:.0f} % of the
@@ -568,8 +602,7 @@ deviation left after calibration. It was added to the deck (<code>{cards}</code>
 {html.escape(q['card'])} {html.escape(q['field'])} (bounds {q['lower']:.4g} to {q['upper']:.4g})
 and the calibration ran again: {html.escape(q['name'])} = {q['calibrated']:.4g}; deviation after
 calibration {a['deviation_after']:.6g} against {report['deviation']['after']:.6g} without;
-{html.escape(a['reason'])}. <b>{'The data prefer the model with it' if a['better'] else
-'The data do not prefer it: the calibration without it stands'}</b>{
+{html.escape(a['reason'])}. <b>{verdict}</b>{
 '; its model-form warning remains' if a['model_form_warning'] else ''}. Its own report:
 <code>{html.escape(a['report'])}</code>.</p>
 {_table(rows, ["parameter", "calibrated without it", "calibrated with it"])}"""
@@ -627,10 +660,10 @@ def write_html(path: Path, report: dict, figures: list[ReportFigure],
     prm_head = ["name", "description", "field", "nominal", "calibrated", "change %", "bounds",
                 "prior std %", "posterior std %", "posterior / prior", "status"]  # fmt: skip
     truth = any(c.get("truth") for c in report["configurations"])
-    if truth and "true" in report["parameters"][0]:  # a synthetic test: errors against it
+    if truth and any("true" in p for p in report["parameters"]):  # a synthetic test
         for row, p in zip(prm, report["parameters"], strict=True):
-            row += [_f(p["true"], ".6g"), _f(p["error_pct"], "+.2f"),
-                    _f(p["error_over_std"], ".1f")]  # fmt: skip
+            row += [_f(p.get("true"), ".6g"), _f(p.get("error_pct"), "+.2f"),
+                    _f(p.get("error_over_std"), ".1f")]  # fmt: skip
         prm_head += ["true", "error %", "|error| / posterior std"]
     why = "".join(f"<li><b>{html.escape(p['name'])}</b>: {html.escape(p['reason'])}</li>"
                   for p in report["parameters"])  # fmt: skip

@@ -18,6 +18,7 @@ prefer. The pictures and ``report.html`` are :func:`femcal.io.calibration.write_
 
 from __future__ import annotations
 
+import shutil
 import time
 from collections.abc import Callable
 from concurrent.futures import Executor
@@ -39,12 +40,14 @@ from ..calibrate.parameters import (
 )
 from ..calibrate.result import Augmentation, CalibrationResult
 from ..calibrate.workflow import calibrate_setups, check_overrides
+from ..errors import FemcalError, message
 from ..identify import IdentifiedModel, Settings, identify
 from ..io.calibration import (
     AUGMENTED_FOLDER,
     calibrated_deck_name,
     element_cards,
     field_value,
+    unread_card_ids,
     write_augmented_deck,
     write_calibrated_deck,
     write_report_json,
@@ -209,12 +212,22 @@ def _run(cfg: Config, out: Path, inputs: Inputs, session: Session, *, fresh: boo
     pick = choose(((c.name, c.model_form.candidates[0], c.model_form.warning)
                    for c in result.cases if c.model_form and c.model_form.candidates),
                   cfg.augment_fall)  # fmt: skip
+    folder = out / AUGMENTED_FOLDER
     if pick is None:
+        if folder.is_dir():  # an earlier run's, which no longer follows from this one
+            shutil.rmtree(folder)
+            say(f"removed {folder}: this run adds no model-form element")
         return result
-    augmented = _augment(cfg, out / AUGMENTED_FOLDER, inputs, setups, result, pick, session,
-                         fresh=fresh, starts=starts, say=say, progress=progress,
-                         sources=sources)  # fmt: skip
-    result = replace(result, augmented=augmented, seconds=time.perf_counter() - t0)
+    try:
+        augmented = _augment(cfg, folder, inputs, setups, result, pick, session, fresh=fresh,
+                             starts=starts, say=say, progress=progress,
+                             sources=sources)  # fmt: skip
+    except (FemcalError, ValueError) as e:  # the first calibration stands, reported
+        say(f"model form: the element was not added: {message(e)}")
+        result = replace(result, augment_error=message(e))
+    else:
+        result = replace(result, augmented=augmented)
+    result = replace(result, seconds=time.perf_counter() - t0)
     path = write_report_json(out / "report.json", result)
     say(f"wrote {path}")
     return result
@@ -247,20 +260,21 @@ def _augment(cfg: Config, out: Path, inputs: Inputs, setups: list[TestSetup],
 
     Raises
     ------
-    ValueError
+    ValueError, FemcalError
         When the added cards are not in the model read back (a bulk section that ends in an
-        INCLUDE file ends before them).
+        INCLUDE file ends before them), or the deck cannot be written or read back.
     """
     name, cand = pick
     k = [c.name for c in cfg.configurations].index(name)
     conf = cfg.configurations[k]
     taken = {p.name for p in inputs.shared}
+    other_elements, other_properties = unread_card_ids(conf.deck)
     added = added_element(inputs.models[k], name, replace(cand, value=field_value(cand.value)),
-                          taken)  # fmt: skip
+                          taken, other_element_ids=other_elements,
+                          other_property_ids=other_properties)  # fmt: skip
     out.mkdir(parents=True, exist_ok=True)
     deck = write_augmented_deck(conf.deck, element_cards(added), out / conf.deck.name,
-                                why=f"{cand.describe()} would remove about "
-                                    f"{100 * cand.fall:.0f} % of the deviation")  # fmt: skip
+                                why="the missing element the model-form search named")
     model = load_model(deck)
     par = added.parameter
     try:
@@ -276,8 +290,11 @@ def _augment(cfg: Config, out: Path, inputs: Inputs, setups: list[TestSetup],
     setups = list(setups)
     setups[k] = replace(setups[k], model=model, params=tuple(per_config[k]))
     truth = None
-    if inputs.truth is not None:  # the added element has no known value
-        truth = np.append(inputs.truth, np.nan)
+    if inputs.truth is not None:  # by name, in the new shared order; the element's unknown
+        known = dict(zip((p.name for p in inputs.shared), inputs.truth, strict=True))
+        shared, _ = share_parameters(per_config, [str(c.parameters)
+                                                  for c in cfg.configurations])  # fmt: skip
+        truth = np.array([known.get(p.name, np.nan) for p in shared])
     result = calibrate_setups(setups, cfg, truth=truth, state=out / "starts", fresh=fresh,
                               starts=starts, session=session, progress=progress,
                               sources=sources)  # fmt: skip
@@ -287,6 +304,5 @@ def _augment(cfg: Config, out: Path, inputs: Inputs, setups: list[TestSetup],
     say(f"wrote {path}")
     ho1, ho2 = first.holdout, result.holdout
     better, why = verdict(ho1.deviation_calibrated if ho1 else None,
-                          ho2.deviation_calibrated if ho2 else None,
-                          first.deviation_after, result.deviation_after, cfg.augment_fall)
+                          ho2.deviation_calibrated if ho2 else None)  # fmt: skip
     return Augmentation(added, result, deck, better, why)

@@ -115,9 +115,9 @@ def parameters_plot(path: Path, outcome: CalibrationResult) -> Path:
                 yerr=100 * np.array([r.posterior_std_p for r in rs])[~held], fmt="o",
                 color="tab:blue", ms=4, capsize=2, label="calibrated +- posterior std")  # fmt: skip
     ax.plot(x[held] + 0.15, change[held], "s", color="0.3", ms=4, label="held at nominal")
-    if rs and rs[0].true_p is not None:
-        ax.plot(x, 100 * np.array([r.true_p for r in rs]), "x", color="tab:red", ms=6,
-                label="true (synthetic test)")  # fmt: skip
+    if any(r.true_p is not None for r in rs):  # a synthetic test (an added element's unknown)
+        ax.plot(x, 100 * np.array([np.nan if r.true_p is None else r.true_p for r in rs]), "x",
+                color="tab:red", ms=6, label="true (synthetic test)")  # fmt: skip
     bound = np.array([r.at_bound for r in rs])
     if bound.any():
         ax.plot(x[bound] + 0.15, change[bound], "o", mfc="none", mec="tab:red", ms=11,

@@ -296,7 +296,7 @@ def _parameter_pages(doc: _Document, report: dict) -> None:
     head = ["name", "description", "card, id, field", "nominal", "calibrated", "change %",
             "prior std %", "posterior std %", "status"]  # fmt: skip
     weights = [26, 96, 46, 42, 44, 36, 30, 42, 58]
-    truth = bool(params) and "true" in params[0]
+    truth = any("true" in p for p in params)
     rows = []
     for p in params:
         row = [p["name"], p["description"] or "", f"{p['card']} {p['id']} {p['field']}",
