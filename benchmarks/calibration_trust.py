@@ -199,8 +199,7 @@ def check(name: str, rig: Rig, added: tuple[int, float] | None = None,
     result = run(read_config(cfg_path), WORK / name, fresh=True,
                  progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))  # fmt: skip
     seconds = time.perf_counter() - t
-    rep = report_dict(result)
-    (WORK / name / "report.json").write_text(json.dumps(rep, indent=1))
+    summary = report_dict(result)["summary"]  # the job wrote report.json
     aug = result.augmented
     # femcal's answer: the calibration with the model-form element when the data prefer it
     answer = aug.result if aug is not None and aug.better else result
@@ -212,6 +211,9 @@ def check(name: str, rig: Rig, added: tuple[int, float] | None = None,
         by = {q.parameter.name: q.calibrated for q in r.parameters}
         return np.array([by[q.name] for q in rig.params])
 
+    def mean_worst(e: np.ndarray) -> tuple[float, float]:
+        return float(e.mean()), float(e.max())
+
     by_name = {r.parameter.name: r for r in answer.parameters}
     values = rig_values(answer)
     e_nom, e_cal = rig.errors(nominal, truth), rig.errors(values, truth)
@@ -221,13 +223,10 @@ def check(name: str, rig: Rig, added: tuple[int, float] | None = None,
     ident = np.array([by_name[q.name].identifiable for q in rig.params])
     held = np.array([by_name[q.name].held for q in rig.params])
     bound = [r.parameter.name for r in answer.parameters if r.at_bound]
-    summary = rep["summary"]
-    warned = all(any(n in line and "ended on a bound" in line for line in summary)
-                 for n in bound if n in shared)  # fmt: skip
-    if answer is not result:  # the added element's bound is warned in its own report
-        own = report_dict(answer)["summary"]
-        warned = all(any(n in line and "ended on a bound" in line for line in own)
-                     for n in bound)  # fmt: skip
+    # the answer's own report warns of its bounds (the added element's among them)
+    said = summary if answer is result else report_dict(answer)["summary"]
+    warned = all(any(n in line and "ended on a bound" in line for line in said)
+                 for n in bound)  # fmt: skip
     before = result.cases[0].modes
     after = answer.cases[0].modes
     modes_closer = [m.fe_after is not None and b.fe_before is not None
@@ -237,15 +236,11 @@ def check(name: str, rig: Rig, added: tuple[int, float] | None = None,
     form = answer.cases[0].model_form
     augmented = None
     if aug is not None:
-        a_rig = rig.errors(rig_values(aug.result), truth)
-        par = aug.added.parameter
         augmented = {
             "element": aug.added.describe(), "better": aug.better, "reason": aug.reason,
-            "calibrated": next(q.calibrated for q in aug.result.parameters
-                               if q.parameter.name == par.name),
-            "rig": (float(a_rig.mean()), float(a_rig.max())),
-            "rig_first": tuple(float(x) for x in (lambda e: (e.mean(), e.max()))(
-                rig.errors(rig_values(result), truth))),
+            "calibrated": aug.parameter_result.calibrated,
+            "rig": mean_worst(rig.errors(rig_values(aug.result), truth)),
+            "rig_first": mean_worst(rig.errors(rig_values(result), truth)),
         }  # fmt: skip
     return {
         "name": name, "what": TESTS[name.split("+")[0].split("@")[0]].what + (
@@ -254,8 +249,7 @@ def check(name: str, rig: Rig, added: tuple[int, float] | None = None,
                                  if augment_fall is not None else ""), "seconds": seconds,
         "answer": "augmented" if answer is not result else "first",
         "augmented": augmented,
-        "rig_nominal": (float(e_nom.mean()), float(e_nom.max())),
-        "rig_calibrated": (float(e_cal.mean()), float(e_cal.max())),
+        "rig_nominal": mean_worst(e_nom), "rig_calibrated": mean_worst(e_cal),
         "rig_better": bool(e_cal.mean() < e_nom.mean() and e_cal.max() < e_nom.max()),
         "identifiable": [q.name for q, i in zip(rig.params, ident, strict=True) if i],
         "identifiable_closer": int(closer[ident].sum()), "n_identifiable": int(ident.sum()),

@@ -16,6 +16,7 @@ from femcal.calibrate.config import read_config
 from femcal.calibrate.modelform import Candidate
 from femcal.calibrate.parameters import current_value, read_parameters, with_values
 from femcal.cli import main
+from femcal.deck import read_deck
 from femcal.io.calibration import (
     calibrated_deck_name,
     element_cards,
@@ -322,7 +323,7 @@ def test_new_ids_pass_the_cards_femcal_reads_but_does_not_model(tmp_path):
     (tmp_path / "d.bdf").write_text(plate_deck().replace(
         "ENDDATA", "CDAMP1,900,60,3,3\nPDAMP,60,1.\nPLOTEL,950,1,2\nENDDATA"))  # fmt: skip
     model = load_model(tmp_path / "d.bdf")
-    elements, properties = unread_card_ids(tmp_path / "d.bdf")
+    elements, properties = unread_card_ids(read_deck(tmp_path / "d.bdf"))
     assert set(elements) == {900, 950} and properties == [60]
     s = added_element(model, "plate", _mass("spring to ground", 19, 3, 30.0),
                       other_element_ids=elements, other_property_ids=properties)  # fmt: skip

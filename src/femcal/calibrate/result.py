@@ -325,7 +325,7 @@ class Augmentation:
 
     Attributes
     ----------
-    added : the element, its cards and its parameter.
+    added : the element and its parameter (its cards: femcal.io.calibration.element_cards).
     result : the calibration with it (its parameters: the first's and the added one).
     deck : the configuration's deck with the element added (the calibration's input).
     better : the held-out data prefer the model with the element (None: no held-out data to
@@ -337,3 +337,14 @@ class Augmentation:
     deck: Path
     better: bool | None
     reason: str
+
+    @property
+    def parameter_result(self) -> ParameterResult:
+        """The added element's parameter as the calibration with it left it."""
+        name = self.added.parameter.name
+        return next(q for q in self.result.parameters if q.parameter.name == name)
+
+    @property
+    def warning_remains(self) -> bool:
+        """The calibration with the element still warns of model form."""
+        return any(c.model_form is not None and c.model_form.warning for c in self.result.cases)

@@ -41,7 +41,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..calibrate.config import SETTINGS, read_config
-    from ..io.calibration import summary_lines
+    from ..io.calibration import AUGMENTED_FOLDER, summary_lines
     from ..jobs.calibration import run as calibrate
     from .console import Console
     from .paths import output_folder
@@ -79,14 +79,10 @@ def run(args: argparse.Namespace) -> int:
 
         write_report(result, args.out, progress=progress)
         if result.augmented is not None:  # the calibration with the model-form element
-            from ..io.calibration import AUGMENTED_FOLDER
-
             write_report(result.augmented.result, args.out / AUGMENTED_FOLDER,
                          progress=progress)  # fmt: skip
     _print_parameters(result)
     if result.augmented is not None:
-        from ..io.calibration import AUGMENTED_FOLDER
-
         print(f"\nwith {result.augmented.added.describe()} added "
               f"({args.out / AUGMENTED_FOLDER}):")  # fmt: skip
         _print_parameters(result.augmented.result)
@@ -113,8 +109,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _print_parameters(result: CalibrationResult) -> None:
     """The parameter table: nominal, calibrated, change, prior and posterior, status."""
-    w = max((len(r.parameter.name) for r in result.parameters), default=10)
-    w = max(w, 10)
+    w = max([10, *(len(r.parameter.name) for r in result.parameters)])
     print(f"{'parameter':<{w}} {'nominal':>12} {'calibrated':>12} {'change %':>9} "
           f"{'prior %':>8} {'post. %':>8} status")
     for r in result.parameters:

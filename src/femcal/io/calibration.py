@@ -14,6 +14,7 @@ import os
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -32,6 +33,9 @@ from .html import (
     html_table,
     provenance,
 )
+
+if TYPE_CHECKING:
+    from ..deck.deck import Deck
 
 
 def calibrated_deck_name(conf: Configuration, cfg: Config) -> str:
@@ -155,13 +159,10 @@ def augmented_lines(result: CalibrationResult) -> list[str]:
     if a is None:
         return []
     r = a.result
-    par = a.added.parameter
-    row = next(q for q in r.parameters if q.parameter.name == par.name)
+    par, row = a.added.parameter, a.parameter_result
     status = ("held: the test cannot inform it" if row.held else
               f"posterior std {row.posterior_std:.2g}, "
               + ("identifiable" if row.identifiable else "weakly informed"))  # fmt: skip
-    form = [c.model_form for c in r.cases if c.model_form is not None]
-    still = any(f.warning for f in form)
     lines = [f"Model form tested: the calibration ran again with {a.added.describe()} added "
              f"as parameter {par.name}. It was calibrated to {row.calibrated:.4g} ({status}"
              f"{', at a bound' if row.at_bound else ''}); the deviation after calibration is "
@@ -173,7 +174,7 @@ def augmented_lines(result: CalibrationResult) -> list[str]:
                      "calibrated copy). Look on the structure for what it stands for (a "
                      "component, a mount, a support) and model that"
                      + ("; its model-form warning remains, so something else is missing too."
-                        if still else "."))  # fmt: skip
+                        if a.warning_remains else "."))  # fmt: skip
     elif a.better is None:
         lines.append(f"Whether the data prefer the model with the added element is not "
                      f"judged (no held-out data): both calibrations are reported, its own in "
@@ -328,8 +329,7 @@ def _augmented(result: CalibrationResult) -> dict | None:
     if a is None:
         return None
     r = a.result
-    par = a.added.parameter
-    row = next(q for q in r.parameters if q.parameter.name == par.name)
+    par, row = a.added.parameter, a.parameter_result
     c = a.added.candidate
     ho = r.holdout
     return {
@@ -345,7 +345,7 @@ def _augmented(result: CalibrationResult) -> dict | None:
                       "posterior_std": row.posterior_std},
         "deviation_after": r.deviation_after,
         "heldout_calibrated": ho.deviation_calibrated if ho else None,
-        "model_form_warning": any(k.model_form.warning for k in r.cases if k.model_form),
+        "model_form_warning": a.warning_remains,
         "better": a.better, "reason": a.reason,
         "parameters": {q.parameter.name: q.calibrated for q in r.parameters},
     }  # fmt: skip
@@ -412,17 +412,15 @@ def element_cards(added: AddedElement) -> list[str]:
             f"PELAS,{added.property_id},{value}"]  # fmt: skip
 
 
-def unread_card_ids(deck_path: str | os.PathLike[str]) -> tuple[list[int], list[int]]:
+def unread_card_ids(deck: Deck) -> tuple[list[int], list[int]]:
     """The ids of the deck's cards femcal reads but does not model (dampers, gaps, plot
     elements, rigid elements of other kinds and their properties): (element ids, property
     ids), so that an added element takes neither. Generous: any unread card named C... (not
     CORD...), R... or PLOTEL with a whole number first is taken as an element, any P... as a
     property; a number taken for nothing only moves the new id up."""
-    from ..deck import read_deck
-
     elements: list[int] = []
     properties: list[int] = []
-    for card in read_deck(deck_path).unused.items:
+    for card in deck.unused.items:
         first = card.fields[0].strip() if card.fields else ""
         if not first.isdigit():
             continue
@@ -444,12 +442,14 @@ def field_value(value: float) -> float:
 
 
 def write_augmented_deck(deck_path: str | os.PathLike[str], cards: Iterable[str],
-                         out: str | os.PathLike[str], *, why: str = "") -> Path:
+                         out: str | os.PathLike[str], *, why: str = "",
+                         deck: Deck | None = None) -> Path:  # fmt: skip
     """Write the deck at ``deck_path`` to ``out`` with the bulk data lines ``cards`` added
     before its ENDDATA (every other byte kept; its INCLUDEs pointed at the deck's own files
     from ``out``'s folder) and a header of comments saying what was added and ``why``: no
     date, so that the same element makes the same file (its content enters the resume
-    fingerprint). Atomic; returns ``out``.
+    fingerprint). ``deck``: the deck as read from ``deck_path`` (read here when not given).
+    Atomic; returns ``out``.
 
     Raises
     ------
@@ -464,8 +464,8 @@ def write_augmented_deck(deck_path: str | os.PathLike[str], cards: Iterable[str]
               f"$ from: {Path(deck_path).name}",
               *([f"$ why: {why}"] if why else []),
               *(f"$ added: {c}" for c in cards)]  # fmt: skip
-    return write_edited_deck(edit_deck(deck_path, []), out, header=header, tag="augmented",
-                             added=cards)[0]  # fmt: skip
+    return write_edited_deck(edit_deck(deck_path, [], deck=deck), out, header=header,
+                             tag="augmented", added=cards)[0]  # fmt: skip
 
 
 _table, _f = html_table, html_number

@@ -40,6 +40,7 @@ from ..calibrate.parameters import (
 )
 from ..calibrate.result import Augmentation, CalibrationResult
 from ..calibrate.workflow import calibrate_setups, check_overrides
+from ..deck import read_deck
 from ..errors import FemcalError, message
 from ..identify import IdentifiedModel, Settings, identify
 from ..io.calibration import (
@@ -268,13 +269,15 @@ def _augment(cfg: Config, out: Path, inputs: Inputs, setups: list[TestSetup],
     k = [c.name for c in cfg.configurations].index(name)
     conf = cfg.configurations[k]
     taken = {p.name for p in inputs.shared}
-    other_elements, other_properties = unread_card_ids(conf.deck)
+    source = read_deck(conf.deck)
+    other_elements, other_properties = unread_card_ids(source)
     added = added_element(inputs.models[k], name, replace(cand, value=field_value(cand.value)),
                           taken, other_element_ids=other_elements,
                           other_property_ids=other_properties)  # fmt: skip
     out.mkdir(parents=True, exist_ok=True)
     deck = write_augmented_deck(conf.deck, element_cards(added), out / conf.deck.name,
-                                why="the missing element the model-form search named")
+                                why="the missing element the model-form search named",
+                                deck=source)  # fmt: skip
     model = load_model(deck)
     par = added.parameter
     try:
