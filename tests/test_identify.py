@@ -10,16 +10,18 @@ import re
 import numpy as np
 import pytest
 
+from femcal.correlate.shapes import mac
 from femcal.identify import (
     Settings,
     equalize_damping,
     fit_fixed_poles,
     frequency_response,
     identify,
-    mac,
     model_of_order,
-    stabilization,
+    plscf,
+    subspace,
     subspace_basis,
+    track_poles,
 )
 from femcal.identify.lsq import Resolvent, cost, response
 from femcal.response.statespace import modal_to_poles, poles_to_modal
@@ -130,15 +132,25 @@ def test_damping_equalisation_keeps_damped_frequencies_and_residues():
         equalize_damping(model, 1.5)
 
 
-def test_stabilisation_diagram_finds_the_modes_and_an_order():
+@pytest.mark.parametrize("method", ["plscf", "subspace"])
+def test_stabilisation_diagram_finds_the_modes(method):
     data, _ = modal_set(noise=0.01, seed=7)
-    d = stabilization(data.frequency_hz, data.H, BAND, orders=range(2, 25, 2))
-    np.testing.assert_allclose(d.modes_hz, FN[IN_BAND], rtol=0.005)
-    assert d.auto_order in [op.order for op in d.orders]
-    at = next(op for op in d.orders if op.order == d.auto_order)
-    assert at.stable.sum() >= IN_BAND.sum()
-    errors = [op.fit_error for op in d.orders]
-    assert errors[-1] < errors[0]
+    sel = (data.frequency_hz >= BAND[0]) & (data.frequency_hz <= BAND[1])
+    f, H = data.frequency_hz[sel], data.H[:, :, sel]
+    if method == "plscf":
+        raw = plscf.diagram_poles(f, H, range(1, 21))
+    else:
+        raw, _ = subspace.diagram_poles(f, H, range(2, 41, 2))
+    d = track_poles(raw, BAND, method, 0.1)
+    # 1 % noise: every mode of the band, each once, within a tenth of a percent
+    np.testing.assert_allclose(d.modes_hz, FN[IN_BAND], rtol=1e-3)
+    # a mode's column is stable in most of its orders, and every chosen pole's order marks
+    # it as the mode it joined
+    assert (d.support >= 0.5 * d.n_orders_seen).all()
+    for k in range(len(d.modes)):
+        joined = [op.frequency_hz[op.track == k] for op in d.orders]
+        assert sum(len(x) for x in joined) == d.support[k]
+        assert np.all(np.abs(np.concatenate(joined) / d.modes_hz[k] - 1) < 0.01)
 
 
 def test_subspace_recovers_an_exact_state_space_model():
@@ -298,10 +310,12 @@ def test_bands_the_numbers_cannot_hold_and_too_few_frequencies_are_refused():
     few = FRFData(data.frequency_hz[:4], data.H[:1, :1, :4], data.outputs[:1], data.inputs[:1],
                   data.quantity)  # fmt: skip
     band = (float(few.frequency_hz[0]), float(few.frequency_hz[-1]))
-    with pytest.raises(FRFError, match=r"band 1-1.3 Hz: 4 frequencies and 1 output\(s\) allow "
-                       r"models up to order \d; the stabilisation diagram needs order 2"):
-        identify(few, band)
-    with pytest.raises(FRFError, match=r"order 4 is outside 1\.\.2 for part 1-1\.3 Hz"):
+    for method in ("plscf", "subspace"):
+        with pytest.raises(FRFError, match=r"part 1-1.3 Hz: 4 frequencies and 1 channel\(s\) "
+                           rf"allow {method} orders up to \d; a stabilisation diagram needs 4 "
+                           "orders at least"):
+            identify(few, band, settings=Settings(method=method))
+    with pytest.raises(FRFError, match=r"order 4 is outside 1\.\.\d for part 1-1\.3 Hz"):
         identify(few, band, orders=4)
 
 
@@ -328,7 +342,8 @@ def test_settings_that_make_no_sense_are_refused(setting, value, expected):
     (["--band", "15", "inf"], "--band 15 inf: expected 0 < F1 < F2"),
     (["--split", "nan"], "--split nan: expected a frequency inside the band 15-100 Hz"),
     (["--max-order", "1"], "--max-order 1: expected a whole number from 2 to 200"),
-    (["--order", "4", "4"], "--order: 2 orders for 1 parts"),
+    (["--order", "4", "4"], "--order: 2 orders without --split"),
+    (["--order", "4", "4", "--split", "30", "60"], "--order: 2 orders for 3 parts"),
 ])  # fmt: skip
 def test_cli_refuses_bad_options_in_one_line_before_reading(tmp_path, capsys, args, expected):
     from femcal.cli import main

@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import FemcalWarning, message
-from ..identify import Settings, identify
-from ..identify.workflow import MAX_ORDER
+from ..identify import Layout, Settings, identify
+from ..identify.workflow import MAX_ORDER, METHODS
 from ..io.identified import write_model, write_summary
 from ..testdata.data import convert_units
 from ..testdata.formats import read_frf
@@ -42,13 +42,21 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("frf", type=Path, help="FRF file")
     p.add_argument("--band", type=float, nargs=2, required=True, metavar=("F1", "F2"),
                    help="frequency band in Hz")  # fmt: skip
-    p.add_argument("--split", type=float, nargs="+", default=[], metavar="F",
-                   help="split the band into parts at these frequencies (Hz)")  # fmt: skip
+    p.add_argument("--split", type=float, nargs="+", default=None, metavar="F",
+                   help="split the band into parts at these frequencies (Hz); default: "
+                   "chosen from the CMIF's peaks (at most --part-modes peaks a part)")
+    p.add_argument("--method", choices=METHODS, default="plscf",
+                   help="the estimator: plscf (poly-reference least-squares complex "
+                   "frequency-domain, PolyMAX; default) or subspace (frequency-domain "
+                   "subspace, McKelvey et al. 1996)")
     p.add_argument("--order", type=_order, nargs="+", default=None, metavar="N",
                    help="model order: one for every part, or one per part; 'auto' (default) "
                    "takes it from each part's stabilisation diagram")  # fmt: skip
-    p.add_argument("--max-order", type=int, default=24, metavar="N",
-                   help="highest order of the stabilisation diagrams (default 24)")
+    p.add_argument("--max-order", type=int, default=None, metavar="N",
+                   help="highest order of the stabilisation diagrams (default: from each "
+                   "part's peaks)")
+    p.add_argument("--part-modes", type=int, default=6, metavar="N",
+                   help="without --split: the most CMIF peaks a part holds (default 6)")
     p.add_argument("--gamma", type=float, default=1.43,
                    help="residual pole at GAMMA times the upper band edge (default 1.43)")
     p.add_argument("--beta", type=float, default=100.0,
@@ -75,7 +83,7 @@ def _check(args: argparse.Namespace) -> str | None:
     f1, f2 = args.band
     if not (np.isfinite(f1) and np.isfinite(f2) and 0 < f1 < f2):
         return f"--band {f1:g} {f2:g}: expected 0 < F1 < F2 (Hz, finite)"
-    bad = [x for x in args.split if not (np.isfinite(x) and f1 < x < f2)]
+    bad = [x for x in args.split or () if not (np.isfinite(x) and f1 < x < f2)]
     if bad:
         return f"--split {bad[0]:g}: expected a frequency inside the band {f1:g}-{f2:g} Hz"
     if not (np.isfinite(args.gamma) and args.gamma > 1):
@@ -84,9 +92,14 @@ def _check(args: argparse.Namespace) -> str | None:
     if not (np.isfinite(args.beta) and args.beta > args.gamma):
         return (f"--beta {args.beta:g}: expected a number above --gamma ({args.gamma:g}): the "
                 "far residual pole sits at BETA times the upper band edge")
-    if not 2 <= args.max_order <= MAX_ORDER:
+    if args.max_order is not None and not 2 <= args.max_order <= MAX_ORDER:
         return f"--max-order {args.max_order}: expected a whole number from 2 to {MAX_ORDER}"
-    n_parts = len(args.split) + 1
+    if args.part_modes < 1:
+        return f"--part-modes {args.part_modes}: expected a whole number of at least 1"
+    if args.order is not None and len(args.order) > 1 and args.split is None:
+        return (f"--order: {len(args.order)} orders without --split; expected one order for "
+                "every part, or --split with one order per part")
+    n_parts = len(args.split or ()) + 1
     if args.order is not None and len(args.order) not in (1, n_parts):
         return (f"--order: {len(args.order)} orders for {n_parts} parts; expected one for "
                 "every part or one per part")
@@ -126,8 +139,9 @@ def run(args: argparse.Namespace) -> int:
 
         geometry = load_model(args.geometry)
         progress(f"read {args.geometry}: {geometry.n_grids} grids")
-        rows = geometry.node_index([c.grid or 0 for c in data.outputs])
-        lost = [c.label for c, r in zip(data.outputs, rows, strict=True)
+        channels = Layout.of(data.outputs, data.inputs).roving
+        rows = geometry.node_index([c.grid or 0 for c in channels])
+        lost = [c.label for c, r in zip(channels, rows, strict=True)
                 if c.grid is not None and (r < 0 or not geometry.is_grid[r])]  # fmt: skip
         if lost:
             print(f"femcal identify: --geometry {args.geometry}: no GRID for channel "
@@ -138,34 +152,42 @@ def run(args: argparse.Namespace) -> int:
     progress(f"read {args.frf}: {len(data.outputs)} outputs x {len(data.inputs)} inputs x "
              f"{len(data.frequency_hz)} frequencies ({data.quantity}, "
              f"{data.units or 'no unit'})")  # fmt: skip
-    n_parts = len(args.split) + 1
     orders = args.order
     if orders is not None and len(orders) == 1:
-        orders = orders * n_parts
+        orders = orders[0]
     try:
         settings = Settings(gamma=args.gamma, beta=args.beta,
                             lower_residual=not args.no_lower_residual,
-                            feedthrough=not args.no_feedthrough, max_order=args.max_order)
+                            feedthrough=not args.no_feedthrough, max_order=args.max_order,
+                            method=args.method, part_modes=args.part_modes)
         model = identify(data, tuple(args.band), splits=args.split, orders=orders,
                          settings=settings, progress=progress)  # fmt: skip
     except ValueError as e:
         print(f"femcal identify: {args.frf}: {message(e)}", file=sys.stderr)
         return 2
-    print(f"{'mode':>5} {'frequency (Hz)':>15} {'damping (%)':>12}")
-    for k, (f, z) in enumerate(zip(model.frequency_hz, model.damping_ratio, strict=True)):
-        print(f"{k + 1:5d} {f:15.4f} {100 * z:12.3f}")
-    print(f"fit error per channel: median {np.median(model.fit_error):.4f}, worst "
-          f"{model.fit_error.max():.4f} ({model.outputs[int(np.argmax(model.fit_error))].label})")
-    for i in np.flatnonzero(model.suspect):
-        cons = "" if model.consistency is None else f", consistency {model.consistency[i]:.3f}"
-        print(f"suspect channel {model.outputs[i].label}: fit error {model.fit_error[i]:.3f}"
-              f"{cons}")  # fmt: skip
+    print_modes(model)
     if args.json:
         write_summary(args.json, model)
         progress(f"wrote {args.json}")
     if args.out:
         _write_out(args.out, data, model, progress, geometry)
     return 0
+
+
+def print_modes(model) -> None:
+    """The modes table (frequency, damping, MPC, MPD) and the channels' fit on stdout."""
+    print(f"{'mode':>5} {'frequency (Hz)':>15} {'damping (%)':>12} {'MPC':>6} {'MPD (deg)':>9}")
+    for k, (f, z) in enumerate(zip(model.frequency_hz, model.damping_ratio, strict=True)):
+        print(f"{k + 1:5d} {f:15.4f} {100 * z:12.4f} {model.mpc[k]:6.3f} {model.mpd[k]:9.1f}")
+    chans = model.shape_channels
+    worst = int(np.argmax(model.fit_error)) if len(model.fit_error) else 0
+    print(f"fit error per channel: median {np.median(model.fit_error):.4f}, worst "
+          f"{model.fit_error.max():.4f} ({chans[worst].label}); FRF correlation: median "
+          f"{np.median(model.frf_correlation):.4f}, lowest {model.frf_correlation.min():.4f}")
+    for i in np.flatnonzero(model.suspect):
+        cons = "" if model.consistency is None else f", consistency {model.consistency[i]:.3f}"
+        print(f"suspect channel {chans[i].label}: fit error {model.fit_error[i]:.3f}"
+              f"{cons}")  # fmt: skip
 
 
 #: The universal file of the identified shapes that ``--out`` writes.
@@ -184,8 +206,8 @@ def _write_shapes(path: Path, model, geometry) -> str | None:
         write_uff_shapes,
     )
 
-    if not any(c.grid is not None for c in model.outputs):
-        warnings.warn(FemcalWarning(f"no output channel names a grid (GRID:DIRECTION): "
+    if not any(c.grid is not None for c in model.shape_channels):
+        warnings.warn(FemcalWarning(f"no channel of the shapes names a grid (GRID:DIRECTION): "
                                     f"{path.name} not written"), stacklevel=2)  # fmt: skip
         return None
     shapes = identified_shapes(model, geometry)
@@ -200,7 +222,7 @@ def _write_shapes(path: Path, model, geometry) -> str | None:
 
 def _write_out(out: Path, data, model, progress, geometry=None) -> None:
     from ..viz.frf import frf_overlay
-    from ..viz.identification import stabilization_diagram
+    from ..viz.identification import indicator_plot, stabilization_diagram
 
     out.mkdir(parents=True, exist_ok=True)
     write_model(out / "model.npz", model)
@@ -216,11 +238,17 @@ def _write_out(out: Path, data, model, progress, geometry=None) -> None:
     # the worst-fitting channels and a spread of the others, first input and all inputs
     order = np.argsort(model.fit_error)[::-1]
     chans = list(dict.fromkeys([*order[:4], *np.linspace(0, len(order) - 1, 4).astype(int)]))
-    pairs = [(int(o), i) for o in chans[:6] for i in range(min(2, len(data.inputs)))][:12]
+    n_ref = len(model.reference_channels)
+    pairs = [(int(o), i) for o in chans[:6] for i in range(min(2, n_ref))][:12]
+    if model.layout is not None and model.layout.transposed:  # (roving, reference) -> (out, in)
+        pairs = [(i, o) for o, i in pairs]
     title = "test (black) and identified model (red), worst-fitting channels first"
     frf_overlay(out / "overlay.png", test, fitted, pairs=pairs, title=title)
+    indicator_plot(out / "indicators.png", test, model.band, model.frequency_hz,
+                   model.peaks_hz)  # fmt: skip
     for k, part in enumerate(model.parts, start=1):
         if part.diagram is not None:
             stabilization_diagram(out / f"stabilization_part{k}.png", part.diagram, test)
-    progress(f"wrote {out}/: model.npz, identify.json, frf_model.npz, overlay.png"
+    progress(f"wrote {out}/: model.npz, identify.json, frf_model.npz, overlay.png, "
+             "indicators.png"
              + (", stabilisation diagrams" if any(p.diagram for p in model.parts) else ""))

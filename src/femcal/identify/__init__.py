@@ -1,9 +1,12 @@
-"""System identification from measured FRFs: frequency-domain subspace identification,
-fixed-pole least squares, residual poles, band merging, stabilisation diagrams and damping
-equalisation (see :mod:`femcal.identify.workflow` for the study's workflow)."""
+"""System identification from measured FRFs in any layout: mode indicator functions and the
+band's partition, the pLSCF ("PolyMAX") and frequency-domain subspace estimators,
+stabilisation diagrams and the automatic choice of poles, fixed-pole least squares (LSFD)
+with residual poles, mode and fit quality, and damping equalisation (see
+:mod:`femcal.identify.workflow`)."""
 
+from .layout import Layout
 from .lsq import FixedPoleModel, fit_fixed_poles
-from .stabilization import Stabilization, mac, stabilization
+from .stabilization import Criteria, Stabilization, track_poles
 from .subspace import model_of_order, subspace_basis
 from .workflow import (
     IdentifiedModel,
@@ -15,8 +18,10 @@ from .workflow import (
 )
 
 __all__ = [
+    "Criteria",
     "FixedPoleModel",
     "IdentifiedModel",
+    "Layout",
     "Part",
     "Settings",
     "Stabilization",
@@ -24,8 +29,7 @@ __all__ = [
     "fit_fixed_poles",
     "frequency_response",
     "identify",
-    "mac",
     "model_of_order",
-    "stabilization",
     "subspace_basis",
+    "track_poles",
 ]

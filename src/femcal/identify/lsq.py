@@ -21,6 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg as sla
 
 
 @dataclass(frozen=True)
@@ -108,7 +109,8 @@ def _lstsq(X: np.ndarray, Y: np.ndarray) -> np.ndarray:
     in-band ones, and an unscaled solve would cut them off as rank deficiency."""
     norms = np.linalg.norm(X, axis=0)
     norms = np.where(norms > 0, norms, 1.0)
-    return np.linalg.lstsq(X / norms, Y, rcond=None)[0] / norms[:, None]
+    sol = sla.lstsq(X / norms, Y, lapack_driver="gelsy", check_finite=False)[0]
+    return sol / norms[:, None]
 
 
 def lsfd(s: np.ndarray, H: np.ndarray, poles: np.ndarray, *, feedthrough: bool = True,

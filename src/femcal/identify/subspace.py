@@ -144,3 +144,24 @@ def reflect_unstable(A: np.ndarray) -> np.ndarray:
     lam = np.where(lam.real > 0, -lam.real + 1j * lam.imag, lam)
     Ar = V @ np.diag(lam) @ np.linalg.inv(V)
     return Ar.real if np.isrealobj(A) else Ar
+
+
+def diagram_poles(freq_hz: np.ndarray, H: np.ndarray, orders: range | list[int], *,
+                  stable: bool = True) -> tuple[list[tuple[int, np.ndarray, np.ndarray]],
+                                                np.ndarray]:  # fmt: skip
+    """Every order's poles and shapes at the outputs (C times the eigenvectors) from one
+    subspace basis, and the basis's singular values: the input of
+    :func:`femcal.identify.stabilization.track_poles`. Orders the data cannot support are
+    left out. The basis takes twice the block rows the shift equation of the highest order
+    needs: the extra rows average the noise of measured FRFs (heavily damped modes come out
+    much steadier over the orders)."""
+    orders = sorted(set(int(n) for n in orders))
+    basis = subspace_basis(freq_hz, H, 2 * default_block_rows(orders[-1], H.shape[0]))
+    out = []
+    for n in orders:
+        if n > basis.max_order():
+            break
+        A, C = model_of_order(basis, n, stable=stable)
+        lam, V = np.linalg.eig(A)
+        out.append((n, lam, C @ V))
+    return out, basis.singular_values

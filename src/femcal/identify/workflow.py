@@ -1,70 +1,89 @@
-"""The reference study's identification workflow on top of the subspace method.
+"""Identification of measured FRFs over a band, with only the band given.
 
-For a band [f_lo, f_hi] split into parts at chosen frequencies (e.g. 10-60, 60-100,
-100-120 Hz):
-
-1. Channels are scaled to unit RMS over the band (outputs and inputs), so that no sensor
-   dominates the fits by its units or position; the scaling is undone at the end. Channels
-   the others do not explain (:mod:`femcal.identify.channels`) may be broken, or the only
+1. **Layout** (:mod:`femcal.identify.layout`): the FRFs are taken with the larger side
+   (outputs, or inputs for a roving-hammer set as measured) as rows, so that an ``N x 1``
+   set and its ``1 x N`` transpose are one problem and the shapes come out at the N points.
+2. **Band**: edges within :attr:`Settings.edge_lines` lines outside the data are moved to
+   the data's ends (with a warning); a 0 Hz line is left out.
+3. **Channels** are scaled to unit RMS over the band (rows, then columns), so that no sensor
+   dominates by its units or position; the scaling is undone at the end. Channels the
+   others do not explain (:mod:`femcal.identify.channels`) may be broken, or the only
    sensors of some mode: the identification is run with and without them, and the model
-   that fits the other channels better is kept.
-2. Each part is identified by the frequency-domain subspace method
-   (:mod:`femcal.identify.subspace`) at its order, given or the automatic order of its
-   stabilisation diagram (:mod:`femcal.identify.stabilization`). Its physical poles are
-   those inside the part with damping between 0 and ``zeta_max``, and with an automatic
-   order only those at the diagram's physical modes.
-3. The residual effect of modes outside a part is taken by extra fixed poles: one at
-   ``gamma`` times the part's upper edge (gamma = 1.43), one far away at ``beta`` times it
-   (beta = 100), and (femcal's addition, on by default, ``lower_residual``) one at the lower
-   edge divided by gamma for the modes below; together with the feedthrough D they stand for
-   the out-of-band modes, so the in-band residues are not bent to fit them.
-4. The parts' physical poles are joined (a pole found in two parts is kept once, from the
-   part where it lies farthest from the edges), and B, C, D of the joined model, with the
-   residual poles of the whole band, are estimated over the whole band by linear least
-   squares for the fixed poles, alternating B and (C, D) until the fit stops improving
-   (:func:`femcal.identify.lsq.fit_fixed_poles`).
+   without them is kept unless the other channels fit clearly better with them.
+4. **Peaks and parts** (:mod:`femcal.identify.indicators`): the CMIF's peaks that stand out
+   of its noise; without given splits, the band is split at the CMIF's lowest points so that
+   each part holds at most :attr:`Settings.part_modes` peaks.
+5. **Poles of each part** from a stabilisation diagram of the chosen estimator, the
+   poly-reference least-squares complex frequency-domain method (:mod:`femcal.identify.plscf`,
+   "PolyMAX") or the frequency-domain subspace method (:mod:`femcal.identify.subspace`),
+   over orders chosen from the part's peaks; the physical poles are the tracks that stay
+   stable over the orders (:mod:`femcal.identify.stabilization`). With a given order, the
+   physical-looking poles of that order.
+6. **Residues** of the joined poles over the whole band by least squares for the fixed poles
+   (LSFD, :mod:`femcal.identify.lsq`), with residual poles standing for the modes outside the
+   band: one at ``gamma`` times the upper edge (1.43), one far away at ``beta`` times it
+   (100), and one at the lower edge divided by gamma; B and (C, D) alternate until the fit
+   stops improving.
+7. **Checks**: a CMIF peak with no mode near it is identified again in a narrow band around
+   it; one still without a mode, and a poor fit, are reported as warnings in the result
+   (:attr:`IdentifiedModel.warnings`), never passed over. Each mode's MPC, MPD and
+   complexity and each channel's fit error and FRF correlation
+   (:mod:`femcal.identify.quality`) are kept with the model.
 
-The result holds the real state-space model (residual states flagged), the physical poles
-as frequency and damping ratio, the complex mode shapes at the outputs (C times the
-eigenvectors, normalised to a largest component of 1), the fit error of every channel and
-the channels whose fit is poor enough to suspect the sensor.
+Coherence, where the data carry it, weights each frequency of each channel in the fits by
+``sqrt(coh / (1 - coh))``, the inverse of an H1 estimate's relative scatter (capped), so
+that frequencies where the measurement is poor count less.
 """
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..errors import FemcalWarning
 from ..parallel.cluster import result_of
 from ..response.statespace import StateSpace, frequency_response, poles_to_modal
 from ..testdata.data import Channel, FRFData, FRFError
+from . import plscf, subspace
 from .channels import consistency_error, outliers
+from .indicators import Peaks, cmif, find_cmif_peaks, partition
+from .layout import Layout
 from .lsq import FixedPoleModel, Resolvent, fit_c, fit_fixed_poles, response
-from .stabilization import Stabilization, physical_poles, poles_at_modes, stabilization
-from .subspace import default_block_rows, model_of_order, subspace_basis
+from .quality import complexity, frf_correlation, mpc, mpd
+from .stabilization import Criteria, Stabilization, physical, track_poles
 
-#: Highest model order of a part (and at most half its frequencies).
+#: Highest subspace model order of a part (and at most half its frequencies).
 MAX_ORDER = 200
 #: Largest band edge (Hz), largest ratio of the band's edges, and largest magnitude of a
 #: nonzero FRF value (smallest: its inverse) that identification takes: bounds no
 #: structural test comes near, inside which the scaling, the bilinear map about the band's
 #: geometric centre and the powers of the frequency stay far from overflow and round-off.
 MAX_HZ, MAX_SPAN, MAX_ABS = 1e9, 1e12, 1e100
+#: The estimators ``Settings.method`` names.
+METHODS = ("plscf", "subspace")
+#: Largest weight a coherence gives (a coherence of 0.9999 and above).
+MAX_COHERENCE_WEIGHT = 100.0
 
 
 @dataclass(frozen=True)
 class Settings:
-    """Identification options (defaults: the reference study's).
+    """Identification options.
 
+    method : the estimator, ``"plscf"`` (default) or ``"subspace"``.
     gamma, beta : residual poles at gamma and beta times a band's upper edge.
     lower_residual : also a residual pole at the lower edge / gamma.
     residual_damping : damping ratio of the residual poles.
     feedthrough : estimate D. stable : reflect unstable subspace poles.
     zeta_max : poles damped more than this are not physical modes.
-    max_order : highest order of the stabilisation diagrams (automatic orders).
+    max_order : highest order of the stabilisation diagrams; None: chosen per part from its
+        peaks (the subspace method's number of states, pLSCF's polynomial order).
+    part_modes : without given splits, the most CMIF peaks a part holds.
+    tol_frequency, tol_damping, tol_mac, min_share : the stability and selection criteria
+        (:class:`femcal.identify.stabilization.Criteria`).
     max_iter, tol : of the alternating least squares.
     suspect_factor, suspect_floor : a channel is suspect when its fit error exceeds both
         ``suspect_factor`` times the median channel's and ``suspect_floor``.
@@ -75,8 +94,17 @@ class Settings:
         |H| over the channels there), so the fit is close to a relative one: the low
         levels between and below resonances (which a log-FRF calibration metric weighs as
         much as the peaks) are fitted as well as the peaks.
+    edge_lines : band edges at most this many lines outside the data are moved onto the
+        data's ends (with a warning); farther out they are refused.
+    poor_fit : a median fit error above this is reported as a poor fit.
+    min_contribution, min_contribution_complex : a pole whose resonance peak stays below
+        this share of the FRFs' level at its frequency (the second, for a shape whose MPC
+        is under 0.5: noise fitted) is left out: it is not a mode the data show
+        (:func:`mode_contributions`). A weak real mode beside a strong one (a tenth of its
+        neighbour's level) keeps a normal shape, and stays.
     """
 
+    method: str = "plscf"
     gamma: float = 1.43
     beta: float = 100.0
     lower_residual: bool = True
@@ -84,18 +112,30 @@ class Settings:
     feedthrough: bool = True
     stable: bool = True
     zeta_max: float = 0.2
-    max_order: int = 24
-    max_iter: int = 50
-    tol: float = 1e-7
+    max_order: int | None = None
+    part_modes: int = 6
+    tol_frequency: float = 0.01
+    tol_damping: float = 0.2
+    tol_mac: float = 0.95
+    min_share: float = 0.5
+    max_iter: int = 20
+    tol: float = 1e-4
     suspect_factor: float = 4.0
     suspect_floor: float = 0.1
     exclude_suspects: bool = True
     frequency_weighting: bool = True
+    edge_lines: int = 2
+    poor_fit: float = 0.25
+    min_contribution: float = 0.02
+    min_contribution_complex: float = 0.3
 
     def __post_init__(self) -> None:
         """Refuse settings that make no sense (ValueError naming the setting and what is
         expected): the residual poles must lie outside the band (gamma > 1) and apart
         (beta > gamma), damping ratios between 0 and 1, orders and counts positive."""
+        if self.method not in METHODS:
+            raise ValueError(f"identification setting method = {self.method!r}: expected one "
+                             f"of {', '.join(METHODS)}")  # fmt: skip
         checks = [
             (self.gamma > 1, "gamma", self.gamma, "a number above 1 (the residual poles sit "
              "at gamma times the upper band edge and the lower edge / gamma, outside the "
@@ -105,23 +145,39 @@ class Settings:
             (0 < self.residual_damping < 1, "residual_damping", self.residual_damping,
              "a damping ratio between 0 and 1"),
             (0 < self.zeta_max <= 1, "zeta_max", self.zeta_max, "a damping ratio in (0, 1]"),
-            (2 <= self.max_order <= MAX_ORDER, "max_order", self.max_order,
-             f"a whole number from 2 to {MAX_ORDER}"),
+            (self.max_order is None or 2 <= self.max_order <= MAX_ORDER, "max_order",
+             self.max_order if self.max_order is not None else 0,
+             f"a whole number from 2 to {MAX_ORDER}, or None (automatic)"),
+            (self.part_modes >= 1, "part_modes", self.part_modes, "at least 1"),
+            (0 < self.tol_frequency < 1, "tol_frequency", self.tol_frequency,
+             "a fraction in (0, 1)"),
+            (self.tol_damping > 0, "tol_damping", self.tol_damping, "a positive fraction"),
+            (0 <= self.tol_mac <= 1, "tol_mac", self.tol_mac, "a MAC in [0, 1]"),
+            (0 < self.min_share <= 1, "min_share", self.min_share, "a share in (0, 1]"),
             (self.max_iter >= 1, "max_iter", self.max_iter, "at least 1"),
             (self.tol > 0, "tol", self.tol, "a positive number"),
             (self.suspect_factor > 0, "suspect_factor", self.suspect_factor, "a positive number"),
             (self.suspect_floor >= 0, "suspect_floor", self.suspect_floor, "0 or more"),
+            (self.edge_lines >= 0, "edge_lines", self.edge_lines, "0 or more"),
+            (self.poor_fit > 0, "poor_fit", self.poor_fit, "a positive number"),
         ]
         for ok, name, value, expected in checks:
             if not (ok and np.isfinite(value)):
                 raise ValueError(f"identification setting {name} = {value!r}: expected "
                                  f"{expected}")  # fmt: skip
 
+    @property
+    def criteria(self) -> Criteria:
+        return Criteria(tol_frequency=self.tol_frequency, tol_damping=self.tol_damping,
+                        tol_mac=self.tol_mac, min_share=self.min_share,
+                        zeta_max=self.zeta_max)  # fmt: skip
+
 
 @dataclass(frozen=True)
 class Part:
-    """One part of the band: its limits (Hz), the order used, whether it was chosen
-    automatically, its physical poles, and its stabilisation diagram (if computed)."""
+    """One part of the band: its limits (Hz), the order used (the diagram's highest with an
+    automatic choice), whether it was chosen automatically, its physical poles, and its
+    stabilisation diagram (if computed)."""
 
     band: tuple[float, float]
     order: int
@@ -136,21 +192,33 @@ class IdentifiedModel:
 
     Attributes
     ----------
-    system : real state-space model, H(s) = C (sI - A)^-1 B + D in the data's units.
+    system : real state-space model, H(s) = C (sI - A)^-1 B + D in the data's units and
+        layout (outputs x inputs).
     residual_states : (n,) True for the states of residual poles.
     poles : (k,) physical poles (Im > 0), ascending frequency, rad/s.
     frequency_hz, damping_ratio : (k,).
-    shapes : (p, k) complex mode shapes at the outputs, largest component 1.
-    participation : (m, k) complex modal participation of the inputs (V^-1 B rows),
-        scaled with the shapes' normalisation so ``shape participation^T`` is the residue.
+    shapes : (r, k) complex mode shapes at the roving channels (:attr:`shape_channels`:
+        the outputs, or the inputs of a set with more inputs than outputs, by
+        reciprocity), largest component 1.
+    participation : (q, k) complex modal participation of the references (the other side),
+        scaled with the shapes' normalisation so that ``shape participation^T`` is the
+        residue of the roving x reference FRFs.
     outputs, inputs, quantity, units : as the data's.
     band : (f_lo, f_hi) Hz.
-    fit_error : (p,) per output channel, ``||H - H_model|| / ||H||`` over the band.
-    suspect : (p,) channels whose fit is poor, or that the other channels do not explain
-        (see :class:`Settings` and :mod:`femcal.identify.channels`).
-    consistency : (p,) leave-one-out consistency error of each channel.
+    fit_error : (r,) per roving channel, ``||H - H_model|| / ||H||`` over the band.
+    suspect : (r,) roving channels whose fit is poor, or that the other channels do not
+        explain (see :class:`Settings` and :mod:`femcal.identify.channels`).
+    consistency : (r,) leave-one-out consistency error of each roving channel.
     parts : the parts identified.
     history : cost of the whole-band fit after each alternating step (scaled data).
+    layout : which side the shapes are on (None in models written before it was kept:
+        the outputs).
+    method : the estimator that found the poles.
+    mpc, mpd, complexity : (k,) per mode (:mod:`femcal.identify.quality`).
+    frf_correlation : (r,) per roving channel, the measured and synthesised FRFs' MAC.
+    peaks_hz : the CMIF peaks in the band.
+    warnings : what the identification could not do well (a peak without a mode, a poor
+        fit), in words.
     """
 
     system: StateSpace
@@ -170,6 +238,24 @@ class IdentifiedModel:
     parts: list[Part] = field(default_factory=list)
     history: list[float] = field(default_factory=list)
     consistency: np.ndarray | None = None
+    layout: Layout | None = None
+    method: str = ""
+    mpc: np.ndarray | None = None
+    mpd: np.ndarray | None = None
+    complexity: np.ndarray | None = None
+    frf_correlation: np.ndarray | None = None
+    peaks_hz: np.ndarray | None = None
+    warnings: tuple[str, ...] = ()
+
+    @property
+    def shape_channels(self) -> tuple[Channel, ...]:
+        """The channels the shapes, fit errors and suspect flags are given at."""
+        return self.layout.roving if self.layout is not None else self.outputs
+
+    @property
+    def reference_channels(self) -> tuple[Channel, ...]:
+        """The channels the participation is given at."""
+        return self.layout.references if self.layout is not None else self.inputs
 
     def frf(self, freq_hz: np.ndarray) -> FRFData:
         """The model's FRFs at freq_hz as a data set (same labels, quantity and units)."""
@@ -264,9 +350,58 @@ def check_band_data(data: FRFData, band: tuple[float, float]) -> None:
                        "not magnitudes or real parts alone")  # fmt: skip
 
 
-def _dedupe(found: list[tuple[complex, tuple[float, float]]]) -> np.ndarray:
+def fit_band(frequency_hz: np.ndarray, band: tuple[float, float],
+             edge_lines: int = 2) -> tuple[float, float]:  # fmt: skip
+    """The band, with an edge that lies at most ``edge_lines`` lines outside the data moved
+    onto the data's end (a :class:`~femcal.errors.FemcalWarning` says so): universal files
+    store the frequency step in single precision, so an axis meant to end at 1000 Hz may end
+    at 999.9974.
+
+    Raises
+    ------
+    ValueError
+        For a band that is not 0 <= f_lo < f_hi, finite.
+    FRFError
+        For an edge farther outside the data.
+    """
+    f = np.asarray(frequency_hz, float)
+    lo, hi = float(band[0]), float(band[1])
+    if not (lo < hi) or lo < 0 or not np.isfinite(hi):
+        raise ValueError(f"band {lo:g}-{hi:g} Hz: expected 0 <= f_lo < f_hi, finite")
+    step = float(np.median(np.diff(f))) if len(f) > 1 else 0.0
+    slack = edge_lines * step
+    if lo < f[0] * (1 - 1e-12) and lo >= f[0] - slack:
+        warnings.warn(FemcalWarning(f"band edge {lo:g} Hz lies {f[0] - lo:.3g} Hz below the "
+                                    f"data's first line ({f[0]:.6g} Hz): identified from "
+                                    f"{f[0]:.6g} Hz"), stacklevel=3)  # fmt: skip
+        lo = float(f[0])
+    if hi > f[-1] * (1 + 1e-12) and hi <= f[-1] + slack:
+        warnings.warn(FemcalWarning(f"band edge {hi:g} Hz lies {hi - f[-1]:.3g} Hz above the "
+                                    f"data's last line ({f[-1]:.6g} Hz): identified up to "
+                                    f"{f[-1]:.6g} Hz"), stacklevel=3)  # fmt: skip
+        hi = float(f[-1])
+    if lo < f[0] * (1 - 1e-12) or hi > f[-1] * (1 + 1e-12):
+        raise FRFError(f"band {lo:g}-{hi:g} Hz lies outside the data ({f[0]:.6g}-"
+                       f"{f[-1]:.6g} Hz, {len(f)} lines every {step:.4g} Hz)")  # fmt: skip
+    return lo, hi
+
+
+def coherence_weights(coherence: np.ndarray | None) -> np.ndarray | None:
+    """Per channel and frequency weights ``sqrt(coh / (1 - coh))`` (capped at
+    :data:`MAX_COHERENCE_WEIGHT`), normalised to a median of 1; None without a coherence."""
+    if coherence is None:
+        return None
+    c = np.clip(np.asarray(coherence, float), 0.0, 1.0)
+    cap = MAX_COHERENCE_WEIGHT**2 / (1 + MAX_COHERENCE_WEIGHT**2)
+    c = np.minimum(c, cap)
+    w = np.sqrt(c / (1.0 - c))
+    med = np.median(w)
+    return w / med if med > 0 else np.ones_like(w)
+
+
+def _dedupe(found: list[tuple[complex, tuple[float, float]]], s: Settings) -> np.ndarray:
     """Poles found in several parts kept once: the one farthest (relatively) from its part's
-    edges; poles closer than 0.5 % in frequency and 20 % in damping count as one."""
+    edges; poles within the stability tolerances of each other count as one."""
     def margin(item):
         pole, (lo, hi) = item
         f = abs(pole) / (2 * np.pi)
@@ -278,7 +413,8 @@ def _dedupe(found: list[tuple[complex, tuple[float, float]]]) -> np.ndarray:
         same = False
         for other in kept:
             fo, zo = poles_to_modal(np.array([other[0]]))
-            if abs(f[0] / fo[0] - 1) < 0.005 and abs(z[0] / zo[0] - 1) < 0.2:
+            if (abs(f[0] / fo[0] - 1) < 0.5 * s.tol_frequency
+                    and abs(z[0] - zo[0]) < s.tol_damping * max(z[0], zo[0])):  # fmt: skip
                 same = True
                 break
         if not same:
@@ -287,8 +423,24 @@ def _dedupe(found: list[tuple[complex, tuple[float, float]]]) -> np.ndarray:
     return poles[np.argsort(np.abs(poles))]
 
 
+@dataclass(frozen=True)
+class _Prepared:
+    """The data as identification sees them: canonical layout, the band's frequencies,
+    scaled FRFs and their scales, weights, the CMIF and its peaks."""
+
+    layout: Layout
+    f: np.ndarray
+    Hs: np.ndarray
+    so: np.ndarray
+    si: np.ndarray
+    weights: np.ndarray | None
+    S: np.ndarray
+    peaks: Peaks
+
+
 def identify(data: FRFData, band: tuple[float, float], *,
-             splits: Sequence[float] = (), orders: int | Sequence[int | None] | None = None,
+             splits: Sequence[float] | None = None,
+             orders: int | Sequence[int | None] | None = None,
              settings: Settings | None = None,
              progress: Callable[[str], None] | None = None,
              pool: Executor | None = None) -> IdentifiedModel:  # fmt: skip
@@ -296,12 +448,12 @@ def identify(data: FRFData, band: tuple[float, float], *,
 
     Parameters
     ----------
-    data : FRFs (p outputs, m inputs, K frequencies).
+    data : FRFs (p outputs, m inputs, K frequencies), in any layout.
     band : (f_lo, f_hi) Hz.
-    splits : frequencies inside the band where it is split into parts.
+    splits : frequencies inside the band where it is split into parts; None: chosen from
+        the CMIF (:mod:`femcal.identify.indicators`); ``()``: one part.
     orders : the model order of every part (one number), of each part (a list; None for
-        automatic), or None: automatic for all (stabilisation diagram up to
-        ``settings.max_order``).
+        automatic), or None: automatic for all (stabilisation diagrams).
     progress : called with a line of text per step.
     pool : an executor (e.g. a Dask cluster's, :mod:`femcal.parallel.cluster`) on which the
         parts are identified side by side; None: one after another here. A worker's BLAS
@@ -314,20 +466,21 @@ def identify(data: FRFData, band: tuple[float, float], *,
         outside the data, a part with fewer than 4 frequencies, or an order a part's
         frequencies cannot support.
     ValueError
-        For a band that is not 0 < f_lo < f_hi, splits outside the band, or an order list of
-        the wrong length.
+        For a band that is not 0 <= f_lo < f_hi, splits outside the band, or an order list
+        of the wrong length.
     """
     s = settings or Settings()
     say = progress or (lambda _msg: None)
-    f_all = np.asarray(data.frequency_hz, float)
-    lo, hi = float(band[0]), float(band[1])
-    if not (lo < hi) or lo <= 0 or not np.isfinite(hi):
-        raise ValueError(f"band {lo}-{hi} Hz: expected 0 < f_lo < f_hi, finite")
-    if lo < f_all[0] * (1 - 1e-12) or hi > f_all[-1] * (1 + 1e-12):
-        raise FRFError(f"band {lo}-{hi} Hz lies outside the data ({f_all[0]}-{f_all[-1]} Hz)")
-    edges = [lo, *sorted(float(x) for x in splits), hi]
-    if any(not (lo < x < hi) for x in edges[1:-1]):
-        raise ValueError(f"splits {list(splits)} must lie inside the band {lo}-{hi} Hz")
+    lo, hi = fit_band(data.frequency_hz, band, s.edge_lines)
+    prep = _prepare(data, (lo, hi), s)
+    lo = max(lo, float(prep.f[0]))
+    if splits is None:
+        edges = [lo, *partition(prep.f, prep.S[0], prep.peaks.frequency_hz, (lo, hi),
+                                s.part_modes), hi]  # fmt: skip
+    else:
+        edges = [lo, *sorted(float(x) for x in splits), hi]
+        if any(not (lo < x < hi) for x in edges[1:-1]):
+            raise ValueError(f"splits {list(splits)} must lie inside the band {lo:g}-{hi:g} Hz")
     n_parts = len(edges) - 1
     if orders is None or isinstance(orders, int):
         part_orders: list[int | None] = [orders] * n_parts
@@ -335,133 +488,330 @@ def identify(data: FRFData, band: tuple[float, float], *,
         part_orders = list(orders)
         if len(part_orders) != n_parts:
             raise ValueError(f"{len(part_orders)} orders for {n_parts} parts")
-    check_band_data(data, (lo, hi))
-    sel = (f_all >= lo) & (f_all <= hi)
-    f = f_all[sel]
-    so, si = _scales(data.H[:, :, sel])
-    Hs = data.H[:, :, sel] / so[:, None, None] / si[None, :, None]
-    consistency = consistency_error(Hs)
+    say(f"{prep.layout.describe()}")
+    say(f"{len(prep.peaks.frequency_hz)} peaks in the CMIF"
+        + (": " + ", ".join(f"{x:.4g}" for x in prep.peaks.frequency_hz[:30]) + " Hz"
+           if len(prep.peaks.frequency_hz) else "")
+        + (f"; parts split at {', '.join(f'{x:.4g}' for x in edges[1:-1])} Hz"
+           if splits is None and n_parts > 1 else ""))  # fmt: skip
+    consistency = consistency_error(prep.Hs)
     odd = outliers(consistency, s.suspect_factor, s.suspect_floor)
     use = np.ones(len(odd), bool)
-    result = _identify_pass(data, f, Hs, so, si, edges, part_orders, use, s, say, pool)
+    result = _identify_pass(data, prep, edges, part_orders, use, s, say, pool)
+    roving = prep.layout.roving
     if odd.any() and (~odd).sum() >= 2:
         # a channel the others do not explain is either broken, or the one sensor that sees
         # some mode: identify without such channels too, and keep the model that fits the
         # other channels better
-        bad = [data.outputs[i].label for i in np.flatnonzero(odd)]
+        bad = [roving[i].label for i in np.flatnonzero(odd)]
         say(f"channels {', '.join(bad)} are not consistent with the others (leave-one-out "
             "error " + ", ".join(f"{e:.2f}" for e in consistency[odd])
             + "): identifying without them as well")  # fmt: skip
-        screened = _identify_pass(data, f, Hs, so, si, edges, part_orders, ~odd, s, say,
-                                  pool)
-        if np.median(screened.fit_error[~odd]) < np.median(result.fit_error[~odd]):
-            say("the model without them fits the other channels better: kept")
+        screened = _identify_pass(data, prep, edges, part_orders, ~odd, s, say, pool)
+        # the model without them is kept unless the others fit clearly better with them:
+        # poles that only the odd channels carry are what a channel from another
+        # measurement, or a mode only one sensor sees, would bring, and the odd channels'
+        # own fit error then tells which
+        if np.median(screened.fit_error[~odd]) <= 1.02 * np.median(result.fit_error[~odd]):
+            say("the model without them fits the other channels as well: kept")
             result, use = screened, ~odd
         else:
-            say("the model of all channels fits the others as well: kept")
+            say("the model of all channels fits the others better: kept")
     result = replace(result, consistency=consistency)
     if s.exclude_suspects and (result.suspect & use).any() and (~result.suspect).sum() >= 2:
-        bad = [data.outputs[i].label for i in np.flatnonzero(result.suspect)]
+        bad = [roving[i].label for i in np.flatnonzero(result.suspect)]
         say(f"suspect channels {', '.join(bad)}: identified again without them")
-        again = _identify_pass(data, f, Hs, so, si, edges, part_orders, ~result.suspect, s,
-                               say, pool)  # fmt: skip
+        again = _identify_pass(data, prep, edges, part_orders, ~result.suspect, s, say, pool)
         if np.median(again.fit_error[~result.suspect]) <= np.median(
                 result.fit_error[~result.suspect]):  # fmt: skip
             result = replace(again, consistency=consistency,
                              suspect=again.suspect | result.suspect)  # fmt: skip
         else:
             say("the other channels fit better with them: the first model kept")
-    return result
+    return _with_warnings(result, prep, s)
 
 
-def _identify_part(f: np.ndarray, H: np.ndarray, a: float, b: float, n: int | None,
-                   s: Settings) -> tuple[int, np.ndarray, Stabilization | None]:
-    """One part's physical poles: its order (``n``, or automatic from a stabilisation
-    diagram, which is returned too) and poles, from its frequencies ``f`` (K,) and FRFs
-    ``H`` (p, m, K) in [a, b] Hz. The subspace step sees the part scaled on its own (its
-    poles do not depend on it)."""
+def _prepare(data: FRFData, band: tuple[float, float], s: Settings) -> _Prepared:
+    """The band's data in the canonical layout, scaled, with weights and CMIF peaks."""
+    lo, hi = band
+    check_band_data(data, (lo, hi))
+    f_all = np.asarray(data.frequency_hz, float)
+    sel = (f_all >= lo) & (f_all <= hi) & (f_all > 0)
+    f = f_all[sel]
+    if len(f) < 4:
+        raise FRFError(f"band {lo:g}-{hi:g} Hz holds {len(f)} frequencies above 0 Hz; "
+                       "expected at least 4")  # fmt: skip
+    layout = Layout.of(data.outputs, data.inputs)
+    H = layout.canonical(np.asarray(data.H)[:, :, sel])
+    so, si = _scales(H)
+    Hs = H / so[:, None, None] / si[None, :, None]
+    weights = None
+    if data.coherence is not None:
+        coh = np.asarray(data.coherence, float)[..., sel]
+        if coh.ndim == 2:  # multiple coherence per output: per canonical row
+            w = coherence_weights(coh)
+            weights = w if not layout.transposed else np.broadcast_to(
+                np.mean(w, axis=0), (Hs.shape[0], len(f))).copy()  # fmt: skip
+        else:  # per FRF: per canonical row, the mean over the references
+            w = coherence_weights(layout.canonical(coh))
+            weights = np.mean(w, axis=1)
+    S = cmif(Hs)
+    peaks = find_cmif_peaks(f, S)
+    return _Prepared(layout, f, Hs, so, si, weights, S, peaks)
+
+
+def _orders(s: Settings, n_peaks: int, m: int, K: int, p: int) -> range:
+    """The orders of a part's stabilisation diagram: given by ``s.max_order`` or from the
+    part's number of peaks."""
+    if s.method == "plscf":
+        if s.max_order is not None:
+            return range(1, min(s.max_order, plscf.MAX_ORDER, max(2, (K - 1) // 2)) + 1)
+        return plscf.orders_for(n_peaks, m, K)
+    top = s.max_order if s.max_order is not None else min(MAX_ORDER, max(24, 4 * n_peaks + 16))
+    top = min(top, max(2, K // 2))
+    return range(2, top + 1, 2)
+
+
+def _identify_part(f: np.ndarray, H: np.ndarray, weights: np.ndarray | None, a: float,
+                   b: float, n: int | None, n_peaks: int, s: Settings
+                   ) -> tuple[int, np.ndarray, Stabilization | None]:  # fmt: skip
+    """One part's physical poles: its order (``n``, or the highest of the automatic
+    stabilisation diagram, which is returned too) and poles, from its frequencies ``f`` (K,),
+    FRFs ``H`` (p, m, K) and weights (p, K) in [a, b] Hz. The estimator sees the part scaled
+    on its own (its poles do not depend on it)."""
     po, pi = _scales(H)
     Hp = H / po[:, None, None] / pi[None, :, None]
+    resolution = float(np.median(np.diff(f))) if len(f) > 1 else 1.0
+    p, m, K = Hp.shape
     if n is None:
-        diagram = stabilization(f, Hp, (a, b), orders=range(2, s.max_order + 1, 2),
-                                zeta_max=s.zeta_max, stable_system=s.stable)  # fmt: skip
-        n_use = diagram.auto_order
-        at = next(op for op in diagram.orders if op.order == n_use)
-        return n_use, at.poles[poles_at_modes(at, diagram.modes_hz)], diagram
-    basis = subspace_basis(f, Hp, default_block_rows(int(n), H.shape[0]))
-    A, C = model_of_order(basis, int(n), stable=s.stable)
-    lam, _ = physical_poles(A, C, (a, b), s.zeta_max)
-    return int(n), lam, None
+        order_list = _orders(s, n_peaks, m, K, p)
+        if len(order_list) < 4:
+            raise FRFError(f"part {a:g}-{b:g} Hz: {K} frequencies and {p} channel(s) allow "
+                           f"{s.method} orders up to {order_list[-1]}; a stabilisation "
+                           "diagram needs 4 orders at least: expected more frequencies in "
+                           "the band (or give --order)")  # fmt: skip
+        if s.method == "plscf":
+            raw = plscf.diagram_poles(f, Hp, order_list, weights=weights)
+            sv = None
+        else:
+            raw, sv = subspace.diagram_poles(f, Hp, order_list, stable=s.stable)
+        if not raw:
+            raise FRFError(f"part {a:g}-{b:g} Hz: {K} frequencies and {p} channel(s) support "
+                           "no model; expected more frequencies in the part")  # fmt: skip
+        diagram = track_poles(raw, (a, b), s.method, resolution, s.criteria, sv)
+        return raw[-1][0], diagram.modes, diagram
+    if s.method == "plscf":
+        ne = plscf.normal_equations(f, Hp, int(n), weights=weights)
+        est = plscf.estimate(ne, int(n))
+        lam = est.poles
+    else:
+        basis = subspace.subspace_basis(f, Hp, subspace.default_block_rows(int(n), p))
+        A, _ = subspace.model_of_order(basis, int(n), stable=s.stable)
+        lam = np.linalg.eigvals(A)
+    return int(n), lam[physical(lam, (a, b), s.zeta_max)], None
 
 
-def _identify_pass(data: FRFData, f: np.ndarray, Hs: np.ndarray, so: np.ndarray,
-                   si: np.ndarray, edges: list[float], part_orders: list[int | None],
-                   use: np.ndarray, s: Settings, say: Callable[[str], None],
+def _order_limit(s: Settings, K: int, m: int) -> int:
+    if s.method == "plscf":
+        return min(plscf.MAX_ORDER, max(1, (K - 1) // 2))
+    return min(MAX_ORDER, K // 2)
+
+
+def _identify_pass(data: FRFData, prep: _Prepared, edges: list[float],
+                   part_orders: list[int | None], use: np.ndarray, s: Settings,
+                   say: Callable[[str], None],
                    pool: Executor | None = None) -> IdentifiedModel:  # fmt: skip
-    """One identification: poles and B from the channels in ``use`` (p,), C and D of every
-    channel for those; the parts' poles on ``pool`` when given."""
+    """One identification: poles and B from the roving channels in ``use`` (r,), C and D of
+    every channel for those; the parts' poles on ``pool`` when given."""
+    f, Hs = prep.f, prep.Hs
     Hu = Hs[use]
-    found: list[tuple[complex, tuple[float, float]]] = []
-    parts: list[Part] = []
+    wu = None if prep.weights is None else prep.weights[use]
     bands = list(zip(edges[:-1], edges[1:], part_orders, strict=True))
     masks = [(f >= a) & (f <= b) for a, b, _ in bands]
+    m = Hs.shape[1]
     for (a, b, n), ps in zip(bands, masks, strict=True):
         if ps.sum() < 4:
             raise FRFError(f"part {a:g}-{b:g} Hz holds {ps.sum()} frequencies; expected at "
                            "least 4")  # fmt: skip
         if n is not None:
-            limit = min(MAX_ORDER, int(ps.sum()) // 2)
+            limit = _order_limit(s, int(ps.sum()), m)
             if not 1 <= int(n) <= limit:
                 raise FRFError(f"order {int(n)} is outside 1..{limit} for part {a:g}-{b:g} "
                                f"Hz ({ps.sum()} frequencies)")  # fmt: skip
-    args = [(f[ps], Hu[:, :, ps], a, b, n, s) for (a, b, n), ps in zip(bands, masks, strict=True)]
+    pk = prep.peaks.frequency_hz
+    args = [(f[ps], Hu[:, :, ps], None if wu is None else wu[:, ps], a, b, n,
+             int(np.sum((pk >= a) & (pk <= b))), s)
+            for (a, b, n), ps in zip(bands, masks, strict=True)]  # fmt: skip
     if pool is not None and len(bands) > 1:  # the parts are independent: side by side
         jobs = [pool.submit(_identify_part, *x) for x in args]
         done = (result_of(job, f"the identification of part {a:g}-{b:g} Hz")
                 for job, (a, b, _) in zip(jobs, bands, strict=True))  # fmt: skip
     else:
         done = (_identify_part(*x) for x in args)
+    parts: list[Part] = []
+    found: list[tuple[complex, tuple[float, float]]] = []
     for (a, b, n), (n_use, lam, diagram) in zip(bands, done, strict=True):
         fr, z = poles_to_modal(lam)
-        say(f"part {a:g}-{b:g} Hz: order {n_use}{' (automatic)' if n is None else ''}, "
+        what = (f"orders up to {n_use}, {s.method}" if n is None
+                else f"order {n_use}, {s.method}")  # fmt: skip
+        say(f"part {a:g}-{b:g} Hz ({what}): "
             + (", ".join(f"{x:.2f} Hz ({100 * y:.2f} %)" for x, y in zip(fr, z, strict=True))
                or "no physical pole"))  # fmt: skip
         parts.append(Part((a, b), n_use, n is None, lam, diagram))
         found += [(complex(x), (a, b)) for x in lam]
-    poles = _dedupe(found)
+    poles = _dedupe(found, s)
     lo, hi = edges[0], edges[-1]
-    sk = 2j * np.pi * f
-    w = None
-    if s.frequency_weighting:  # each frequency weighted by 1 / (RMS of |H| there)
-        level = np.sqrt(np.mean(np.abs(Hu) ** 2, axis=(0, 1)))
-        w = 1.0 / np.where(level > 0, level, level[level > 0].min() if (level > 0).any() else 1)
-    model, history = fit_fixed_poles(sk, Hu, poles, _residual_poles((lo, hi), s),
-                                     feedthrough=s.feedthrough, max_iter=s.max_iter,
-                                     tol=s.tol, weights=w)  # fmt: skip
+    poles, extra = _add_missed_peaks(prep, poles, use, (lo, hi), s, say)
+    parts += extra
+    model, history, w = _fit(f, Hu, poles, (lo, hi), s, wu)
+    weak = _weak_modes(model, f, Hu, prep.so[use], s)
+    if weak.any():
+        fr, z = poles_to_modal(poles[weak])
+        say("left out as too weak to be a mode of the data (a peak below "
+            f"{s.min_contribution:g} of the FRFs' level there, or below "
+            f"{s.min_contribution_complex:g} with an MPC under 0.5): "
+            + ", ".join(f"{x:.4g} Hz ({100 * y:.3g} %)" for x, y in zip(fr, z, strict=True)))
+        poles = poles[~weak]
+        model, history, w = _fit(f, Hu, poles, (lo, hi), s, wu)
     if not use.all():  # C and D of every channel for the B of the channels used
+        sk = 2j * np.pi * f
         C, D = fit_c(Resolvent(model.A, sk), model.B, Hs, s.feedthrough, w)
         model = replace(model, C=C, D=D)
     say(f"whole band {lo:g}-{hi:g} Hz: {len(poles)} poles, B, C, D refined in "
         f"{len(history) - 1} alternating steps (cost {history[0]:.4g} -> {history[-1]:.4g})")
-    return _result(data, model, so, si, f, Hs, (lo, hi), parts, history, s)
+    return _result(data, prep, model, (lo, hi), parts, history, s)
 
 
-def _result(data: FRFData, model: FixedPoleModel, so: np.ndarray, si: np.ndarray,
-            f: np.ndarray, Hs: np.ndarray, band: tuple[float, float], parts: list[Part],
-            history: list[float], s: Settings) -> IdentifiedModel:  # fmt: skip
-    system = StateSpace(model.A, model.B * si[None, :], model.C * so[:, None],
-                        model.D * so[:, None] * si[None, :])  # fmt: skip
+def mode_contributions(model: FixedPoleModel, f: np.ndarray, H: np.ndarray,
+                       scales: np.ndarray | None = None
+                       ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """Per physical pole of a fitted model: its resonance peak ``||R|| / |Re(lambda)|``
+    (R the residue matrix over the channels) over the measured level ``||H||`` at the
+    nearest lines (the largest of three), and the MPC of its shape. A mode of the data
+    rises to about the data's level at its frequency (1 when it dominates there); a pole
+    the fit uses for noise or for a band edge stays far below. ``scales`` (p,) undo the
+    channels' scaling for the MPC, which is a property of the shape in physical units."""
+    k = len(model.poles)
+    c = 0.5 * (model.C[:, 0: 2 * k: 2] - 1j * model.C[:, 1: 2 * k: 2])  # (p, k)
+    b = model.B[0: 2 * k: 2] + 1j * model.B[1: 2 * k: 2]  # (k, m)
+    peak = (np.linalg.norm(c, axis=0) * np.linalg.norm(b, axis=1)
+            / np.maximum(np.abs(model.poles.real), np.finfo(float).tiny))  # fmt: skip
+    level = np.linalg.norm(H, axis=(0, 1))
+    at = np.searchsorted(f, np.abs(model.poles) / (2 * np.pi)).clip(1, len(f) - 2)
+    near = np.max([level[at - 1], level[at], level[at + 1]], axis=0)
+    shapes = c if scales is None else c * np.asarray(scales)[:, None]
+    return peak / np.where(near > 0, near, 1.0), mpc(shapes)
+
+
+def _weak_modes(model: FixedPoleModel, f: np.ndarray, H: np.ndarray, scales: np.ndarray,
+                s: Settings) -> np.ndarray:  # fmt: skip
+    """(k,) poles too weak to be modes of the data (see :func:`mode_contributions`)."""
+    if len(model.poles) == 0:
+        return np.zeros(0, bool)
+    ratio, shape_mpc = mode_contributions(model, f, H, scales)
+    return (ratio < s.min_contribution) | ((ratio < s.min_contribution_complex)
+                                           & (shape_mpc < 0.5))  # fmt: skip
+
+
+def _frequency_weights(H: np.ndarray, weights: np.ndarray | None,
+                       s: Settings) -> np.ndarray | None:  # fmt: skip
+    """The least squares' weight of each frequency (K,): 1 / (RMS of |H| over the channels
+    there) with :attr:`Settings.frequency_weighting`, times the channels' mean coherence
+    weight where there is one."""
+    w = None
+    if s.frequency_weighting:
+        level = np.sqrt(np.mean(np.abs(H) ** 2, axis=(0, 1)))
+        floor = level[level > 0].min() if (level > 0).any() else 1.0
+        w = 1.0 / np.where(level > 0, level, floor)
+    if weights is not None:
+        cw = np.mean(weights, axis=0)
+        w = cw if w is None else w * cw
+    return w
+
+
+def _fit(f: np.ndarray, H: np.ndarray, poles: np.ndarray, band: tuple[float, float],
+         s: Settings, weights: np.ndarray | None
+         ) -> tuple[FixedPoleModel, list[float], np.ndarray | None]:  # fmt: skip
+    """The fixed-pole model of ``poles`` and the band's residual poles fitted to H (the
+    channels used), with its cost history and the frequency weights used."""
+    w = _frequency_weights(H, weights, s)
+    model, history = fit_fixed_poles(2j * np.pi * f, H, poles, _residual_poles(band, s),
+                                     feedthrough=s.feedthrough, max_iter=s.max_iter,
+                                     tol=s.tol, weights=w)  # fmt: skip
+    return model, history, w
+
+
+def _near(f_peak: float, poles: np.ndarray, resolution: float) -> bool:
+    """Whether a pole lies near a peak: within three lines, a half-power bandwidth of its
+    own, or half a percent."""
+    if len(poles) == 0:
+        return False
+    fr, z = poles_to_modal(poles)
+    reach = np.maximum.reduce([np.full(len(fr), 3 * resolution), 2 * z * fr,
+                               np.full(len(fr), 0.005 * f_peak)])  # fmt: skip
+    return bool(np.any(np.abs(fr - f_peak) <= reach))
+
+
+def _add_missed_peaks(prep: _Prepared, poles: np.ndarray, use: np.ndarray,
+                      band: tuple[float, float], s: Settings, say: Callable[[str], None]
+                      ) -> tuple[np.ndarray, list[Part]]:  # fmt: skip
+    """Each CMIF peak with no pole near it identified again in a narrow band around it (a
+    tenth of its frequency, at least 40 lines, each side); the poles found there near the
+    peak join the others."""
+    f = prep.f
+    resolution = float(np.median(np.diff(f)))
+    extra: list[Part] = []
+    added: list[complex] = []
+    for fp in prep.peaks.frequency_hz:
+        if _near(fp, poles, resolution) or _near(fp, np.array(added, complex), resolution):
+            continue
+        half = max(0.1 * fp, 40 * resolution)
+        a, b = max(band[0], fp - half), min(band[1], fp + half)
+        sel = (f >= a) & (f <= b)
+        if sel.sum() < 8:
+            continue
+        n_peaks = int(np.sum((prep.peaks.frequency_hz >= a) & (prep.peaks.frequency_hz <= b)))
+        wu = None if prep.weights is None else prep.weights[use][:, sel]
+        try:
+            _, lam, diagram = _identify_part(f[sel], prep.Hs[use][:, :, sel], wu, a, b, None,
+                                             n_peaks, s)  # fmt: skip
+        except (FRFError, np.linalg.LinAlgError):
+            continue
+        near = [x for x in lam if _near(fp, np.array([x]), resolution)
+                and not _near(poles_to_modal(np.array([x]))[0][0], poles, resolution)]
+        if near:
+            best = min(near, key=lambda x: abs(abs(x) / (2 * np.pi) - fp))
+            added.append(complex(best))
+            fr, z = poles_to_modal(np.array([best]))
+            say(f"peak at {fp:.4g} Hz had no pole: {fr[0]:.4g} Hz ({100 * z[0]:.3f} %) found "
+                f"in {a:.4g}-{b:.4g} Hz")  # fmt: skip
+            extra.append(Part((a, b), diagram.max_order if diagram else 0, True,
+                              np.array([best]), diagram))  # fmt: skip
+    if not added:
+        return poles, extra
+    allp = np.concatenate([poles, np.array(added, complex)])
+    return allp[np.argsort(np.abs(allp))], extra
+
+
+def _result(data: FRFData, prep: _Prepared, model: FixedPoleModel, band: tuple[float, float],
+            parts: list[Part], history: list[float], s: Settings) -> IdentifiedModel:  # fmt: skip
+    """The identified model in the data's layout and units, its modes and quality."""
+    so, si, f, Hs, layout = prep.so, prep.si, prep.f, prep.Hs, prep.layout
+    A, Bc, Cc, Dc = (model.A, model.B * si[None, :], model.C * so[:, None],
+                     model.D * so[:, None] * si[None, :])  # fmt: skip
+    canonical = StateSpace(A, Bc, Cc, Dc)
+    system = (StateSpace(A.T, Cc.T, Bc.T, Dc.T) if layout.transposed else canonical)
     Hm = response(model, 2j * np.pi * f)
     err = np.sqrt(np.sum(np.abs(Hm - Hs) ** 2, axis=(1, 2)) / np.sum(np.abs(Hs) ** 2, axis=(1, 2)))
     suspect = outliers(err, s.suspect_factor, s.suspect_floor)
     k = len(model.poles)
-    lam, V = np.linalg.eig(model.A[: 2 * k, : 2 * k])  # the physical states come first
+    lam, V = np.linalg.eig(A[: 2 * k, : 2 * k])  # the physical states come first
     W = np.linalg.inv(V)
     up = np.flatnonzero(lam.imag > 0)
     up = up[np.argsort(lam[up].imag)]
     lam = lam[up]
-    shapes = system.C[:, : 2 * k] @ V[:, up]
-    part = W[up] @ system.B[: 2 * k]  # (k, m)
+    shapes = Cc[:, : 2 * k] @ V[:, up]
+    part = W[up] @ Bc[: 2 * k]  # (k, m)
     big = np.argmax(np.abs(shapes), axis=0)
     norm = shapes[big, np.arange(len(up))]
     shapes = shapes / norm
@@ -469,7 +819,33 @@ def _result(data: FRFData, model: FixedPoleModel, so: np.ndarray, si: np.ndarray
     fr, z = poles_to_modal(lam)
     return IdentifiedModel(system, model.residual.copy(), lam, fr, z, shapes, part,
                            data.outputs, data.inputs, data.quantity, data.units, band, err,
-                           suspect, parts, history)  # fmt: skip
+                           suspect, parts, history, layout=layout, method=s.method,
+                           mpc=mpc(shapes), mpd=mpd(shapes), complexity=complexity(shapes),
+                           frf_correlation=frf_correlation(Hs, Hm),
+                           peaks_hz=prep.peaks.frequency_hz)  # fmt: skip
+
+
+def _with_warnings(model: IdentifiedModel, prep: _Prepared, s: Settings) -> IdentifiedModel:
+    """The model with what it could not do said in words: CMIF peaks without a mode near
+    them, a median fit error above :attr:`Settings.poor_fit`, no mode at all."""
+    said: list[str] = []
+    resolution = float(np.median(np.diff(prep.f)))
+    lost = [fp for fp in prep.peaks.frequency_hz if not _near(fp, model.poles, resolution)]
+    if lost:
+        said.append(f"{len(lost)} peak(s) of the CMIF have no identified mode: "
+                    + ", ".join(f"{x:.4g}" for x in lost) + " Hz (weak, noise, or a mode "
+                    "the estimator could not stabilise: look at the stabilisation diagram)")
+    med = float(np.median(model.fit_error))
+    if med > s.poor_fit:
+        said.append(f"poor fit: median fit error {med:.3f} over the channels (above "
+                    f"{s.poor_fit:g}); the model misses part of the data: try the other "
+                    "method, more parts, a higher --max-order, or a narrower band")
+    if len(model.poles) == 0:
+        said.append("no mode identified in the band")
+    for text in said:
+        warnings.warn(FemcalWarning(f"identification {model.band[0]:g}-{model.band[1]:g} "
+                                    f"Hz: {text}"), stacklevel=3)  # fmt: skip
+    return replace(model, warnings=tuple(said))
 
 
 def equalize_damping(model: IdentifiedModel, zeta0: float) -> IdentifiedModel:

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..atomic import write_atomic
+from ..identify.layout import Layout
 from ..identify.workflow import IdentifiedModel
 from ..response.statespace import StateSpace
 from ..testdata.data import Channel
@@ -18,6 +19,9 @@ from ..testdata.data import Channel
 NPZ_KEYS = ("A", "B", "C", "D", "residual_states", "poles", "frequency_hz", "damping_ratio",
             "shapes", "participation", "output_labels", "input_labels", "quantity", "units",
             "band", "fit_error", "suspect", "consistency")  # fmt: skip
+#: Keys written since the layout and the quality are kept (read when present).
+OPTIONAL_KEYS = ("transposed", "method", "mpc", "mpd", "complexity", "frf_correlation",
+                 "peaks_hz", "warnings")
 
 
 def write_model(path: str | os.PathLike[str], model: IdentifiedModel) -> Path:
@@ -35,7 +39,12 @@ def write_model(path: str | os.PathLike[str], model: IdentifiedModel) -> Path:
                  input_labels=np.array([c.label for c in model.inputs]),
                  quantity=np.array(model.quantity), units=np.array(model.units),
                  band=np.array(model.band, float), fit_error=model.fit_error,
-                 suspect=model.suspect, consistency=consistency)  # fmt: skip
+                 suspect=model.suspect, consistency=consistency,
+                 transposed=np.array(bool(model.layout and model.layout.transposed)),
+                 method=np.array(model.method), warnings=np.array(model.warnings, dtype=str),
+                 **{k: getattr(model, k) for k in ("mpc", "mpd", "complexity",
+                                                   "frf_correlation", "peaks_hz")
+                    if getattr(model, k) is not None})  # fmt: skip
 
     return write_atomic(path, dump)
 
@@ -47,30 +56,58 @@ def read_model(path: str | os.PathLike[str]) -> IdentifiedModel:
         if missing:
             raise KeyError(f"{path}: not an identified model (missing {', '.join(missing)})")
         consistency = z["consistency"]
+        outputs = tuple(Channel.parse(str(s)) for s in z["output_labels"])
+        inputs = tuple(Channel.parse(str(s)) for s in z["input_labels"])
+        layout = Layout.of(outputs, inputs)
+        if "transposed" in z and bool(z["transposed"]) != layout.transposed:
+            layout = Layout(bool(z["transposed"]), *(
+                (inputs, outputs) if bool(z["transposed"]) else (outputs, inputs)))
+        extra = {k: z[k] for k in ("mpc", "mpd", "complexity", "frf_correlation", "peaks_hz")
+                 if k in z}
         return IdentifiedModel(
             StateSpace(z["A"], z["B"], z["C"], z["D"]), z["residual_states"], z["poles"],
             z["frequency_hz"], z["damping_ratio"], z["shapes"], z["participation"],
-            tuple(Channel.parse(str(s)) for s in z["output_labels"]),
-            tuple(Channel.parse(str(s)) for s in z["input_labels"]), str(z["quantity"]),
+            outputs, inputs, str(z["quantity"]),
             str(z["units"]), (float(z["band"][0]), float(z["band"][1])), z["fit_error"],
             z["suspect"], consistency=None if np.isnan(consistency).all() else consistency,
+            layout=layout, method=str(z["method"]) if "method" in z else "",
+            warnings=tuple(str(w) for w in z["warnings"]) if "warnings" in z else (),
+            **extra,
         )  # fmt: skip
 
 
+def _optional(values: np.ndarray | None, k: int) -> float | None:
+    return None if values is None else float(values[k])
+
+
 def summary(model: IdentifiedModel) -> dict:
-    """JSON-ready summary: band, poles (frequency, damping, shape), parts, channels (fit
-    error, consistency error, suspect)."""
+    """JSON-ready summary: band, method, layout (which side the shapes are on), poles
+    (frequency, damping, MPC, MPD, complexity, shape at the roving channels, participation
+    of the references), parts, channels (fit error, FRF correlation, consistency error,
+    suspect), CMIF peaks and warnings."""
     cons = model.consistency
+    layout = model.layout or Layout.of(model.outputs, model.inputs)
+    corr = model.frf_correlation
     return {
         "band_hz": list(model.band),
+        "method": model.method,
         "quantity": model.quantity,
         "units": model.units,
+        "layout": {"kind": layout.kind, "transposed": layout.transposed,
+                   "description": layout.describe(),
+                   "shape_channels": [c.label for c in layout.roving],
+                   "reference_channels": [c.label for c in layout.references]},
         "n_states": int(model.system.n_states),
         "n_residual_states": int(np.sum(model.residual_states)),
         "poles": [
             {"mode": k + 1, "frequency_hz": float(f), "damping_ratio": float(z),
+             "mpc": _optional(model.mpc, k), "mpd_deg": _optional(model.mpd, k),
+             "complexity_percent": _optional(model.complexity, k),
              "shape": {c.label: [float(v.real), float(v.imag)]
-                       for c, v in zip(model.outputs, model.shapes[:, k], strict=True)}}
+                       for c, v in zip(layout.roving, model.shapes[:, k], strict=True)},
+             "participation": {c.label: [float(v.real), float(v.imag)]
+                               for c, v in zip(layout.references, model.participation[:, k],
+                                               strict=True)}}
             for k, (f, z) in enumerate(zip(model.frequency_hz, model.damping_ratio, strict=True))
         ],
         "parts": [
@@ -80,13 +117,16 @@ def summary(model: IdentifiedModel) -> dict:
         ],
         "channels": [
             {"label": c.label, "fit_error": float(e), "suspect": bool(s),
+             "frf_correlation": _optional(corr, i),
              "consistency_error": None if cons is None else float(cons[i])}
-            for i, (c, e, s) in enumerate(zip(model.outputs, model.fit_error, model.suspect,
+            for i, (c, e, s) in enumerate(zip(layout.roving, model.fit_error, model.suspect,
                                               strict=True))
         ],
         "fit_error_median": float(np.median(model.fit_error)),
-        "suspect_channels": [c.label for c, s in zip(model.outputs, model.suspect, strict=True)
+        "suspect_channels": [c.label for c, s in zip(layout.roving, model.suspect, strict=True)
                              if s],
+        "cmif_peaks_hz": [] if model.peaks_hz is None else [float(x) for x in model.peaks_hz],
+        "warnings": list(model.warnings),
     }  # fmt: skip
 
 

@@ -210,8 +210,9 @@ _AXES = {"X": 0, "Y": 1, "Z": 2}
 
 def identified_shapes(ident: IdentifiedModel, model: Model | None = None, *, real: bool = False,
                       title: str = "femcal identified modes") -> ModeShapes:  # fmt: skip
-    """The identified modes' shapes at the grids their output channels name, as
-    translations in the basic frame.
+    """The identified modes' shapes at the grids their channels name (the roving side:
+    the outputs, or the excitation points of a roving-hammer set), as translations in the
+    basic frame.
 
     A channel ``GRID:+X`` (a signed axis) measures along that basic axis; ``GRID:3`` (a
     component number) along the grid's displacement (CD) frame's axis, taken from ``model``
@@ -233,7 +234,7 @@ def identified_shapes(ident: IdentifiedModel, model: Model | None = None, *, rea
     """
     dirs: dict[int, list[tuple[int, np.ndarray]]] = {}
     skipped = []
-    for i, ch in enumerate(ident.outputs):
+    for i, ch in enumerate(ident.shape_channels):
         d = (ch.direction or "").upper()
         axis = d.lstrip("+-")
         sign = -1.0 if d.startswith("-") else 1.0

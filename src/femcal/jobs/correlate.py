@@ -299,7 +299,7 @@ def modes_in_band(ident: IdentifiedModel, band: tuple[float, float] | None = Non
         raise CorrelationError(f"{at}no identified test mode lies in {b[0]:g}-{b[1]:g} Hz "
                                f"(the modes: {found} Hz)")  # fmt: skip
     return MeasuredModes(f[sel], np.asarray(ident.damping_ratio, float)[sel],
-                     np.asarray(ident.shapes)[:, sel], tuple(ident.outputs),
+                     np.asarray(ident.shapes)[:, sel], tuple(ident.shape_channels),
                      np.asarray(ident.suspect, bool), b, source, ident)  # fmt: skip
 
 

@@ -10,6 +10,15 @@ from ..testdata.data import FRFData
 from .figures import pyplot, save_figure
 
 
+def phase_line(f: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(frequencies, phase in degrees wrapped to (-180, 180]) with a NaN point between two
+    lines where the phase wraps, so that a line drawn through it does not cross the panel
+    at each wrap."""
+    deg = np.degrees(np.angle(h))
+    jump = np.flatnonzero(np.abs(np.diff(deg)) > 180.0) + 1
+    return np.insert(np.asarray(f, float), jump, np.nan), np.insert(deg, jump, np.nan)
+
+
 def frf_overlay(
     path: str | os.PathLike[str],
     test: FRFData,
@@ -20,7 +29,9 @@ def frf_overlay(
     title: str = "",
 ):
     """Grid of magnitude (log) and phase panels, one column per output/input pair: the test
-    FRFs and, if given, the model's on top (same channels by label).
+    FRFs and, if given, the model's on top (same channels by label). The test's phase is
+    drawn as points (a measured phase wraps and scatters: lines through it turn into
+    bands), the model's as a line broken where it wraps.
 
     Parameters
     ----------
@@ -51,14 +62,14 @@ def frf_overlay(
         mag, ph = axes[2 * r, c], axes[2 * r + 1, c]
         h = test.H[o, i]
         mag.semilogy(test.frequency_hz, np.abs(h), color="k", lw=1.0, label="test")
-        ph.plot(test.frequency_hz, np.degrees(np.angle(h)), color="k", lw=1.0)
+        ph.plot(test.frequency_hz, np.degrees(np.angle(h)), ".", color="k", ms=1.5, mew=0)
         if model is not None:
             lo, li = test.outputs[o].label, test.inputs[i].label
             if lo not in m_out or li not in m_in:
                 raise ValueError(f"the model has no FRF {lo} / {li}")
             hm = model.H[m_out[lo], m_in[li]]
             mag.semilogy(model.frequency_hz, np.abs(hm), color="tab:red", lw=1.0, label="model")
-            ph.plot(model.frequency_hz, np.degrees(np.angle(hm)), color="tab:red", lw=1.0)
+            ph.plot(*phase_line(model.frequency_hz, hm), color="tab:red", lw=1.0)
         mag.set_title(f"{test.outputs[o].label} / {test.inputs[i].label}", fontsize=9)
         mag.grid(True, which="both", alpha=0.3)
         ph.grid(True, alpha=0.3)
