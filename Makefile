@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.femcal-setup
 
-.PHONY: setup demo test test-slow lint bench-parse bench-deck-edit bench-assembly bench-eigen bench-identify bench-calibration bench-fuzz bench-scaling setup-slepc bench-slepc clean
+.PHONY: setup demo test test-slow lint bench-parse bench-deck-edit bench-assembly bench-eigen bench-identify bench-identify-real bench-calibration bench-fuzz bench-scaling setup-slepc bench-slepc clean
 
 setup: $(STAMP)
 
@@ -52,6 +52,11 @@ bench-eigen: setup
 # the same data (sdypy-ema lives in its own environment: benchmark only).
 bench-identify: setup .venv-ema/.ok
 	$(PY) benchmarks/identify_hammer.py
+
+# femcal's pLSCF and subspace estimators and sdypy-ema's LSCF on the real measured sets of
+# tests/data/real and two synthetic ones: modes found within the reference's accuracy, time.
+bench-identify-real: setup .venv-ema/.ok
+	$(PY) benchmarks/identify_real.py
 
 # Calibration timing (per LM iteration, per start, whole run) and the noise-free recovery of the
 # hammer frame's parameters.

@@ -392,3 +392,46 @@ def test_coherence_of_estimated_frfs_round_trips(tmp_path, suffix):
         replace(data, coherence=np.ones(3))
     with pytest.raises(FRFError, match=r"outside \[0, 1\]"):
         replace(data, coherence=coh * 3)
+
+
+@pytest.mark.parametrize("suffix", [".npz", ".mat", ".uff"])
+def test_coherence_of_each_frf_round_trips(tmp_path, suffix):
+    """An impact test's ordinary coherence, one per FRF (each hammer point measured on its
+    own), through every format; UFF keeps it as function type 6 datasets."""
+    from dataclasses import replace
+
+    from femcal.testdata.formats import read_frf, write_frf
+
+    data = FRFData.from_labels([1.0, 2.0, 3.0], np.ones((2, 3, 3)) * (1 + 2j), ["1:3", "2:3"],
+                               ["5:3", "6:3", "7:3"], "accelerance", "mm/s^2/N")  # fmt: skip
+    coh = np.linspace(0.0, 1.0, 18).reshape(2, 3, 3)
+    back = read_frf(write_frf(tmp_path / f"b{suffix}", replace(data, coherence=coh)))
+    assert back.coherence.shape == (2, 3, 3)
+    # the text UFF holds 13 significant digits; the others the numbers themselves
+    np.testing.assert_allclose(back.coherence, coh, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(back.H, data.H)
+
+
+def test_uff_multiple_coherence_is_said_to_be_left_out_and_unknown_quantity_is_said(tmp_path):
+    from dataclasses import replace
+
+    import pyuff
+
+    from femcal.errors import FemcalWarning
+    from femcal.testdata.formats.uff import read_uff, write_uff, write_uff_sets
+
+    data = FRFData.from_labels([1.0, 2.0, 3.0], np.ones((2, 1, 3)) * (1 + 2j), ["1:3", "2:3"],
+                               ["5:3"], "accelerance", "mm/s^2/N")  # fmt: skip
+    with pytest.warns(FemcalWarning, match="the multiple coherence is not written"):
+        write_uff(tmp_path / "m.uff", replace(data, coherence=np.full((2, 3), 0.5)))
+    assert read_uff(tmp_path / "m.uff").coherence is None
+    # a writer that leaves the ordinate's quantity unknown (0): taken as receptance, and said
+    sets = [pyuff.prepare_58(binary=0, id1="FRF", func_type=4, rsp_node=1, rsp_dir=3,
+                             ref_node=5, ref_dir=3, ord_data_type=6, abscissa_spacing=1,
+                             abscissa_spec_data_type=18, ordinate_spec_data_type=0,
+                             orddenom_spec_data_type=13, data=np.ones(3) * (1 + 1j),
+                             x=np.array([1.0, 2.0, 3.0]))]  # fmt: skip
+    write_uff_sets(tmp_path / "q.uff", sets)
+    with pytest.warns(FemcalWarning, match=r"ordinate data type 0 \(record 8\) names no "
+                      "response per force"):
+        assert read_uff(tmp_path / "q.uff").quantity == "receptance"

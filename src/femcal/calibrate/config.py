@@ -18,10 +18,12 @@
 
     [test.identify]                         # identify the test FRFs first (optional;
     band = [10.0, 120.0]                    #  without it and without test.model the raw
-    splits = [50.0, 80.0]                   #  FRFs are compared, and zeta0 must be given;
-                                            #  splits increasing, inside the band)
+                                            #  FRFs are compared, and zeta0 must be given)
+    # splits = [50.0, 80.0]                 # parts (default: chosen from the CMIF's peaks;
+                                            #  increasing, inside the band)
     orders = "auto"                         # or a number >= 1, or a list, one per part
-    max_order = 24                          # >= 1
+    # max_order = 40                        # 2..200 (default: from each part's peaks)
+    method = "plscf"                        # or "subspace"
     gamma = 1.43                            # > 1: residual poles at gamma and beta times
     beta = 100.0                            #  each part's top (beta > gamma)
 
@@ -148,6 +150,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import ConfigError
+from ..identify.workflow import MAX_ORDER, METHODS
 from ..parallel.cluster import ENGINES, EngineKind
 from .metric import METRICS
 
@@ -158,11 +161,12 @@ HOLDOUT_KINDS = ("auto", "inputs", "sensors", "configurations", "none")
 @dataclass(frozen=True)
 class IdentifySettings:
     band: tuple[float, float]
-    splits: tuple[float, ...] = ()
+    splits: tuple[float, ...] | None = None  # None: chosen from the CMIF
     orders: object = None  # None (automatic), int, or list
-    max_order: int = 24
+    max_order: int | None = None  # None: from each part's peaks
     gamma: float = 1.43
     beta: float = 100.0
+    method: str = "plscf"
 
 
 @dataclass(frozen=True)
@@ -367,7 +371,7 @@ KEYS = {
     "": {"model", "test", "configuration", "calibration", "output"},
     "model": {"deck", "parameters", "units"},
     "test": {"frf", "model", "truth", "identify", "sensors", "inputs"},
-    "test.identify": {"band", "splits", "orders", "max_order", "gamma", "beta"},
+    "test.identify": {"band", "splits", "orders", "max_order", "gamma", "beta", "method"},
     "configuration": {"name", "deck", "parameters", "units", "frf", "model", "truth",
                       "identify", "band", "zeta0", "sensors", "inputs"},
     "calibration": {"band", "zeta0", "crlb_bands", "scheduler", *SETTINGS, *CHOICES, *FLAGS},
@@ -450,24 +454,37 @@ def _identify(t: dict, at: str) -> IdentifySettings:
     if "band" not in t:
         raise ConfigError(f"{at} needs band = [f_lo, f_hi] (Hz)")
     band = _band(t["band"], f"{at} band")
-    splits = t.get("splits", [])
-    if not isinstance(splits, list):
-        raise ConfigError(f"{at} splits = {splits!r}: expected a list of frequencies")
-    splits = [_number({"splits": x}, "splits", None, float, at) for x in splits]
-    if any(not band[0] < x < band[1] for x in splits) or splits != sorted(set(splits)):
-        raise ConfigError(f"{at} splits = {splits!r}: expected increasing frequencies inside "
-                          f"the band {band[0]:g}-{band[1]:g} Hz")  # fmt: skip
+    splits = t.get("splits")
+    if splits is not None:
+        if not isinstance(splits, list):
+            raise ConfigError(f"{at} splits = {splits!r}: expected a list of frequencies")
+        splits = [_number({"splits": x}, "splits", None, float, at) for x in splits]
+        if any(not band[0] < x < band[1] for x in splits) or splits != sorted(set(splits)):
+            raise ConfigError(f"{at} splits = {splits!r}: expected increasing frequencies "
+                              f"inside the band {band[0]:g}-{band[1]:g} Hz")  # fmt: skip
     orders = t.get("orders", "auto")
     if orders == "auto":
         orders = None
     elif isinstance(orders, list):
+        if splits is None:
+            raise ConfigError(f"{at} orders = {orders!r}: a list of orders needs splits (one "
+                              "order per part); expected a number or \"auto\"")  # fmt: skip
         if len(orders) != len(splits) + 1:
             raise ConfigError(f"{at} orders = {orders!r}: expected one order per part, "
                               f"{len(splits) + 1} (the splits make {len(splits) + 1} parts)")
         orders = [None if o == "auto" else _positive_whole(o, "orders", at) for o in orders]
     else:
         orders = _positive_whole(orders, "orders", at)
-    max_order = _positive_whole(t.get("max_order", 24), "max_order", at)
+    max_order = t.get("max_order")
+    if max_order is not None:
+        max_order = _positive_whole(max_order, "max_order", at)
+        if not 2 <= max_order <= MAX_ORDER:
+            raise ConfigError(f"{at} max_order = {max_order}: expected a whole number from 2 "
+                              f"to {MAX_ORDER}")  # fmt: skip
+    method = t.get("method", "plscf")
+    if method not in METHODS:
+        raise ConfigError(f"{at} method = {method!r}: expected "
+                          + " or ".join(f'"{m}"' for m in METHODS))  # fmt: skip
     gamma = _number(t, "gamma", 1.43, float, at)
     if not gamma > 1:
         raise ConfigError(f"{at} gamma = {gamma!r}: expected a number above 1 (the residual "
@@ -475,7 +492,8 @@ def _identify(t: dict, at: str) -> IdentifySettings:
     beta = _number(t, "beta", 100.0, float, at)
     if not beta > gamma:
         raise ConfigError(f"{at} beta = {beta!r}: expected a number above gamma ({gamma:g})")
-    return IdentifySettings(band, tuple(splits), orders, max_order, gamma, beta)
+    return IdentifySettings(band, None if splits is None else tuple(splits), orders, max_order,
+                            gamma, beta, method)  # fmt: skip
 
 
 def _zeta0(section: dict, default, at: str, identified: bool) -> float | None:

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..identify.workflow import METHODS
 from ..jobs.correlate import FE_RATIO, IDENTIFY_MARGIN, run_correlation, summary_lines
 from .identify import _order
 from .paths import UsageError, output_folder
@@ -42,8 +43,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--identify-band", type=float, nargs=2, metavar=("F1", "F2"),
                    help=f"identify the FRFs over this band (holding --band; default --band "
                    f"widened by a factor {IDENTIFY_MARGIN:g} on each side, within the data)")
-    p.add_argument("--split", type=float, nargs="+", default=[], metavar="F",
-                   help="identify in parts split at these frequencies (Hz)")
+    p.add_argument("--split", type=float, nargs="+", default=None, metavar="F",
+                   help="identify in parts split at these frequencies (Hz); default: chosen "
+                   "from the CMIF's peaks")
+    p.add_argument("--method", choices=METHODS, default="plscf",
+                   help="the identification's estimator: plscf (default) or subspace")
     p.add_argument("--order", type=_order, nargs="+", default=None, metavar="N",
                    help="identification order: one for every part, or one per part; 'auto' "
                    "(default) from each part's stabilisation diagram")  # fmt: skip
@@ -71,11 +75,14 @@ def _check(args: argparse.Namespace) -> None:
         lo, hi = args.band[0] / IDENTIFY_MARGIN, args.band[1] * IDENTIFY_MARGIN
     elif args.split:
         raise UsageError("--split: needs --band (the FRFs are identified around it)")
-    bad = [x for x in args.split if not (np.isfinite(x) and lo < x < hi)]
+    bad = [x for x in args.split or () if not (np.isfinite(x) and lo < x < hi)]
     if bad:
         raise UsageError(f"--split {bad[0]:g}: expected a frequency inside the identification "
                          f"band {lo:g}-{hi:g} Hz")  # fmt: skip
-    n_parts = len(args.split) + 1
+    if args.order is not None and len(args.order) > 1 and args.split is None:
+        raise UsageError(f"--order: {len(args.order)} orders without --split; expected one "
+                         "order for every part, or --split with one order per part")
+    n_parts = len(args.split or ()) + 1
     if args.order is not None and len(args.order) not in (1, n_parts):
         raise UsageError(f"--order: {len(args.order)} orders for {n_parts} parts; expected one "
                          "for every part or one per part")  # fmt: skip
@@ -95,12 +102,12 @@ def run(args: argparse.Namespace) -> int:
     _check(args)
     orders = args.order
     if orders is not None and len(orders) == 1:
-        orders = orders * (len(args.split) + 1)
+        orders = orders[0]
     result, _files = run_correlation(
         args.deck, args.test, sensors=args.sensors,
         band=None if args.band is None else tuple(args.band), n_modes=args.modes,
         identify_band=None if args.identify_band is None else tuple(args.identify_band),
         splits=args.split, orders=orders, min_mac=args.min_mac, out=args.out,
-        progress=progress)  # fmt: skip
+        progress=progress, method=args.method)  # fmt: skip
     print("\n".join(summary_lines(result)))
     return 0

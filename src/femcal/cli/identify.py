@@ -14,6 +14,7 @@ import numpy as np
 
 from ..errors import FemcalWarning, message
 from ..identify import Layout, Settings, identify
+from ..identify.compare import pair_models
 from ..identify.workflow import MAX_ORDER, METHODS
 from ..io.identified import write_model, write_summary
 from ..testdata.data import convert_units
@@ -45,10 +46,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--split", type=float, nargs="+", default=None, metavar="F",
                    help="split the band into parts at these frequencies (Hz); default: "
                    "chosen from the CMIF's peaks (at most --part-modes peaks a part)")
-    p.add_argument("--method", choices=METHODS, default="plscf",
+    p.add_argument("--method", choices=(*METHODS, "both"), default="plscf",
                    help="the estimator: plscf (poly-reference least-squares complex "
-                   "frequency-domain, PolyMAX; default) or subspace (frequency-domain "
-                   "subspace, McKelvey et al. 1996)")
+                   "frequency-domain, PolyMAX; default), subspace (frequency-domain "
+                   "subspace, McKelvey et al. 1996), or both: pLSCF's model is written, "
+                   "the subspace one beside it in OUT/subspace/, and their modes side by "
+                   "side on the console and in OUT/comparison.json")
     p.add_argument("--order", type=_order, nargs="+", default=None, metavar="N",
                    help="model order: one for every part, or one per part; 'auto' (default) "
                    "takes it from each part's stabilisation diagram")  # fmt: skip
@@ -151,27 +154,77 @@ def run(args: argparse.Namespace) -> int:
             return 2
     progress(f"read {args.frf}: {len(data.outputs)} outputs x {len(data.inputs)} inputs x "
              f"{len(data.frequency_hz)} frequencies ({data.quantity}, "
-             f"{data.units or 'no unit'})")  # fmt: skip
+             f"{data.units or 'no unit given: shapes and residues in the file units'})"
+             + ("" if data.coherence is None else ", with coherence (used as weights)"))
+    negative = [c.label for c in (*data.outputs, *data.inputs)
+                if c.direction is not None and c.direction.startswith("-")]
+    if negative:
+        progress(f"{len(negative)} channel(s) measured along a negative axis ("
+                 + ", ".join(negative[:6]) + (" ..." if len(negative) > 6 else "")
+                 + "): shapes are given as measured; the UFF 55 shapes and correlation "
+                 "turn them onto the positive axis")
     orders = args.order
     if orders is not None and len(orders) == 1:
         orders = orders[0]
+    methods = METHODS if args.method == "both" else (args.method,)
+    models = []
     try:
-        settings = Settings(gamma=args.gamma, beta=args.beta,
-                            lower_residual=not args.no_lower_residual,
-                            feedthrough=not args.no_feedthrough, max_order=args.max_order,
-                            method=args.method, part_modes=args.part_modes)
-        model = identify(data, tuple(args.band), splits=args.split, orders=orders,
-                         settings=settings, progress=progress)  # fmt: skip
+        for method in methods:
+            settings = Settings(gamma=args.gamma, beta=args.beta,
+                                lower_residual=not args.no_lower_residual,
+                                feedthrough=not args.no_feedthrough, max_order=args.max_order,
+                                method=method, part_modes=args.part_modes)
+            if len(methods) > 1:
+                progress(f"--- {method}")
+            models.append(identify(data, tuple(args.band), splits=args.split, orders=orders,
+                                   settings=settings, progress=progress))  # fmt: skip
     except ValueError as e:
         print(f"femcal identify: {args.frf}: {message(e)}", file=sys.stderr)
         return 2
+    model = models[0]
     print_modes(model)
+    rows = None
+    if len(models) > 1:
+        rows = pair_models(models[0], models[1])
+        print_comparison(rows, methods)
     if args.json:
         write_summary(args.json, model)
         progress(f"wrote {args.json}")
     if args.out:
         _write_out(args.out, data, model, progress, geometry)
+        if rows is not None:
+            _write_out(args.out / methods[1], data, models[1], progress, geometry)
+            write_comparison(args.out / "comparison.json", rows, methods)
+            progress(f"wrote {args.out / 'comparison.json'}")
     return 0
+
+
+def print_comparison(rows, methods) -> None:
+    """The two methods' modes side by side on stdout."""
+    a, b = methods
+    print(f"{a + ' Hz':>14} {'damping %':>10} {b + ' Hz':>14} {'damping %':>10} "
+          f"{'diff %':>8} {'MAC':>6}")
+
+    def num(x, scale=1.0, fmt="{:.4f}"):
+        return "-" if x is None else fmt.format(scale * x)
+
+    for r in rows:
+        (f1, f2), (z1, z2) = r.frequency_hz, r.damping_ratio
+        diff = None if f1 is None or f2 is None else 100 * (f2 / f1 - 1)
+        print(f"{num(f1):>14} {num(z1, 100):>10} {num(f2):>14} {num(z2, 100):>10} "
+              f"{num(diff, fmt='{:+.3f}'):>8} {num(r.mac, fmt='{:.3f}'):>6}")
+
+
+def write_comparison(path: Path, rows, methods) -> None:
+    """The two methods' paired modes as JSON (atomically)."""
+    import json
+
+    from ..atomic import write_atomic
+
+    table = [{"methods": list(methods), "frequency_hz": list(r.frequency_hz),
+              "damping_ratio": list(r.damping_ratio), "mac": r.mac} for r in rows]
+    text = json.dumps(table, indent=1) + "\n"
+    write_atomic(path, lambda tmp: Path(tmp).write_text(text))
 
 
 def print_modes(model) -> None:

@@ -14,7 +14,9 @@
 **Peaks.** The peaks of the first CMIF curve whose prominence, in decades, stands out from
 the curve's own scatter: a peak must rise ``min_prominence`` decades above its surroundings
 and ``scatter_factor`` times the local scatter (a robust spread of the log curve about its
-running median), so that the noise of a noise floor does not count. A resonance one line
+running median, taken over five windows around the peak so that its own flanks do not
+count), so that the noise of a noise floor does not count; not within half a window of the
+band's ends, where the curve is cut rather than peaked. A resonance one line
 wide counts as well as a broad one. The lower curves are drawn, not searched: where two
 modes cross over, a lower curve peaks between them although no mode is there, and a close
 mode's peak in a lower curve lies on the first curve's.
@@ -101,9 +103,15 @@ def find_cmif_peaks(freq_hz: np.ndarray, S: np.ndarray, *, min_prominence: float
     f = np.asarray(freq_hz, float)
     window = max(31, len(f) // 100)
     L = np.log10(np.maximum(S[0], np.finfo(float).tiny))
-    need = np.maximum(min_prominence, scatter_factor * scatter(S[0], window))
+    # the noise's scatter about a peak: over five windows, so that the peak's own flanks
+    # (which lift the scatter of the window they fill) do not raise the bar it must pass
+    noise = median_filter(scatter(S[0], window), size=5 * window | 1, mode="nearest")
+    need = np.maximum(min_prominence, scatter_factor * noise)
     idx, props = find_peaks(L, prominence=(None, None))
-    keep = props["prominences"] >= need[idx]
+    # within half a window of the band's ends the curve is cut, not peaked, and its scatter
+    # is measured on one side only
+    inner = (idx >= window // 2) & (idx < len(f) - window // 2)
+    keep = (props["prominences"] >= need[idx]) & inner
     k = idx[keep].astype(int)
     return Peaks(f[k], k, props["prominences"][keep].astype(float))
 

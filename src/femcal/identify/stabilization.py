@@ -30,7 +30,9 @@ its lowest to the highest: a physical pole, once found, stays; a computational p
 along a diagonal passes through a column's reach in a few orders, and a pole that settles
 only near the top of the diagram has too few orders. The mode's pole is the median
 (frequency and damping separately) of its column. Close modes make two columns, since a
-column takes one pole per order.
+column takes one pole per order; but two columns less than a frequency line apart are one
+mode (the data cannot split it: an estimator sometimes doubles a sharp resonance at high
+orders), the column of more orders kept.
 """
 
 from __future__ import annotations
@@ -257,6 +259,24 @@ def _clusters(orders: list[OrderPoles], c: Criteria, resolution_hz: float
         found.append((_median_pole(lam[members]), len(members), seen))
     if not found:
         return np.zeros(0, complex), np.zeros(0, int), np.zeros(0, int)
+    # two columns less than a line apart are one mode the data cannot split (an estimator
+    # sometimes doubles a sharp resonance at high orders): the one of more orders stays
+    hz = np.array([abs(p) / (2 * np.pi) for p, _, _ in found])
+    drop: set[int] = set()
+    for a in sorted(range(len(found)), key=lambda k: -found[k][1]):
+        if a in drop:
+            continue
+        for b in range(len(found)):
+            if b != a and b not in drop and abs(hz[b] - hz[a]) < resolution_hz:
+                drop.add(b)
+                for op in orders:
+                    op.track[op.track == b] = -1
+    if drop:
+        keep = [k for k in range(len(found)) if k not in drop]
+        renumber = {k: n for n, k in enumerate(keep)}
+        for op in orders:
+            op.track[:] = [renumber.get(int(t), -1) if t >= 0 else -1 for t in op.track]
+        found = [found[k] for k in keep]
     order = np.argsort([abs(p) for p, _, _ in found])
     remap = np.empty(len(found), int)
     remap[order] = np.arange(len(found))

@@ -84,7 +84,8 @@ def load_test(conf: Configuration, out: Path, say: Callable[[str], None],
         s = conf.identify
         say(f"{conf.name}: identifying the test FRFs over {s.band[0]:g}-{s.band[1]:g} Hz")
         ident = identify(data, s.band, splits=s.splits, orders=s.orders,
-                         settings=Settings(gamma=s.gamma, beta=s.beta, max_order=s.max_order),
+                         settings=Settings(gamma=s.gamma, beta=s.beta, max_order=s.max_order,
+                                           method=s.method),
                          progress=say, pool=pool)  # fmt: skip
         write_model(out / "model.npz", ident)
         write_summary(out / "identify.json", ident)

@@ -330,8 +330,9 @@ def identification_band(data: FRFData, band: tuple[float, float],
 
 def identify_test(data: FRFData, band: tuple[float, float], *,
                   identify_band: tuple[float, float] | None = None,
-                  splits: Sequence[float] = (),
+                  splits: Sequence[float] | None = None,
                   orders: int | Sequence[int | None] | None = None, source: str = "",
+                  method: str = "plscf",
                   progress: Callable[[str], None] | None = None) -> MeasuredModes:  # fmt: skip
     """Identify FRFs as ``femcal identify`` does (default settings, parts split at
     ``splits``, automatic or given orders) over :func:`identification_band` and keep the
@@ -346,7 +347,8 @@ def identify_test(data: FRFData, band: tuple[float, float], *,
     at = f"{source}: " if source else ""
     try:
         ib = identification_band(data, band, identify_band)
-        ident = identify(data, ib, splits=splits, orders=orders, settings=Settings(),
+        ident = identify(data, ib, splits=splits, orders=orders,
+                         settings=Settings(method=method),
                          progress=progress)  # fmt: skip
     except ValueError as e:
         raise CorrelationError(f"{at}{message(e)}") from None
@@ -521,8 +523,9 @@ def run_correlation(deck: str | os.PathLike[str], test: str | os.PathLike[str], 
                     sensors: str | os.PathLike[str] | None = None,
                     band: tuple[float, float] | None = None, n_modes: int | None = None,
                     identify_band: tuple[float, float] | None = None,
-                    splits: Sequence[float] = (),
+                    splits: Sequence[float] | None = None,
                     orders: int | Sequence[int | None] | None = None, min_mac: float = 0.4,
+                    method: str = "plscf",
                     out: str | os.PathLike[str] | None = None,
                     progress: Callable[[str], None] | None = None
                     ) -> tuple[Correlation, CorrelationFiles | None]:  # fmt: skip
@@ -612,7 +615,7 @@ def run_correlation(deck: str | os.PathLike[str], test: str | os.PathLike[str], 
             raise CorrelationError(f"{test}: {e}") from None
         say(f"identifying the test FRFs over {ib[0]:g}-{ib[1]:g} Hz")
         modes = identify_test(data, band, identify_band=ib, splits=splits, orders=orders,
-                              source=str(test), progress=say)  # fmt: skip
+                              source=str(test), progress=say, method=method)  # fmt: skip
         say(f"{len(modes.frequency_hz)} test modes in the band: "
             + ", ".join(f"{f:.2f}" for f in modes.frequency_hz) + " Hz")
     if fe is None:
@@ -719,8 +722,13 @@ def summary_lines(result: Correlation) -> list[str]:
     else:
         lines.append(f"none of the {len(result.test.frequency_hz)} test modes in {f1:g}-{f2:g} "
                      "Hz pairs with an FE mode")  # fmt: skip
-    if result.unpaired_fe:
-        lines.append(f"{len(result.unpaired_fe)} FE mode(s) in the band without a test mode")
+    lost = result.unpaired_fe
+    if lost:
+        names = ", ".join(f"{r.fe_mode} ({r.fe_hz:.2f} Hz)" for r in lost[:8])
+        more = f" and {len(lost) - 8} more" if len(lost) > 8 else ""
+        lines.append(f"but {len(lost)} FE mode(s) in the band have no test partner: {names}"
+                     f"{more}: the identification missed them, or the sensors and inputs "
+                     "cannot see them")  # fmt: skip
     return lines
 
 

@@ -871,13 +871,16 @@ def config_text(proposal: Proposal, folder: str | os.PathLike[str], parameters: 
              f"Hz, no default: from the calibration band's bottom to {IDENTIFY_MARGIN:g} x its "
              "top, within the test (a mode near the top is identified poorly without its "
              "neighbour above)."),
-        *key("splits", "[" + ", ".join(_fmt(s) for s in b.splits) + "]",
-             f"Identify in parts split here (default none): at most {PART_MODES} FE modes a "
-             "part, split in the widest gaps between FE modes (a part with many modes needs a "
-             "high order)."),
-        *key("orders", "\"auto\"", "Model order of each part (default \"auto\": from each "
-             "part's stabilisation diagram), a number, or a list with one per part."),
-        *key("max_order", "24", "The highest order \"auto\" tries (default 24)."),
+        *key("method", "\"plscf\"", "The estimator (default \"plscf\", the poly-reference "
+             "least-squares complex frequency-domain method, PolyMAX), or \"subspace\"."),
+        *_comment(f"Parts (default: chosen from the CMIF's peaks, at most {PART_MODES} a "
+                  "part). The FE modes would split here, in the widest gaps between them:"),
+        "# splits = [" + ", ".join(_fmt(s) for s in b.splits) + "]",
+        *key("orders", "\"auto\"", "Model order of each part (default \"auto\": the "
+             "stable columns of each part's stabilisation diagram), a number, or a list with "
+             "one per part (with splits)."),
+        *_comment("The highest order of the diagrams (default: from each part's peaks)."),
+        "# max_order = 40",
         *key("gamma", "1.43", "Residual poles at gamma times each part's top (default 1.43, "
              "the reference study's) ..."),
         *key("beta", "100.0", "... and at beta times it (default 100)."),

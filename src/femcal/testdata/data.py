@@ -47,9 +47,10 @@ class FRFData:
     outputs, inputs : channels (n_out,), (n_in,).
     quantity : receptance, mobility or accelerance.
     units : of H, e.g. ``mm/N`` (free text).
-    coherence : (n_out, n_freq) multiple coherence of each output in [0, 1] (the share of
-        its power the inputs explain), when the FRFs were estimated from time histories;
-        None otherwise.
+    coherence : in [0, 1], when the FRFs were estimated from time histories: (n_out, n_freq)
+        the multiple coherence of each output (the share of its power the inputs explain),
+        or (n_out, n_in, n_freq) the coherence of each FRF (an impact test's ordinary
+        coherence, each hammer point measured on its own); None otherwise.
     """
 
     frequency_hz: np.ndarray
@@ -74,12 +75,13 @@ class FRFData:
             )
         if self.coherence is not None:
             c = np.asarray(self.coherence)
-            if c.shape != (H.shape[0], H.shape[2]):
+            if c.shape not in ((H.shape[0], H.shape[2]), H.shape):
                 raise FRFError(f"the coherence has shape {c.shape}; expected (n_out, n_freq) = "
-                               f"({H.shape[0]}, {H.shape[2]})")  # fmt: skip
+                               f"({H.shape[0]}, {H.shape[2]}) or (n_out, n_in, n_freq) = "
+                               f"{H.shape}")  # fmt: skip
             if c.dtype.kind not in "iuf" or not ((c >= 0) & (c <= 1)).all():
                 raise FRFError("the coherence holds values outside [0, 1]; expected a "
-                               "multiple coherence of each output at each frequency")
+                               "coherence in [0, 1] at each frequency")
         if self.quantity not in QUANTITIES:
             raise FRFError(f"quantity must be one of {', '.join(QUANTITIES)}, "
                            f"not {self.quantity!r}")  # fmt: skip

@@ -72,11 +72,16 @@ def read_mat(path: str | os.PathLike[str], *, quantity: str | None = None) -> FR
     if "coherence" not in z:
         return data
     coherence = np.asarray(z["coherence"])
-    if coherence.size != shape[0] * shape[2]:
+    if coherence.size == shape[0] * shape[2]:
+        coherence = coherence.reshape(shape[0], shape[2])
+    elif coherence.size == np.prod(shape):
+        coherence = coherence.reshape(shape)
+    else:
         raise FRFError(f"{path}: coherence has shape {coherence.shape}; expected (outputs, "
-                       f"frequencies) = ({shape[0]}, {shape[2]})")  # fmt: skip
+                       f"frequencies) = ({shape[0]}, {shape[2]}) or (outputs, inputs, "
+                       f"frequencies) = {shape}")  # fmt: skip
     try:
-        return replace(data, coherence=coherence.reshape(shape[0], shape[2]))
+        return replace(data, coherence=coherence)
     except FRFError as e:
         raise FRFError(f"{path}: {e}") from None
 

@@ -1,6 +1,6 @@
 """FRF data as NumPy NPZ: ``frequency_hz``, ``H``, ``output_labels``, ``input_labels``,
-``quantity`` and ``units``, and ``coherence`` (n_out, n_freq) for FRFs estimated from time
-histories."""
+``quantity`` and ``units``, and ``coherence`` ((n_out, n_freq) or (n_out, n_in, n_freq)) for
+FRFs estimated from time histories."""
 
 from __future__ import annotations
 

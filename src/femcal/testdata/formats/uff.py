@@ -6,7 +6,7 @@ import gc
 import os
 import re
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -37,7 +37,9 @@ def _uff_label(node: int, direction: int) -> str:
 
 def write_uff(path: str | os.PathLike[str], data: FRFData, *, binary: bool = False) -> Path:
     """UFF (universal file) with one dataset 58 per output and input (58b with ``binary``,
-    about 2.5 times smaller), complex ordinates; channels must be ``GRID:DIR`` (direction
+    about 2.5 times smaller), complex ordinates, and each FRF's coherence when the data have
+    one (function type 6; a multiple coherence per output is left out with a warning:
+    pyuff writes no function type 26); channels must be ``GRID:DIR`` (direction
     codes 1-6 or signed axes), and there must be 2 frequencies at least. The frequencies
     keep 6 significant digits (the format's E13.5 fields) unless they are unevenly spaced
     and ``binary``.
@@ -70,6 +72,25 @@ def write_uff(path: str | os.PathLike[str], data: FRFData, *, binary: bool = Fal
                 abscissa_spacing=1 if even else 0, abscissa_spec_data_type=18,
                 ordinate_spec_data_type=_UFF_ORDINATE[data.quantity],
                 orddenom_spec_data_type=13, data=np.asarray(data.H[o, i], complex), x=f,
+            ))  # fmt: skip
+    coherence = None if data.coherence is None else np.asarray(data.coherence, float)
+    if coherence is not None and coherence.ndim == 2:
+        warnings.warn(FemcalWarning(f"{path}: the multiple coherence is not written (pyuff "
+                                    "writes no function type 26); keep it in .npz or .mat"),
+                      stacklevel=2)  # fmt: skip
+        coherence = None
+    for o, co in enumerate(data.outputs):
+        for i, ci in enumerate(data.inputs):
+            if coherence is None:
+                break
+            sets.append(pyuff.prepare_58(
+                binary=int(binary), id1=f"Coherence {co.label} / {ci.label}", id2="NONE",
+                id3="coherence", id4="femcal", id5="NONE", func_type=6,
+                rsp_node=co.grid if co.grid is not None else 0, rsp_dir=_uff_direction(co),
+                ref_node=ci.grid if ci.grid is not None else 0, ref_dir=_uff_direction(ci),
+                ord_data_type=4, abscissa_spacing=1 if even else 0,
+                abscissa_spec_data_type=18, ordinate_spec_data_type=0,
+                orddenom_spec_data_type=0, data=coherence[o, i], x=f,
             ))  # fmt: skip
 
     return write_uff_sets(path, sets)
@@ -210,8 +231,11 @@ def _integer(dset: dict, key: str, where: str) -> int:
 
 def read_uff(path: str | os.PathLike[str]) -> FRFData:
     """FRFs of every dataset 58 with function type 4 (FRF) in a universal file, arranged as
-    outputs x inputs (labels ``GRID:DIR``). Other datasets are skipped; a dataset 58 of
-    another function type is skipped with a :class:`~femcal.errors.FemcalWarning`.
+    outputs x inputs (labels ``GRID:DIR``), with their coherence when the file holds one
+    for every FRF (function type 6, ordinary coherence) or every response (26, multiple
+    coherence). Other datasets are skipped; a dataset 58 of another function type is skipped
+    with a :class:`~femcal.errors.FemcalWarning`, and so is an ordinate type that names no
+    FRF quantity (the FRFs are then taken as receptance).
 
     Raises
     ------
@@ -242,6 +266,7 @@ def read_uff(path: str | os.PathLike[str]) -> FRFData:
     outs: dict[str, int] = {}
     ins: dict[str, int] = {}
     cells: dict[tuple[int, int], tuple[np.ndarray, _Dataset]] = {}
+    coherences: list[tuple[int, dict, _Dataset]] = []
     for ds in sets:
         where = ds.where(path)
         if ds.type is None:
@@ -253,9 +278,14 @@ def read_uff(path: str | os.PathLike[str]) -> FRFData:
             s = uff.read_sets(ds.number - 1)
         except Exception as e:  # pyuff raises bare Exceptions
             raise _pyuff_failure(e, where) from e
-        if _integer(s, "func_type", where) != 4:
+        kind = _integer(s, "func_type", where)
+        if kind in _COHERENCE:
+            coherences.append((kind, s, ds))
+            continue
+        if kind != 4:
             warnings.warn(f"{where}: a dataset 58 of function type {s['func_type']}, not an "
-                          "FRF (4): skipped", FemcalWarning, stacklevel=2)  # fmt: skip
+                          "FRF (4) or a coherence (6, 26): skipped", FemcalWarning,
+                          stacklevel=2)  # fmt: skip
             continue
         x, h = _frf_values(s, where)
         o_lab = _uff_label(_integer(s, "rsp_node", where), _integer(s, "rsp_dir", where))
@@ -295,9 +325,61 @@ def read_uff(path: str | os.PathLike[str]) -> FRFData:
     H = np.empty((len(outs), len(ins), len(f)), complex)
     for (o, i), (h, _) in cells.items():
         H[o, i] = h
-    quantity = {v: k for k, v in _UFF_ORDINATE.items()}.get(quantity_code, "receptance")
-    return frf_of(str(path), f, H, list(outs), list(ins), quantity,
+    quantity = _UFF_QUANTITY.get(quantity_code)
+    if quantity is None:
+        warnings.warn(FemcalWarning(
+            f"{path}: ordinate data type {quantity_code} (record 8) names no response per "
+            "force (8 displacement, 11 velocity, 12 acceleration); the FRFs are taken as "
+            "receptance: check the units"), stacklevel=2)  # fmt: skip
+        quantity = "receptance"
+    data = frf_of(str(path), f, H, list(outs), list(ins), quantity,
                   "" if units == "NONE" else units)  # fmt: skip
+    coherence = _coherence(coherences, f, outs, ins, path)
+    return data if coherence is None else replace(data, coherence=coherence)
+
+
+#: Function types of the coherence datasets read with FRFs: 6 ordinary coherence (of each
+#: response and reference), 26 multiple coherence (of each response).
+_COHERENCE = (6, 26)
+_UFF_QUANTITY = {v: k for k, v in _UFF_ORDINATE.items()}
+
+
+def _coherence(sets: list[tuple[int, dict, _Dataset]], f: np.ndarray, outs: dict[str, int],
+               ins: dict[str, int], path: Path) -> np.ndarray | None:  # fmt: skip
+    """The coherence of the FRFs from the file's coherence datasets: (n_out, n_in, K) when
+    every FRF has an ordinary coherence, else (n_out, K) when every response has a multiple
+    coherence, else None (with a warning when some are there but not all)."""
+    if not sets:
+        return None
+    pair = np.full((len(outs), len(ins), len(f)), np.nan)
+    multiple = np.full((len(outs), len(f)), np.nan)
+    for kind, s, ds in sets:
+        where = ds.where(path)
+        x = np.asarray(s.get("x"), dtype=float).reshape(-1)
+        y = np.asarray(s.get("data")).reshape(-1)
+        if len(x) != len(f) or not np.allclose(x, f, rtol=1e-9, atol=1e-12):
+            raise FRFError(f"{where}: a coherence on {len(x)} frequencies, not on the FRFs' "
+                           f"{len(f)}; expected one frequency axis")  # fmt: skip
+        if np.iscomplexobj(y):
+            y = y.real
+        if not (np.isfinite(y).all() and (y >= -1e-6).all() and (y <= 1 + 1e-6).all()):
+            raise FRFError(f"{where}: a coherence outside [0, 1]; expected values from 0 to 1")
+        o = outs.get(_uff_label(_integer(s, "rsp_node", where), _integer(s, "rsp_dir", where)))
+        if o is None:
+            continue
+        if kind == 6:
+            i = ins.get(_uff_label(_integer(s, "ref_node", where), _integer(s, "ref_dir", where)))
+            if i is not None:
+                pair[o, i] = np.clip(y, 0.0, 1.0)
+        else:
+            multiple[o] = np.clip(y, 0.0, 1.0)
+    if np.isfinite(pair).all():
+        return pair
+    if np.isfinite(multiple).all():
+        return multiple
+    warnings.warn(FemcalWarning(f"{path}: coherence datasets for some FRFs only: "
+                                "the coherence is not used"), stacklevel=3)  # fmt: skip
+    return None
 
 
 def _frf_values(dset: dict, where: str) -> tuple[np.ndarray, np.ndarray]:
