@@ -227,3 +227,16 @@ def test_cli_both_methods_side_by_side_with_the_shapes_at_the_hammer_points(tmp_
     summary = json.loads((out / "identify.json").read_text())
     assert summary["layout"]["kind"] == "roving hammer"
     assert len(summary["poles"][0]["shape"]) == 9 and summary["poles"][0]["mpc"] > 0.95
+
+
+def test_a_band_from_zero_hz_leaves_the_dc_line_out():
+    """The single FRFs start at a 0 Hz line: a band from 0 starts at the first line above."""
+    lines = []
+    data = single_frf("case1.mat")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FemcalWarning)
+        model = identify(data, (0.0, 312.0), progress=lines.append)
+    assert model.band[0] == pytest.approx(data.frequency_hz[1])
+    assert any("the first line above 0 Hz" in line for line in lines)
+    ref = published("vibrationtesting")
+    assert_published_modes(model, ref, ref["modes_hz"]["case1.mat"])

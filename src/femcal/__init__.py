@@ -8,7 +8,7 @@ The public surface, imported when first used (``import femcal`` loads nothing he
     C = femcal.channel_matrix(model, channels)        # sensors on the model
     H = femcal.modal_frf(modes.shapes, modes.radians, C, B, f, 0.02, "accelerance")
     data = femcal.read_frf("test.uff")                # measured FRFs (npz, csv, uff, mat)
-    ident = femcal.identify_model(data, (10.0, 120.0))  # subspace identification
+    ident = femcal.identify_model(data, (10.0, 120.0))  # pLSCF, parts from the CMIF
     femcal.mac(test_shapes, fe_shapes)                # correlation
     result = femcal.calibrate_model(model, params, cfg, data=data, identified=ident)
 

@@ -472,6 +472,13 @@ def identify(data: FRFData, band: tuple[float, float], *,
     s = settings or Settings()
     say = progress or (lambda _msg: None)
     lo, hi = fit_band(data.frequency_hz, band, s.edge_lines)
+    if lo == 0:  # a band from 0 Hz starts at the first line above it (DC is left out)
+        above = np.asarray(data.frequency_hz)[np.asarray(data.frequency_hz) > 0]
+        if len(above) == 0 or above[0] > hi:
+            raise FRFError(f"band 0-{hi:g} Hz holds no frequency above 0 Hz")
+        lo = float(above[0])
+        say(f"the band starts at {lo:g} Hz, the first line above 0 Hz (the DC line is not "
+            "used)")  # fmt: skip
     prep = _prepare(data, (lo, hi), s)
     lo = max(lo, float(prep.f[0]))
     if splits is None:
