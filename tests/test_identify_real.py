@@ -3,8 +3,9 @@ published result): every published mode within the reference's own accuracy, wit
 band given, in the layout the lab measured, transposed, and through every file format femcal
 writes (UFF 58 binary and text as a lab's software writes them, MATLAB, NPZ).
 
-The fast tier identifies each set once as measured; the slow tier every layout and format,
-and checks that a set and its transpose give the same poles to 1e-6.
+The fast tier identifies the beam and the single FRFs as measured, and the beam over two modes
+transposed; the slow tier (about 3 minutes) the aircraft, and every set in every layout and
+format, and checks that a real set and its transpose give the same poles to 1e-6.
 """
 
 from __future__ import annotations
@@ -133,6 +134,7 @@ def test_the_beam_as_measured_finds_its_four_modes_and_their_shapes_at_the_nine_
     assert not any("peak(s) of the CMIF have no identified mode" in s for s in said)
 
 
+@pytest.mark.slow
 def test_the_aircraft_as_measured_finds_its_published_poles():
     """3 accelerometers x 74 hammer points with their coherence: the author's PolyMAX poles,
     the close pair at 125.2/125.69 Hz excepted (one pole is found there: see RESULTS)."""
