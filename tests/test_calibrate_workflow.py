@@ -927,3 +927,36 @@ def test_integers_beyond_64_bits_in_the_tomls_are_config_errors(tmp_path):
                    f"seed = {10**400}\n")  # fmt: skip
     with pytest.raises(ConfigError, match="seed = 1000"):
         read_config(cfg)
+
+
+def test_a_roving_hammer_test_is_compared_in_its_reciprocal_layout(tmp_path):
+    """A test handed over as 2 outputs x 14 hammer points (the plate's set transposed): the
+    identified model's shapes are at the 14 points, and the case compares the FRFs with
+    those points as outputs, so it is the case of the set as 14 x 2, to round-off."""
+    import warnings
+
+    from femcal.calibrate.cases import TestSetup, prepare_case
+    from femcal.identify import identify
+    from femcal.testdata.data import FRFData
+    from femcal.testdata.formats import read_frf
+
+    model, params = write_plate(tmp_path)
+    write_modal_test(tmp_path / "test.npz", model, OUTS, INS)
+    (tmp_path / "cal.toml").write_text(CONFIG)
+    cfg = read_config(tmp_path / "cal.toml")
+    data = read_frf(tmp_path / "test.npz")
+    flipped = FRFData(data.frequency_hz, np.swapaxes(data.H, 0, 1), data.inputs, data.outputs,
+                      data.quantity, data.units)  # fmt: skip
+    cases, said = [], []
+    for d in (data, flipped):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            ident = identify(d, (8.0, 420.0))
+        setup = TestSetup("plate", model, tuple(params), (10.0, 350.0), d, ident, 0.02)
+        cases.append(prepare_case(setup, np.arange(len(params)), cfg, said.append))
+    a, b = cases
+    assert [c.label for c in b.outputs] == [c.label for c in a.outputs] == OUTS
+    assert [c.label for c in b.inputs] == INS
+    np.testing.assert_allclose(b.test_hz, a.test_hz, rtol=1e-9)
+    np.testing.assert_allclose(b.H_test, a.H_test, rtol=1e-6, atol=1e-9 * np.abs(a.H_test).max())
+    assert any("a roving-hammer test: compared in its reciprocal layout" in s for s in said)

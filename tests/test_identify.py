@@ -422,3 +422,25 @@ def test_a_plate_with_twelve_modes_in_the_band_gives_all_twelve_with_only_the_ba
     np.testing.assert_allclose(got.frequency_hz, true, rtol=5e-4)
     np.testing.assert_allclose(got.damping_ratio, 0.02, rtol=0.02)
     assert np.median(got.fit_error) < 0.01 and not got.warnings
+
+
+def test_peaks_stand_out_of_the_noise_floor_and_the_floor_is_found():
+    """A resonance one line wide and a broad one count as peaks; a noise floor's scatter (10 %
+    from line to line, over the upper third) makes none, and is said to be noise-like."""
+    from femcal.identify.indicators import find_cmif_peaks, noisy_regions
+
+    rng = np.random.default_rng(3)
+    f = np.arange(1.0, 1001.0, 0.1)
+    w = 2 * np.pi * f
+    H = np.zeros(len(f), complex)
+    for fn, z in ((100.0, 2e-4), (400.0, 0.02)):  # 0.04 Hz and 16 Hz half-power bandwidths
+        wn = 2 * np.pi * fn
+        H += 1.0 / (wn**2 - w**2 + 2j * z * wn * w)
+    floor = np.abs(H[(f > 650) & (f < 700)]).mean()
+    top = f > 700
+    H[top] = floor * (1 + 0.1 * rng.standard_normal(top.sum())) * np.exp(2j * np.pi * rng.random(top.sum()))
+    S = np.abs(H)[None, :]
+    peaks = find_cmif_peaks(f, S)
+    np.testing.assert_allclose(peaks.frequency_hz, [100.0, 400.0], atol=0.5)
+    (a, b), = noisy_regions(f, S)
+    assert 690 < a < 720 and b > 990

@@ -106,7 +106,10 @@ def _test_frfs(data: FRFData | None, ident: IdentifiedModel | None, keep: np.nda
     ``freq``, or, without an identified model, the measured FRFs at the measured frequencies
     nearest to ``freq`` (no interpolation: it would bend the resonance peaks)."""
     if ident is not None:
-        return freq, equalize_damping(ident, zeta0).frf(freq).H[keep]
+        H = equalize_damping(ident, zeta0).frf(freq).H
+        if ident.layout is not None and ident.layout.transposed:
+            H = np.swapaxes(H, 0, 1)  # the roving side as outputs (see prepare_case)
+        return freq, H[keep]
     f = data.frequency_hz
     if freq[0] < f[0] * (1 - 1e-9) or freq[-1] > f[-1] * (1 + 1e-9):
         raise ValueError(f"the calibration band {freq[0]:g}-{freq[-1]:g} Hz lies outside the "
@@ -135,14 +138,24 @@ def prepare_case(setup: TestSetup, index: np.ndarray, cfg: Config,
         if test is not None and units and test.units and test.units != units:
             raise ValueError(f"{at}: the {what} are in {test.units}, the FE model in {units}: "
                              "convert them first (femcal.testdata.convert_units)")  # fmt: skip
-    source = ident if ident is not None else data
-    keep = np.ones(len(source.outputs), bool)
+    if ident is not None:
+        # the identified model's roving side (the outputs, or the hammer points of a
+        # roving-hammer set) is where its shapes are: the FRFs are compared in that layout,
+        # which the FE model's reciprocity (symmetric K and M) leaves as they are
+        rows, cols = ident.shape_channels, ident.reference_channels
+        if ident.layout is not None and ident.layout.transposed:
+            say(f"{setup.name}: a roving-hammer test: compared in its reciprocal layout, "
+                f"the {len(rows)} excitation points as outputs")  # fmt: skip
+    else:
+        rows, cols = data.outputs, data.inputs
+    quantity = (ident if ident is not None else data).quantity
+    keep = np.ones(len(rows), bool)
     if ident is not None and cfg.exclude_suspect_channels and ident.suspect.any():
         keep = ~ident.suspect
         say(f"{setup.name}: suspect channels left out: "
-            + ", ".join(ident.outputs[i].label for i in np.flatnonzero(ident.suspect)))
-    outputs = tuple(c for c, k in zip(source.outputs, keep, strict=True) if k)
-    excluded = tuple(c for c, k in zip(source.outputs, keep, strict=True) if not k)
+            + ", ".join(rows[i].label for i in np.flatnonzero(ident.suspect)))
+    outputs = tuple(c for c, k in zip(rows, keep, strict=True) if k)
+    excluded = tuple(c for c, k in zip(rows, keep, strict=True) if not k)
     band = setup.band
     if ident is not None:
         sel = (ident.frequency_hz >= band[0]) & (ident.frequency_hz <= band[1])
@@ -174,13 +187,13 @@ def prepare_case(setup: TestSetup, index: np.ndarray, cfg: Config,
                          "needs nonzero values")  # fmt: skip
     say(f"{setup.name}: metric {cfg.metric} over {band[0]:g}-{band[1]:g} Hz, {len(freq)} "
         f"frequencies ({cfg.samples_per_bandwidth:g} per half-power bandwidth at zeta0 = "
-        f"{zeta0:.4f}), {len(outputs)} outputs x {len(source.inputs)} inputs")  # fmt: skip
+        f"{zeta0:.4f}), {len(outputs)} outputs x {len(cols)} inputs")  # fmt: skip
     say(f"{setup.name}: the exact dependence of K and M on the {len(setup.params)} parameters, "
         "element group by element group")  # fmt: skip
     polys = group_polynomials(setup.model, list(setup.params), np.zeros(len(setup.params)),
                               constant=True)  # fmt: skip
-    return Case(setup, np.asarray(index, int), outputs, tuple(source.inputs), excluded,
-                source.quantity, zeta0, freq, H_test, test_hz, test_shapes, polys)  # fmt: skip
+    return Case(setup, np.asarray(index, int), outputs, tuple(cols), excluded,
+                quantity, zeta0, freq, H_test, test_hz, test_shapes, polys)  # fmt: skip
 
 
 def residual_rows(case: Case, metric: str, *, outputs: Sequence[int] | None = None,

@@ -85,7 +85,8 @@ def _check(args: argparse.Namespace) -> str | None:
     read so that a mistyped option costs nothing."""
     f1, f2 = args.band
     if not (np.isfinite(f1) and np.isfinite(f2) and 0 <= f1 < f2):
-        return f"--band {f1:g} {f2:g}: expected 0 <= F1 < F2 (Hz, finite; from 0 the DC line is left out)"
+        return (f"--band {f1:g} {f2:g}: expected 0 <= F1 < F2 (Hz, finite; from 0 the DC "
+                "line is left out)")
     bad = [x for x in args.split or () if not (np.isfinite(x) and f1 < x < f2)]
     if bad:
         return f"--split {bad[0]:g}: expected a frequency inside the band {f1:g}-{f2:g} Hz"

@@ -31,7 +31,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import median_filter
+from scipy.ndimage import maximum_filter, median_filter
 from scipy.signal import find_peaks
 
 #: FRF quantity -> the power of i w that turns it into a receptance.
@@ -105,7 +105,10 @@ def find_cmif_peaks(freq_hz: np.ndarray, S: np.ndarray, *, min_prominence: float
     L = np.log10(np.maximum(S[0], np.finfo(float).tiny))
     # the noise's scatter about a peak: over five windows, so that the peak's own flanks
     # (which lift the scatter of the window they fill) do not raise the bar it must pass
-    noise = median_filter(scatter(S[0], window), size=5 * window | 1, mode="nearest")
+    # (and the largest of that within a window each side, so that where a noise floor
+    # begins its first spikes meet the floor's bar, not the quiet side's)
+    noise = maximum_filter(median_filter(scatter(S[0], window), size=5 * window | 1,
+                                         mode="nearest"), size=2 * window + 1, mode="nearest")
     need = np.maximum(min_prominence, scatter_factor * noise)
     idx, props = find_peaks(L, prominence=(None, None))
     # within half a window of the band's ends the curve is cut, not peaked, and its scatter
@@ -114,6 +117,40 @@ def find_cmif_peaks(freq_hz: np.ndarray, S: np.ndarray, *, min_prominence: float
     keep = (props["prominences"] >= need[idx]) & inner
     k = idx[keep].astype(int)
     return Peaks(f[k], k, props["prominences"][keep].astype(float))
+
+
+def line_noise(curve: np.ndarray, window: int) -> np.ndarray:
+    """The running estimate (K,) of a positive curve's line-to-line noise, in decades: the
+    median absolute third difference of its log over ``window`` lines, scaled to a standard
+    deviation for white noise (a third difference of white noise has 20 times its
+    variance). A smooth curve's third differences are small, also across resonances a few
+    lines wide, and a peak one line wide moves the median of a window little."""
+    L = np.log10(np.maximum(curve, np.finfo(float).tiny))
+    d3 = np.zeros_like(L)
+    if len(L) >= 4:
+        d3[2:-1] = np.abs(np.diff(L, 3))
+        d3[:2], d3[-1] = d3[2], d3[-2]
+    return median_filter(d3, size=max(3, window | 1), mode="nearest") / (0.6745 * np.sqrt(20))
+
+
+def noisy_regions(freq_hz: np.ndarray, S: np.ndarray, *, level: float = 0.02,
+                  min_share: float = 0.02) -> list[tuple[float, float]]:  # fmt: skip
+    """The stretches (Hz) where the first CMIF curve is noise-like: its line-to-line noise
+    (:func:`line_noise`) above ``level`` decades (about 5 %), over at least ``min_share``
+    of the lines and a window; a measurement's noise floor."""
+    f = np.asarray(freq_hz, float)
+    window = max(31, len(f) // 100)
+    noisy = line_noise(S[0], window) > level
+    quiet = np.flatnonzero(np.diff(np.concatenate([[1], noisy.astype(int), [1]])))
+    for a, b in zip(quiet[::2], quiet[1::2], strict=True):  # short gaps joined
+        if b - a < window and a > 0 and b < len(f):
+            noisy[a:b] = True
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], noisy.astype(int), [0]])))
+    out = []
+    for a, b in zip(edges[::2], edges[1::2], strict=True):
+        if b - a >= max(window, min_share * len(f)):
+            out.append((float(f[a]), float(f[b - 1])))
+    return out
 
 
 def partition(freq_hz: np.ndarray, s1: np.ndarray, peaks_hz: np.ndarray,

@@ -50,7 +50,7 @@ from ..response.statespace import StateSpace, frequency_response, poles_to_modal
 from ..testdata.data import Channel, FRFData, FRFError
 from . import plscf, subspace
 from .channels import consistency_error, outliers
-from .indicators import Peaks, cmif, find_cmif_peaks, partition
+from .indicators import Peaks, cmif, find_cmif_peaks, noisy_regions, partition
 from .layout import Layout
 from .lsq import FixedPoleModel, Resolvent, fit_c, fit_fixed_poles, response
 from .quality import complexity, frf_correlation, mpc, mpd
@@ -496,6 +496,9 @@ def identify(data: FRFData, band: tuple[float, float], *,
         if len(part_orders) != n_parts:
             raise ValueError(f"{len(part_orders)} orders for {n_parts} parts")
     say(f"{prep.layout.describe()}")
+    for a, b in noisy_regions(prep.f, prep.S):
+        say(f"{a:.4g}-{b:.4g} Hz: the CMIF scatters like noise from line to line (a noise "
+            "floor?): a peak there counts only if it stands far out of it")  # fmt: skip
     say(f"{len(prep.peaks.frequency_hz)} peaks in the CMIF"
         + (": " + ", ".join(f"{x:.4g}" for x in prep.peaks.frequency_hz[:30]) + " Hz"
            if len(prep.peaks.frequency_hz) else "")
