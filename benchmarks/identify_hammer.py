@@ -48,7 +48,7 @@ def sensor_shapes(model, modes, data) -> np.ndarray:
 
 
 def compare(name, fr, z, shapes, seconds, true_f, true_z, true_shapes, band):
-    from femcal.identify import mac
+    from femcal.correlate.shapes import mac
 
     sel = np.flatnonzero((true_f >= band[0]) & (true_f <= band[1]))
     rows = []
@@ -143,7 +143,8 @@ def main(argv=None) -> int:
     true_f = modes.frequencies_hz
     true_shapes = sensor_shapes(model, modes, data)
     band = (10.0, 120.0)
-    cases = [("femcal, parts 10-50-80-120 Hz, automatic orders", (50.0, 80.0), None),
+    cases = [("femcal, only the band (pLSCF, parts from the CMIF)", None, None),
+             ("femcal, parts 10-50-80-120 Hz, automatic orders", (50.0, 80.0), None),
              ("femcal, the study's parts 10-60-100-120 Hz, automatic orders", (60.0, 100.0), None),
              ("femcal, the study's parts and orders (4 each)", (60.0, 100.0), 4),
              ("femcal, one part 10-120 Hz, automatic order", (), None)]  # fmt: skip
