@@ -37,9 +37,18 @@ def _order(text: str) -> int | None:
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("identify", help="identify a state-space model and modes from FRFs",
-                       description="Frequency-domain subspace identification of measured FRFs "
-                       "(any format femcal reads: .npz, .csv, .uff/.unv, .mat), band by band, "
-                       "joined and refined over the whole band.")  # fmt: skip
+                       description="Modes of measured FRFs (any format femcal reads: .npz, "
+                       ".csv, .uff/.unv, .mat) with only the band given: pLSCF (PolyMAX) or "
+                       "frequency-domain subspace identification over parts chosen from the "
+                       "CMIF, the stable columns of each stabilisation diagram, residues by "
+                       "least squares over the whole band. Any layout: the larger side is "
+                       "taken as the roving one (a roving-hammer set as measured, 1 response x "
+                       "N hammer points, or transposed, N x 1: the same poles, the shapes at "
+                       "the N points); the smaller side is the reference. Channels are "
+                       "GRID:DIR (12:+Z, 4:-X) or free labels; a universal file names them by "
+                       "its response and reference nodes.",
+                       epilog="example: femcal identify test.uff --band 10 120 --out identify/"
+                       "   (see docs/identification.md)")  # fmt: skip
     p.add_argument("frf", type=Path, help="FRF file")
     p.add_argument("--band", type=float, nargs=2, required=True, metavar=("F1", "F2"),
                    help="frequency band in Hz")  # fmt: skip
