@@ -444,3 +444,23 @@ def test_peaks_stand_out_of_the_noise_floor_and_the_floor_is_found():
     np.testing.assert_allclose(peaks.frequency_hz, [100.0, 400.0], atol=0.5)
     (a, b), = noisy_regions(f, S)
     assert 690 < a < 720 and b > 990
+
+
+def test_the_bundled_hammer_test_gives_its_seven_modes_with_only_the_band():
+    """72 x 2, 2 % noise: the hidden frame's seven modes in 10-120 Hz, no splits given."""
+    import tomllib
+    import warnings
+
+    from femcal.testdata.formats import read_frf
+
+    frame = Path(__file__).parent.parent / "models" / "truck_frame"
+    truth = tomllib.loads((frame / "hammer_test.truth.toml").read_text())["modes"]
+    f_true = np.array(truth["frequency_hz"])
+    z_true = np.array(truth["damping_ratio"])
+    sel = (f_true > 10) & (f_true < 120)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no warning either
+        model = identify(read_frf(frame / "hammer_test.uff"), (10.0, 120.0))
+    np.testing.assert_allclose(model.frequency_hz, f_true[sel], rtol=2e-4)
+    np.testing.assert_allclose(model.damping_ratio, z_true[sel], rtol=0.03)
+    assert (model.mpc > 0.99).all() and np.median(model.frf_correlation) > 0.99
