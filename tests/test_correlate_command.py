@@ -224,3 +224,24 @@ def test_an_output_folder_that_is_a_file_is_refused(tmp_path):
     blocker.write_text("x")
     status, _, stderr = run(DECK, TEST, "--band", *BAND, "--out", blocker)
     assert status == 2 and "--out" in stderr and "is a file" in stderr
+
+
+@pytest.mark.slow
+def test_a_test_handed_over_transposed_pairs_the_same_modes(tmp_path, deck_run):
+    """The hammer test as 2 outputs x 72 inputs (reciprocity): its shapes come out at the 72
+    sensor positions, which the sensors file places, and the same five pairs come out."""
+    from femcal.testdata.data import FRFData
+
+    data = read_frf(TEST)
+    flipped = write_frf(tmp_path / "flipped.npz",
+                        FRFData(data.frequency_hz, np.swapaxes(data.H, 0, 1), data.inputs,
+                                data.outputs, data.quantity, data.units))  # fmt: skip
+    status, stdout, stderr = run(DECK, flipped, "--band", *BAND, "--sensors", SENSORS,
+                                 "--out", tmp_path / "out")  # fmt: skip
+    assert status == 0, stderr
+    assert "5 of 5 test modes in 10-100 Hz paired" in stdout.splitlines()[-1]
+    a = read_table(deck_run["out"] / "correlation.csv")
+    b = read_table(tmp_path / "out" / "correlation.csv")
+    assert [r["fe_mode"] for r in a] == [r["fe_mode"] for r in b]
+    np.testing.assert_allclose([float(r["test_hz"]) for r in b],
+                               [float(r["test_hz"]) for r in a], rtol=1e-6)

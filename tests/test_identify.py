@@ -313,8 +313,8 @@ def test_bands_the_numbers_cannot_hold_and_too_few_frequencies_are_refused():
     band = (float(few.frequency_hz[0]), float(few.frequency_hz[-1]))
     for method in ("plscf", "subspace"):
         with pytest.raises(FRFError, match=r"part 1-1.3 Hz: 4 frequencies and 1 channel\(s\) "
-                           rf"allow {method} orders up to \d; a stabilisation diagram needs 4 "
-                           "orders at least"):
+                           rf"allow \d {method} order\(s\) \(up to \d\); a stabilisation "
+                           "diagram needs 4 at least"):
             identify(few, band, settings=Settings(method=method))
     with pytest.raises(FRFError, match=r"order 4 is outside 1\.\.\d for part 1-1\.3 Hz"):
         identify(few, band, orders=4)
@@ -464,3 +464,86 @@ def test_the_bundled_hammer_test_gives_its_seven_modes_with_only_the_band():
     np.testing.assert_allclose(model.frequency_hz, f_true[sel], rtol=2e-4)
     np.testing.assert_allclose(model.damping_ratio, z_true[sel], rtol=0.03)
     assert (model.mpc > 0.99).all() and np.median(model.frf_correlation) > 0.99
+
+
+@pytest.mark.parametrize("method", ["plscf", "subspace"])
+def test_close_modes_of_one_part_both_stay(method):
+    """Two modes 0.4 % apart (0.2 Hz, ten lines, half a half-power bandwidth each side) that
+    a part's diagram separates stay two modes through the joining of the parts."""
+    fn, zeta = np.array([30.0, 50.0, 50.2, 70.0]), np.array([0.01, 0.005, 0.005, 0.01])
+    f = np.arange(20.0, 80.0, 0.02)
+    rng = np.random.default_rng(3)
+    phi, L = rng.normal(size=(12, 4)), rng.normal(size=(2, 4))
+    w, wn = 2 * np.pi * f, 2 * np.pi * fn
+    q = -(w**2) / (wn[:, None] ** 2 - w**2 + 2j * (zeta * wn)[:, None] * w)
+    data = FRFData.from_labels(f, np.einsum("pk,mk,kf->pmf", phi, L, q),
+                               [f"{i + 1}:+Z" for i in range(12)], ["100:+Y", "101:+Y"],
+                               "accelerance", "")  # fmt: skip
+    model = identify(data, (25.0, 75.0), settings=Settings(method=method))
+    np.testing.assert_allclose(model.frequency_hz, fn, rtol=1e-6)
+    np.testing.assert_allclose(model.damping_ratio, zeta, rtol=1e-4)
+    assert not model.suspect.any() and model.fit_error.max() < 1e-6
+
+
+def test_a_model_written_before_the_layout_was_kept_has_its_shapes_at_its_outputs(tmp_path):
+    """An identified model's NPZ without the layout key (femcal before the layouts): its
+    shapes are at its outputs, even with more inputs than outputs."""
+    from femcal.io.identified import NPZ_KEYS, read_model, summary
+
+    lam = complex(-0.5, 60.0)
+    arrays = dict(A=np.array([[lam.real, -lam.imag], [lam.imag, lam.real]]),
+                  B=np.ones((2, 3)), C=np.ones((2, 2)), D=np.zeros((2, 3)),
+                  residual_states=np.zeros(2, bool), poles=np.array([lam]),
+                  frequency_hz=np.array([abs(lam) / 2 / np.pi]), damping_ratio=np.array([0.008]),
+                  shapes=np.array([[1.0 + 0j], [0.5 + 0j]]), participation=np.ones((3, 1), complex),
+                  output_labels=np.array(["1:+Z", "2:+Z"]),
+                  input_labels=np.array(["7:+Z", "8:+Z", "9:+Z"]), quantity=np.array("accelerance"),
+                  units=np.array("m/s^2/N"), band=np.array([5.0, 20.0]), fit_error=np.zeros(2),
+                  suspect=np.zeros(2, bool), consistency=np.full(2, np.nan))  # fmt: skip
+    assert set(arrays) == set(NPZ_KEYS)
+    np.savez(tmp_path / "old.npz", **arrays)
+    model = read_model(tmp_path / "old.npz")
+    assert not model.layout.transposed
+    assert [c.label for c in model.shape_channels] == ["1:+Z", "2:+Z"]
+    assert list(summary(model)["poles"][0]["shape"]) == ["1:+Z", "2:+Z"]
+
+
+def test_hostile_inputs_found_in_review_give_clear_answers(tmp_path, capsys):
+    """A coherence with NaN names the FRF and frequency; --units keeps the coherence; data
+    in absurd units give the same modes and no NumPy warning; the same reference twice is
+    said; repeated --split is refused; a coherence of 0 throughout is not used, and said."""
+    import warnings
+    from dataclasses import replace
+
+    from femcal.cli import main
+    from femcal.errors import FemcalWarning
+    from femcal.testdata.data import convert_units
+    from femcal.testdata.formats.npz import write_npz
+
+    data, _ = modal_set(noise=0.01, seed=5)
+    coh = np.full(data.H.shape, 0.9)
+    coh[3, 1, 7] = np.nan
+    with pytest.raises(FRFError, match=r"the coherence of output 4:\+Z / input 101:\+Y at "
+                       r"1\.7 Hz is nan \(1 such value\)"):
+        replace(data, coherence=coh)
+    coh[3, 1, 7] = 0.5
+    back = convert_units(replace(data, coherence=coh), "m/s^2/N")
+    assert back.coherence is not None and back.units == "m/s^2/N"
+    ref = identify(data, BAND)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no NumPy warning, no FemcalWarning either
+        huge = identify(replace(data, H=data.H * 1e90), BAND)
+        tiny = identify(replace(data, H=data.H * 1e-90), BAND)
+    for other in (huge, tiny):
+        np.testing.assert_allclose(other.frequency_hz, ref.frequency_hz, rtol=1e-6)
+    twice = FRFData(data.frequency_hz, np.stack([data.H[:, 0], data.H[:, 0]], axis=1),
+                    data.outputs, data.inputs, data.quantity, data.units)  # fmt: skip
+    with pytest.warns(FemcalWarning, match="references .* are linearly dependent"):
+        identify(twice, BAND)
+    with pytest.warns(FemcalWarning, match="the coherence is 0 at every line"):
+        identify(replace(data, coherence=np.zeros(data.H.shape)), BAND)
+    src = write_npz(tmp_path / "d.npz", data)
+    assert main(["identify", str(src), "--band", "15", "100", "--split", "40", "40"]) == 2
+    assert "--split 40 40: expected increasing frequencies, each once" in capsys.readouterr().err
+    assert main(["identify", str(src), "--band", "15", "100", "--max-order", "150"]) == 2
+    assert "expected at most 120 for plscf" in capsys.readouterr().err

@@ -187,15 +187,24 @@ def measured_scatter(data: FRFData | None, identified: IdentifiedModel | None,
         return noise_level(identified)
     f = data.frequency_hz
     sel = (f >= band[0]) & (f <= band[1])
+    # compared as the calibration compares them: the identified model's roving side as rows
+    # (a roving-hammer test transposed, see femcal.calibrate.cases)
+    layout = getattr(identified, "layout", None)
+    flip = layout is not None and layout.transposed
+    rows, cols = ((data.inputs, data.outputs) if flip else (data.outputs, data.inputs))
     labels = [c.label for c in outputs]
-    measured = {c.label: k for k, c in enumerate(data.outputs)}
-    fitted = {c.label: k for k, c in enumerate(identified.outputs)}
+    measured = {c.label: k for k, c in enumerate(rows)}
+    fitted = {c.label: k for k, c in enumerate(layout.roving if flip else identified.outputs)}
     shared = [lab for lab in labels if lab in measured and lab in fitted]
-    same_inputs = [c.label for c in data.inputs] == [c.label for c in identified.inputs]
+    refs = layout.references if flip else identified.inputs
+    same_inputs = [c.label for c in cols] == [c.label for c in refs]
     if not sel.any() or not shared or not same_inputs:
         return noise_level(identified)
-    H_meas = data.H[[measured[lab] for lab in shared]][:, :, sel]
-    H_fit = identified.frf(f[sel]).H[[fitted[lab] for lab in shared]]
+    H_data = np.swapaxes(data.H, 0, 1) if flip else data.H
+    H_model = identified.frf(f[sel]).H
+    H_model = np.swapaxes(H_model, 0, 1) if flip else H_model
+    H_meas = H_data[[measured[lab] for lab in shared]][:, :, sel]
+    H_fit = H_model[[fitted[lab] for lab in shared]]
     with np.errstate(divide="ignore", invalid="ignore"):
         eps = residuals(H_fit, H_meas, metric)
     eps = eps[np.isfinite(eps)]

@@ -99,6 +99,12 @@ def _check(args: argparse.Namespace) -> str | None:
     bad = [x for x in args.split or () if not (np.isfinite(x) and f1 < x < f2)]
     if bad:
         return f"--split {bad[0]:g}: expected a frequency inside the band {f1:g}-{f2:g} Hz"
+    if args.split is not None and any(b <= a for a, b in zip(args.split[:-1], args.split[1:])):
+        return (f"--split {' '.join(f'{x:g}' for x in args.split)}: expected increasing "
+                "frequencies, each once")
+    if args.max_order is not None and args.method != "subspace" and args.max_order > 120:
+        return (f"--max-order {args.max_order}: expected at most 120 for plscf (its "
+                "polynomial order)")
     if not (np.isfinite(args.gamma) and args.gamma > 1):
         return (f"--gamma {args.gamma:g}: expected a number above 1 (residual poles at GAMMA "
                 "times the upper band edge and at F1 / GAMMA, outside the band)")
@@ -165,7 +171,8 @@ def run(args: argparse.Namespace) -> int:
     progress(f"read {args.frf}: {len(data.outputs)} outputs x {len(data.inputs)} inputs x "
              f"{len(data.frequency_hz)} frequencies ({data.quantity}, "
              f"{data.units or 'no unit given: shapes and residues in the file units'})"
-             + ("" if data.coherence is None else ", with coherence (used as weights)"))
+             + ("" if data.coherence is None else ", with coherence (weights of the fits: "
+                "pLSCF's per channel and frequency, the residues' per frequency)"))
     negative = [c.label for c in (*data.outputs, *data.inputs)
                 if c.direction is not None and c.direction.startswith("-")]
     if negative:
@@ -178,19 +185,23 @@ def run(args: argparse.Namespace) -> int:
         orders = orders[0]
     methods = METHODS if args.method == "both" else (args.method,)
     models = []
-    try:
-        for method in methods:
+    for method in methods:
+        if len(methods) > 1:
+            progress(f"--- {method}")
+        try:
             settings = Settings(gamma=args.gamma, beta=args.beta,
                                 lower_residual=not args.no_lower_residual,
                                 feedthrough=not args.no_feedthrough, max_order=args.max_order,
                                 method=method, part_modes=args.part_modes)
-            if len(methods) > 1:
-                progress(f"--- {method}")
             models.append(identify(data, tuple(args.band), splits=args.split, orders=orders,
                                    settings=settings, progress=progress))  # fmt: skip
-    except ValueError as e:
-        print(f"femcal identify: {args.frf}: {message(e)}", file=sys.stderr)
-        return 2
+        except ValueError as e:
+            if not models:
+                print(f"femcal identify: {args.frf}: {message(e)}", file=sys.stderr)
+                return 2
+            print(f"femcal identify: warning: {method} failed, {methods[0]}'s model is kept: "
+                  f"{message(e)}", file=sys.stderr)  # fmt: skip
+            methods = methods[:1]
     model = models[0]
     print_modes(model)
     rows = None

@@ -143,8 +143,10 @@ class Stabilization:
 def physical(poles: np.ndarray, band: tuple[float, float], zeta_max: float) -> np.ndarray:
     """Indices of the poles with Im > 0 inside the band and damping in (0, zeta_max),
     ascending in frequency."""
-    f, z = poles_to_modal(poles)
-    keep = (np.isfinite(poles) & (poles.imag > 0) & (f >= band[0]) & (f <= band[1])
+    poles = np.asarray(poles, complex)
+    finite = np.isfinite(poles)
+    f, z = poles_to_modal(np.where(finite, poles, 0.0))
+    keep = (finite & (poles.imag > 0) & (f >= band[0]) & (f <= band[1])
             & (z > 0) & (z < zeta_max))  # fmt: skip
     idx = np.flatnonzero(keep)
     return idx[np.argsort(f[idx])]

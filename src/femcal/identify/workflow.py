@@ -30,9 +30,10 @@
    complexity and each channel's fit error and FRF correlation
    (:mod:`femcal.identify.quality`) are kept with the model.
 
-Coherence, where the data carry it, weights each frequency of each channel in the fits by
-``sqrt(coh / (1 - coh))``, the inverse of an H1 estimate's relative scatter (capped), so
-that frequencies where the measurement is poor count less.
+Coherence, where the data carry it, weights the fits by ``sqrt(coh / (1 - coh))``, the
+inverse of an H1 estimate's relative scatter (capped), so that frequencies where the
+measurement is poor count less: pLSCF's per roving channel and frequency, the residues' per
+frequency (the mean over the channels); the subspace diagram is not weighted.
 """
 
 from __future__ import annotations
@@ -161,6 +162,10 @@ class Settings:
             (self.edge_lines >= 0, "edge_lines", self.edge_lines, "0 or more"),
             (self.poor_fit > 0, "poor_fit", self.poor_fit, "a positive number"),
         ]
+        if self.method == "plscf" and self.max_order is not None:
+            checks.append((self.max_order <= plscf.MAX_ORDER, "max_order", self.max_order,
+                           f"at most {plscf.MAX_ORDER} for plscf (its polynomial order; the "
+                           "model has that times the references poles)"))
         for ok, name, value, expected in checks:
             if not (ok and np.isfinite(value)):
                 raise ValueError(f"identification setting {name} = {value!r}: expected "
@@ -205,7 +210,8 @@ class IdentifiedModel:
         residue of the roving x reference FRFs.
     outputs, inputs, quantity, units : as the data's.
     band : (f_lo, f_hi) Hz.
-    fit_error : (r,) per roving channel, ``||H - H_model|| / ||H||`` over the band.
+    fit_error : (r,) per roving channel, ``||H - H_model|| / ||H||`` over the band, each
+        reference's FRFs scaled to unit RMS first.
     suspect : (r,) roving channels whose fit is poor, or that the other channels do not
         explain (see :class:`Settings` and :mod:`femcal.identify.channels`).
     consistency : (r,) leave-one-out consistency error of each roving channel.
@@ -388,20 +394,26 @@ def fit_band(frequency_hz: np.ndarray, band: tuple[float, float],
 
 def coherence_weights(coherence: np.ndarray | None) -> np.ndarray | None:
     """Per channel and frequency weights ``sqrt(coh / (1 - coh))`` (capped at
-    :data:`MAX_COHERENCE_WEIGHT`), normalised to a median of 1; None without a coherence."""
+    :data:`MAX_COHERENCE_WEIGHT`), normalised to a median of 1 over the lines with a
+    weight; None without a coherence (or with one that is 0 throughout, with a warning)."""
     if coherence is None:
         return None
     c = np.clip(np.asarray(coherence, float), 0.0, 1.0)
     cap = MAX_COHERENCE_WEIGHT**2 / (1 + MAX_COHERENCE_WEIGHT**2)
     c = np.minimum(c, cap)
     w = np.sqrt(c / (1.0 - c))
-    med = np.median(w)
-    return w / med if med > 0 else np.ones_like(w)
+    positive = w[w > 0]
+    if positive.size == 0:
+        warnings.warn(FemcalWarning("the coherence is 0 at every line of the band: it is not "
+                                    "used as a weight"), stacklevel=3)  # fmt: skip
+        return None
+    return w / np.median(positive)
 
 
 def _dedupe(found: list[tuple[complex, tuple[float, float]]], s: Settings) -> np.ndarray:
     """Poles found in several parts kept once: the one farthest (relatively) from its part's
-    edges; poles within the stability tolerances of each other count as one."""
+    edges; poles of different parts within the stability tolerances of each other count as
+    one (poles of one part are its diagram's distinct columns: close modes stay)."""
     def margin(item):
         pole, (lo, hi) = item
         f = abs(pole) / (2 * np.pi)
@@ -412,6 +424,8 @@ def _dedupe(found: list[tuple[complex, tuple[float, float]]], s: Settings) -> np
         f, z = poles_to_modal(np.array([item[0]]))
         same = False
         for other in kept:
+            if other[1] == item[1]:  # one part's columns are distinct modes already
+                continue
             fo, zo = poles_to_modal(np.array([other[0]]))
             if (abs(f[0] / fo[0] - 1) < 0.5 * s.tol_frequency
                     and abs(z[0] - zo[0]) < s.tol_damping * max(z[0], zo[0])):  # fmt: skip
@@ -485,9 +499,12 @@ def identify(data: FRFData, band: tuple[float, float], *,
         edges = [lo, *partition(prep.f, prep.S[0], prep.peaks.frequency_hz, (lo, hi),
                                 s.part_modes), hi]  # fmt: skip
     else:
-        edges = [lo, *sorted(float(x) for x in splits), hi]
+        edges = [lo, *(float(x) for x in splits), hi]
         if any(not (lo < x < hi) for x in edges[1:-1]):
             raise ValueError(f"splits {list(splits)} must lie inside the band {lo:g}-{hi:g} Hz")
+        if any(b <= a for a, b in zip(edges[:-1], edges[1:])):
+            raise ValueError(f"splits {list(splits)}: expected increasing frequencies, each "
+                             "once")  # fmt: skip
     n_parts = len(edges) - 1
     if orders is None or isinstance(orders, int):
         part_orders: list[int | None] = [orders] * n_parts
@@ -558,13 +575,21 @@ def _prepare(data: FRFData, band: tuple[float, float], s: Settings) -> _Prepared
     weights = None
     if data.coherence is not None:
         coh = np.asarray(data.coherence, float)[..., sel]
-        if coh.ndim == 2:  # multiple coherence per output: per canonical row
-            w = coherence_weights(coh)
+        w = coherence_weights(coh if coh.ndim == 2 else layout.canonical(coh))
+        if w is not None and w.ndim == 3:  # per FRF: per canonical row, over the references
+            weights = np.mean(w, axis=1)
+        elif w is not None:  # a multiple coherence of the outputs
             weights = w if not layout.transposed else np.broadcast_to(
                 np.mean(w, axis=0), (Hs.shape[0], len(f))).copy()  # fmt: skip
-        else:  # per FRF: per canonical row, the mean over the references
-            w = coherence_weights(layout.canonical(coh))
-            weights = np.mean(w, axis=1)
+    m = Hs.shape[1]
+    if m > 1 and s.method == "plscf":
+        sv = np.linalg.svd(np.moveaxis(Hs, 1, 0).reshape(m, -1), compute_uv=False)
+        if sv[-1] < 1e-6 * sv[0]:
+            warnings.warn(FemcalWarning(
+                f"the {m} references ({', '.join(c.label for c in layout.references)}) are "
+                "linearly dependent (one is a combination of the others to 1e-6: the same "
+                "point measured twice?): pLSCF's fraction cannot separate them; give them once "
+                "or use the subspace method"), stacklevel=3)  # fmt: skip
     S = cmif(Hs)
     peaks = find_cmif_peaks(f, S)
     return _Prepared(layout, f, Hs, so, si, weights, S, peaks)
@@ -597,9 +622,9 @@ def _identify_part(f: np.ndarray, H: np.ndarray, weights: np.ndarray | None, a: 
         order_list = _orders(s, n_peaks, m, K, p)
         if len(order_list) < 4:
             raise FRFError(f"part {a:g}-{b:g} Hz: {K} frequencies and {p} channel(s) allow "
-                           f"{s.method} orders up to {order_list[-1]}; a stabilisation "
-                           "diagram needs 4 orders at least: expected more frequencies in "
-                           "the band (or give --order)")  # fmt: skip
+                           f"{len(order_list)} {s.method} order(s) (up to "
+                           f"{order_list[-1]}); a stabilisation diagram needs 4 at least: "
+                           "expected more frequencies in the band (or give --order)")
         if s.method == "plscf":
             raw = plscf.diagram_poles(f, Hp, order_list, weights=weights)
             sv = None
@@ -710,6 +735,8 @@ def mode_contributions(model: FixedPoleModel, f: np.ndarray, H: np.ndarray,
     at = np.searchsorted(f, np.abs(model.poles) / (2 * np.pi)).clip(1, len(f) - 2)
     near = np.max([level[at - 1], level[at], level[at + 1]], axis=0)
     shapes = c if scales is None else c * np.asarray(scales)[:, None]
+    big = np.abs(shapes).max(axis=0)
+    shapes = shapes / np.where(big > 0, big, 1.0)  # (the MPC squares them twice)
     return peak / np.where(near > 0, near, 1.0), mpc(shapes)
 
 

@@ -58,10 +58,9 @@ def read_model(path: str | os.PathLike[str]) -> IdentifiedModel:
         consistency = z["consistency"]
         outputs = tuple(Channel.parse(str(s)) for s in z["output_labels"])
         inputs = tuple(Channel.parse(str(s)) for s in z["input_labels"])
-        layout = Layout.of(outputs, inputs)
-        if "transposed" in z and bool(z["transposed"]) != layout.transposed:
-            layout = Layout(bool(z["transposed"]), *(
-                (inputs, outputs) if bool(z["transposed"]) else (outputs, inputs)))
+        # a model written before the layout was kept has its shapes at the outputs
+        flipped = "transposed" in z and bool(z["transposed"])
+        layout = Layout(flipped, *((inputs, outputs) if flipped else (outputs, inputs)))
         extra = {k: z[k] for k in ("mpc", "mpd", "complexity", "frf_correlation", "peaks_hz")
                  if k in z}
         return IdentifiedModel(
@@ -86,7 +85,7 @@ def summary(model: IdentifiedModel) -> dict:
     of the references), parts, channels (fit error, FRF correlation, consistency error,
     suspect), CMIF peaks and warnings."""
     cons = model.consistency
-    layout = model.layout or Layout.of(model.outputs, model.inputs)
+    layout = model.layout or Layout(False, model.outputs, model.inputs)
     corr = model.frf_correlation
     return {
         "band_hz": list(model.band),

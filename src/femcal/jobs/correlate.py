@@ -46,6 +46,7 @@ import numpy as np
 from ..atomic import write_atomic, write_lines
 from ..correlate import in_scale_of, mac, pair_modes
 from ..errors import FemcalError, message
+from ..identify.layout import Layout
 from ..identify.workflow import IdentifiedModel, Settings, identify
 from ..model.analysis import EigenRequest
 from ..model.ids import IdIndex
@@ -604,7 +605,7 @@ def run_correlation(deck: str | os.PathLike[str], test: str | os.PathLike[str], 
             raise CorrelationError(f"{test}: FRFs to identify need a band (--band F1 F2, Hz, "
                                    f"within the data's {data.frequency_hz[0]:g}-"
                                    f"{data.frequency_hz[-1]:g} Hz)")  # fmt: skip
-        outputs = data.outputs
+        outputs = Layout.of(data.outputs, data.inputs).roving  # where the shapes will be
     placed = place_channels(outputs, layout, sens, test=str(test), deck=str(deck))
     say(f"{len(placed)} test channels placed on {len(np.unique([c.grid for c in placed]))} "
         "grids of the FE model")  # fmt: skip

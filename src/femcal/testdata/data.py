@@ -79,9 +79,19 @@ class FRFData:
                 raise FRFError(f"the coherence has shape {c.shape}; expected (n_out, n_freq) = "
                                f"({H.shape[0]}, {H.shape[2]}) or (n_out, n_in, n_freq) = "
                                f"{H.shape}")  # fmt: skip
-            if c.dtype.kind not in "iuf" or not ((c >= 0) & (c <= 1)).all():
-                raise FRFError("the coherence holds values outside [0, 1]; expected a "
-                               "coherence in [0, 1] at each frequency")
+            if c.dtype.kind not in "iuf":
+                raise FRFError(f"the coherence holds {c.dtype} values; expected real numbers "
+                               "in [0, 1]")  # fmt: skip
+            bad = ~((c >= 0) & (c <= 1))
+            if bad.any():
+                at = tuple(int(x) for x in np.argwhere(bad)[0])
+                chans = f"output {self.outputs[at[0]].label}" + (
+                    f" / input {self.inputs[at[1]].label}" if c.ndim == 3 else "")
+                raise FRFError(f"the coherence of {chans} at {float(f[at[-1]]):g} Hz is "
+                               f"{float(c[at])!r} ({int(bad.sum())} such value"
+                               f"{'s' if bad.sum() > 1 else ''}); expected a coherence in "
+                               "[0, 1] at each frequency (outside [0, 1]; NaN where the "
+                               "estimator had no power)")  # fmt: skip
         if self.quantity not in QUANTITIES:
             raise FRFError(f"quantity must be one of {', '.join(QUANTITIES)}, "
                            f"not {self.quantity!r}")  # fmt: skip
@@ -275,4 +285,4 @@ def convert_units(data: FRFData, units: str) -> FRFData:
     if have[0] != want[0] or have[0] != data.quantity:
         raise FRFError(f"cannot convert {data.quantity} in {data.units!r} to {units!r}")
     return FRFData(data.frequency_hz, data.H * (have[1] / want[1]), data.outputs, data.inputs,
-                   data.quantity, units)  # fmt: skip
+                   data.quantity, units, coherence=data.coherence)  # fmt: skip

@@ -18,8 +18,8 @@ from .registry import Format, register
 def write_mat(path: str | os.PathLike[str], data: FRFData) -> Path:
     """MATLAB .mat (version 5, scipy.io) with the NPZ's variables: ``frequency_hz`` (1 x
     n_freq), ``H`` (n_out x n_in x n_freq complex), ``output_labels`` and ``input_labels``
-    (cell arrays of char), ``quantity`` and ``units``, and ``coherence`` (n_out x n_freq)
-    when the data have one."""
+    (cell arrays of char), ``quantity`` and ``units``, and ``coherence`` (n_out x n_freq, or
+    n_out x n_in x n_freq) when the data have one."""
     import scipy.io
 
     def dump(tmp: str) -> None:
@@ -72,10 +72,15 @@ def read_mat(path: str | os.PathLike[str], *, quantity: str | None = None) -> FR
     if "coherence" not in z:
         return data
     coherence = np.asarray(z["coherence"])
-    if coherence.size == shape[0] * shape[2]:
-        coherence = coherence.reshape(shape[0], shape[2])
-    elif coherence.size == np.prod(shape):
-        coherence = coherence.reshape(shape)
+
+    def squeezed(s: tuple[int, ...]) -> tuple[int, ...]:  # as squeeze_me reads it
+        return tuple(n for n in s if n != 1)
+
+    per_output, per_frf = (shape[0], shape[2]), shape
+    if coherence.shape in (per_output, squeezed(per_output)):
+        coherence = coherence.reshape(per_output)
+    elif coherence.shape in (per_frf, squeezed(per_frf)):
+        coherence = coherence.reshape(per_frf)
     else:
         raise FRFError(f"{path}: coherence has shape {coherence.shape}; expected (outputs, "
                        f"frequencies) = ({shape[0]}, {shape[2]}) or (outputs, inputs, "
