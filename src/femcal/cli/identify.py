@@ -5,6 +5,7 @@ measured FRFs."""
 from __future__ import annotations
 
 import argparse
+import itertools
 import sys
 import time
 import warnings
@@ -99,7 +100,7 @@ def _check(args: argparse.Namespace) -> str | None:
     bad = [x for x in args.split or () if not (np.isfinite(x) and f1 < x < f2)]
     if bad:
         return f"--split {bad[0]:g}: expected a frequency inside the band {f1:g}-{f2:g} Hz"
-    if args.split is not None and any(b <= a for a, b in zip(args.split[:-1], args.split[1:])):
+    if args.split is not None and any(b <= a for a, b in itertools.pairwise(args.split)):
         return (f"--split {' '.join(f'{x:g}' for x in args.split)}: expected increasing "
                 "frequencies, each once")
     if args.max_order is not None and args.method != "subspace" and args.max_order > 120:

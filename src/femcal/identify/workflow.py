@@ -38,6 +38,7 @@ frequency (the mean over the channels); the subspace diagram is not weighted.
 
 from __future__ import annotations
 
+import itertools
 import warnings
 from collections.abc import Callable, Sequence
 from concurrent.futures import Executor
@@ -502,7 +503,7 @@ def identify(data: FRFData, band: tuple[float, float], *,
         edges = [lo, *(float(x) for x in splits), hi]
         if any(not (lo < x < hi) for x in edges[1:-1]):
             raise ValueError(f"splits {list(splits)} must lie inside the band {lo:g}-{hi:g} Hz")
-        if any(b <= a for a, b in zip(edges[:-1], edges[1:])):
+        if any(b <= a for a, b in itertools.pairwise(edges)):
             raise ValueError(f"splits {list(splits)}: expected increasing frequencies, each "
                              "once")  # fmt: skip
     n_parts = len(edges) - 1
