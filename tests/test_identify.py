@@ -20,9 +20,9 @@ from femcal.identify import (
     identify,
     model_of_order,
     plscf,
+    stable_columns,
     subspace,
     subspace_basis,
-    track_poles,
 )
 from femcal.identify.lsq import Resolvent, cost, response
 from femcal.response.statespace import modal_to_poles, poles_to_modal
@@ -142,14 +142,14 @@ def test_stabilisation_diagram_finds_the_modes(method):
         raw = plscf.diagram_poles(f, H, range(1, 21))
     else:
         raw, _ = subspace.diagram_poles(f, H, range(2, 41, 2))
-    d = track_poles(raw, BAND, method, 0.1)
+    d = stable_columns(raw, BAND, method, 0.1)
     # 1 % noise: every mode of the band, each once, within a tenth of a percent
     np.testing.assert_allclose(d.modes_hz, FN[IN_BAND], rtol=1e-3)
     # a mode's column is stable in most of its orders, and every chosen pole's order marks
     # it as the mode it joined
     assert (d.support >= 0.5 * d.n_orders_seen).all()
     for k in range(len(d.modes)):
-        joined = [op.frequency_hz[op.track == k] for op in d.orders]
+        joined = [op.frequency_hz[op.mode == k] for op in d.orders]
         assert sum(len(x) for x in joined) == d.support[k]
         assert np.all(np.abs(np.concatenate(joined) / d.modes_hz[k] - 1) < 0.01)
 

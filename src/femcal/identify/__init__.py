@@ -6,7 +6,7 @@ with residual poles, mode and fit quality, and damping equalisation (see
 
 from .layout import Layout
 from .lsq import FixedPoleModel, fit_fixed_poles
-from .stabilization import Criteria, Stabilization, track_poles
+from .stabilization import Criteria, Stabilization, stable_columns
 from .subspace import model_of_order, subspace_basis
 from .workflow import (
     IdentifiedModel,
@@ -30,6 +30,6 @@ __all__ = [
     "frequency_response",
     "identify",
     "model_of_order",
+    "stable_columns",
     "subspace_basis",
-    "track_poles",
 ]

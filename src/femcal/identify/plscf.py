@@ -204,7 +204,7 @@ def diagram_poles(freq_hz: np.ndarray, H: np.ndarray, orders: range, *,
                   weights: np.ndarray | None = None,
                   ) -> list[tuple[int, np.ndarray, np.ndarray]]:  # fmt: skip
     """Every order's poles and participation vectors: the input of
-    :func:`femcal.identify.stabilization.track_poles`."""
+    :func:`femcal.identify.stabilization.stable_columns`."""
     ne = normal_equations(freq_hz, H, max(orders), weights=weights)
     out = []
     for n in orders:

@@ -92,7 +92,7 @@ class OrderPoles:
         references (pLSCF).
     stable : (k,) stable in frequency, damping and vector against the previous order.
     stable_frequency : (k,) stable in frequency against the previous order.
-    track : (k,) the mode whose column each pole joined, -1 for none.
+    mode : (k,) the mode whose column each pole joined, -1 for none.
     """
 
     order: int
@@ -102,7 +102,7 @@ class OrderPoles:
     vectors: np.ndarray
     stable: np.ndarray
     stable_frequency: np.ndarray
-    track: np.ndarray
+    mode: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -115,7 +115,6 @@ class Stabilization:
     orders : per order its :class:`OrderPoles`, ascending order.
     modes : (k,) the chosen physical poles (rad/s, Im > 0), ascending frequency.
     support : (k,) how many orders each mode's column holds.
-    mode_tracks : (k,) each mode's index in the orders' ``track`` (0..k-1).
     n_orders_seen : (k,) how many orders there are from each column's lowest to the
         highest.
     singular_values : of the subspace step (empty for pLSCF).
@@ -126,7 +125,6 @@ class Stabilization:
     orders: list[OrderPoles]
     modes: np.ndarray
     support: np.ndarray
-    mode_tracks: np.ndarray
     n_orders_seen: np.ndarray
     singular_values: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
@@ -152,9 +150,10 @@ def physical(poles: np.ndarray, band: tuple[float, float], zeta_max: float) -> n
     return idx[np.argsort(f[idx])]
 
 
-def _agree(f1, z1, v1, f2, z2, v2, c: Criteria, z_floor: np.ndarray) -> tuple[np.ndarray, ...]:
-    """(k1, k2) frequency agreement, full agreement and a distance, of two orders'
-    poles."""
+def _agree(f1, z1, v1, f2, z2, v2, c: Criteria, z_floor: np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """(k1, k2) agreement of two orders' poles in frequency, and in frequency, damping and
+    vector."""
     df = np.abs(f1[:, None] / f2[None, :] - 1.0)
     dz = np.abs(z1[:, None] - z2[None, :])
     z_tol = np.maximum(c.tol_damping * z2[None, :], z_floor[:, None])
@@ -162,11 +161,10 @@ def _agree(f1, z1, v1, f2, z2, v2, c: Criteria, z_floor: np.ndarray) -> tuple[np
     ok = ok_f & (dz < z_tol)
     if v1.shape[0] > 1:
         ok &= mac(v1, v2) > c.tol_mac
-    distance = df / c.tol_frequency + dz / z_tol
-    return ok_f, ok, distance
+    return ok_f, ok
 
 
-def track_poles(raw: list[tuple[int, np.ndarray, np.ndarray]], band: tuple[float, float],
+def stable_columns(raw: list[tuple[int, np.ndarray, np.ndarray]], band: tuple[float, float],
                 method: str, resolution_hz: float, criteria: Criteria | None = None,
                 singular_values: np.ndarray | None = None) -> Stabilization:  # fmt: skip
     """The stabilisation diagram and its physical modes from each order's poles.
@@ -190,13 +188,13 @@ def track_poles(raw: list[tuple[int, np.ndarray, np.ndarray]], band: tuple[float
         stable_f = np.zeros(k, bool)
         if orders and k and len(orders[-1].poles):
             prev = orders[-1]
-            ok_f, ok, _ = _agree(fr, z, vec, prev.frequency_hz, prev.damping_ratio,
+            ok_f, ok = _agree(fr, z, vec, prev.frequency_hz, prev.damping_ratio,
                                  prev.vectors, c, _floor(fr, resolution_hz))  # fmt: skip
             stable_f = ok_f.any(axis=1)
             stable = ok.any(axis=1)
         orders.append(OrderPoles(int(n), lam, fr, z, vec, stable, stable_f, np.full(k, -1)))
     modes, support, seen = _clusters(orders, c, resolution_hz)
-    return Stabilization(band, method, orders, modes, support, np.arange(len(modes)), seen,
+    return Stabilization(band, method, orders, modes, support, seen,
                          np.zeros(0) if singular_values is None else singular_values)
 
 
@@ -209,7 +207,7 @@ def _floor(f: np.ndarray, resolution_hz: float) -> np.ndarray:
 def _clusters(orders: list[OrderPoles], c: Criteria, resolution_hz: float
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
     """The modes of a diagram: columns of stable poles (see the module docstring). Each
-    order's ``track`` is set to the mode its pole joined (-1: none). Returns the modes'
+    order's ``mode`` is set to the mode its pole joined (-1: none). Returns the modes'
     poles, how many orders each column holds and how many orders there are from its lowest
     to the top."""
     pos = np.concatenate([np.full(int(op.stable.sum()), k) for k, op in enumerate(orders)]
@@ -257,7 +255,7 @@ def _clusters(orders: list[OrderPoles], c: Criteria, resolution_hz: float
         free[members] = False
         mode = len(found)
         for j in members:
-            orders[pos[j]].track[at[j]] = mode
+            orders[pos[j]].mode[at[j]] = mode
         found.append((_median_pole(lam[members]), len(members), seen))
     if not found:
         return np.zeros(0, complex), np.zeros(0, int), np.zeros(0, int)
@@ -272,18 +270,18 @@ def _clusters(orders: list[OrderPoles], c: Criteria, resolution_hz: float
             if b != a and b not in drop and abs(hz[b] - hz[a]) < resolution_hz:
                 drop.add(b)
                 for op in orders:
-                    op.track[op.track == b] = -1
+                    op.mode[op.mode == b] = -1
     if drop:
         keep = [k for k in range(len(found)) if k not in drop]
         renumber = {k: n for n, k in enumerate(keep)}
         for op in orders:
-            op.track[:] = [renumber.get(int(t), -1) if t >= 0 else -1 for t in op.track]
+            op.mode[:] = [renumber.get(int(t), -1) if t >= 0 else -1 for t in op.mode]
         found = [found[k] for k in keep]
     order = np.argsort([abs(p) for p, _, _ in found])
     remap = np.empty(len(found), int)
     remap[order] = np.arange(len(found))
     for op in orders:
-        op.track[op.track >= 0] = remap[op.track[op.track >= 0]]
+        op.mode[op.mode >= 0] = remap[op.mode[op.mode >= 0]]
     poles, support, seen = zip(*[found[k] for k in order], strict=True)
     return np.array(poles, complex), np.array(support, int), np.array(seen, int)
 

@@ -151,7 +151,7 @@ def diagram_poles(freq_hz: np.ndarray, H: np.ndarray, orders: range | list[int],
                                                 np.ndarray]:  # fmt: skip
     """Every order's poles and shapes at the outputs (C times the eigenvectors) from one
     subspace basis, and the basis's singular values: the input of
-    :func:`femcal.identify.stabilization.track_poles`. Orders the data cannot support are
+    :func:`femcal.identify.stabilization.stable_columns`. Orders the data cannot support are
     left out. The basis takes twice the block rows the shift equation of the highest order
     needs: the extra rows average the noise of measured FRFs (heavily damped modes come out
     much steadier over the orders)."""

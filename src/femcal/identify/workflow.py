@@ -16,7 +16,7 @@
 5. **Poles of each part** from a stabilisation diagram of the chosen estimator, the
    poly-reference least-squares complex frequency-domain method (:mod:`femcal.identify.plscf`,
    "PolyMAX") or the frequency-domain subspace method (:mod:`femcal.identify.subspace`),
-   over orders chosen from the part's peaks; the physical poles are the tracks that stay
+   over orders chosen from the part's peaks; the physical poles are the columns that stay
    stable over the orders (:mod:`femcal.identify.stabilization`). With a given order, the
    physical-looking poles of that order.
 6. **Residues** of the joined poles over the whole band by least squares for the fixed poles
@@ -56,7 +56,7 @@ from .indicators import Peaks, cmif, find_cmif_peaks, noisy_regions, partition
 from .layout import Layout
 from .lsq import FixedPoleModel, Resolvent, fit_c, fit_fixed_poles, response
 from .quality import complexity, frf_correlation, mpc, mpd
-from .stabilization import Criteria, Stabilization, physical, track_poles
+from .stabilization import Criteria, Stabilization, physical, stable_columns
 
 #: Highest subspace model order of a part (and at most half its frequencies).
 MAX_ORDER = 200
@@ -596,16 +596,15 @@ def _prepare(data: FRFData, band: tuple[float, float], s: Settings) -> _Prepared
     return _Prepared(layout, f, Hs, so, si, weights, S, peaks)
 
 
-def _orders(s: Settings, n_peaks: int, m: int, K: int, p: int) -> range:
-    """The orders of a part's stabilisation diagram: given by ``s.max_order`` or from the
-    part's number of peaks."""
+def _orders(s: Settings, n_peaks: int, m: int, K: int) -> range:
+    """The orders of a part's stabilisation diagram: up to ``s.max_order`` or, by default,
+    from the part's number of peaks; at most what its K frequencies support."""
     if s.method == "plscf":
         if s.max_order is not None:
-            return range(1, min(s.max_order, plscf.MAX_ORDER, max(2, (K - 1) // 2)) + 1)
+            return range(1, min(s.max_order, _order_limit(s, K)) + 1)
         return plscf.orders_for(n_peaks, m, K)
-    top = s.max_order if s.max_order is not None else min(MAX_ORDER, max(24, 4 * n_peaks + 16))
-    top = min(top, max(2, K // 2))
-    return range(2, top + 1, 2)
+    top = s.max_order if s.max_order is not None else max(24, 4 * n_peaks + 16)
+    return range(2, min(top, _order_limit(s, K)) + 1, 2)
 
 
 def _identify_part(f: np.ndarray, H: np.ndarray, weights: np.ndarray | None, a: float,
@@ -620,7 +619,7 @@ def _identify_part(f: np.ndarray, H: np.ndarray, weights: np.ndarray | None, a: 
     resolution = float(np.median(np.diff(f))) if len(f) > 1 else 1.0
     p, m, K = Hp.shape
     if n is None:
-        order_list = _orders(s, n_peaks, m, K, p)
+        order_list = _orders(s, n_peaks, m, K)
         if len(order_list) < 4:
             raise FRFError(f"part {a:g}-{b:g} Hz: {K} frequencies and {p} channel(s) allow "
                            f"{len(order_list)} {s.method} order(s) (up to "
@@ -634,7 +633,7 @@ def _identify_part(f: np.ndarray, H: np.ndarray, weights: np.ndarray | None, a: 
         if not raw:
             raise FRFError(f"part {a:g}-{b:g} Hz: {K} frequencies and {p} channel(s) support "
                            "no model; expected more frequencies in the part")  # fmt: skip
-        diagram = track_poles(raw, (a, b), s.method, resolution, s.criteria, sv)
+        diagram = stable_columns(raw, (a, b), s.method, resolution, s.criteria, sv)
         return raw[-1][0], diagram.modes, diagram
     if s.method == "plscf":
         ne = plscf.normal_equations(f, Hp, int(n), weights=weights)
@@ -647,7 +646,9 @@ def _identify_part(f: np.ndarray, H: np.ndarray, weights: np.ndarray | None, a: 
     return int(n), lam[physical(lam, (a, b), s.zeta_max)], None
 
 
-def _order_limit(s: Settings, K: int, m: int) -> int:
+def _order_limit(s: Settings, K: int) -> int:
+    """The highest order K frequencies support: pLSCF's polynomial order (K - 1) / 2, the
+    subspace method's K / 2 states, within each method's cap."""
     if s.method == "plscf":
         return min(plscf.MAX_ORDER, max(1, (K - 1) // 2))
     return min(MAX_ORDER, K // 2)
@@ -664,13 +665,12 @@ def _identify_pass(data: FRFData, prep: _Prepared, edges: list[float],
     wu = None if prep.weights is None else prep.weights[use]
     bands = list(zip(edges[:-1], edges[1:], part_orders, strict=True))
     masks = [(f >= a) & (f <= b) for a, b, _ in bands]
-    m = Hs.shape[1]
     for (a, b, n), ps in zip(bands, masks, strict=True):
         if ps.sum() < 4:
             raise FRFError(f"part {a:g}-{b:g} Hz holds {ps.sum()} frequencies; expected at "
                            "least 4")  # fmt: skip
         if n is not None:
-            limit = _order_limit(s, int(ps.sum()), m)
+            limit = _order_limit(s, int(ps.sum()))
             if not 1 <= int(n) <= limit:
                 raise FRFError(f"order {int(n)} is outside 1..{limit} for part {a:g}-{b:g} "
                                f"Hz ({ps.sum()} frequencies)")  # fmt: skip
