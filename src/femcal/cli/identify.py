@@ -16,6 +16,7 @@ import numpy as np
 from ..errors import FemcalWarning, message
 from ..identify import Layout, Settings, identify
 from ..identify.compare import pair_models
+from ..identify.plscf import MAX_ORDER as PLSCF_MAX_ORDER
 from ..identify.workflow import MAX_ORDER, METHODS
 from ..io.identified import write_model, write_summary
 from ..testdata.data import convert_units
@@ -103,9 +104,10 @@ def _check(args: argparse.Namespace) -> str | None:
     if args.split is not None and any(b <= a for a, b in itertools.pairwise(args.split)):
         return (f"--split {' '.join(f'{x:g}' for x in args.split)}: expected increasing "
                 "frequencies, each once")
-    if args.max_order is not None and args.method != "subspace" and args.max_order > 120:
-        return (f"--max-order {args.max_order}: expected at most 120 for plscf (its "
-                "polynomial order)")
+    if (args.max_order is not None and args.method != "subspace"
+            and args.max_order > PLSCF_MAX_ORDER):  # fmt: skip
+        return (f"--max-order {args.max_order}: expected at most {PLSCF_MAX_ORDER} for plscf "
+                "(its polynomial order)")
     if not (np.isfinite(args.gamma) and args.gamma > 1):
         return (f"--gamma {args.gamma:g}: expected a number above 1 (residual poles at GAMMA "
                 "times the upper band edge and at F1 / GAMMA, outside the band)")

@@ -19,9 +19,10 @@ from ..testdata.data import Channel
 NPZ_KEYS = ("A", "B", "C", "D", "residual_states", "poles", "frequency_hz", "damping_ratio",
             "shapes", "participation", "output_labels", "input_labels", "quantity", "units",
             "band", "fit_error", "suspect", "consistency")  # fmt: skip
-#: Keys written since the layout and the quality are kept (read when present).
-OPTIONAL_KEYS = ("transposed", "method", "mpc", "mpd", "complexity", "frf_correlation",
-                 "peaks_hz", "warnings")
+#: The quality arrays of the NPZ (read when present).
+QUALITY_KEYS = ("mpc", "mpd", "complexity", "frf_correlation", "peaks_hz")
+#: Keys read when present (a model written before the layout was kept has none of them).
+OPTIONAL_KEYS = ("transposed", "method", *QUALITY_KEYS, "warnings")
 
 
 def write_model(path: str | os.PathLike[str], model: IdentifiedModel) -> Path:
@@ -42,8 +43,7 @@ def write_model(path: str | os.PathLike[str], model: IdentifiedModel) -> Path:
                  suspect=model.suspect, consistency=consistency,
                  transposed=np.array(bool(model.layout and model.layout.transposed)),
                  method=np.array(model.method), warnings=np.array(model.warnings, dtype=str),
-                 **{k: getattr(model, k) for k in ("mpc", "mpd", "complexity",
-                                                   "frf_correlation", "peaks_hz")
+                 **{k: getattr(model, k) for k in QUALITY_KEYS
                     if getattr(model, k) is not None})  # fmt: skip
 
     return write_atomic(path, dump)
@@ -61,8 +61,7 @@ def read_model(path: str | os.PathLike[str]) -> IdentifiedModel:
         # a model written before the layout was kept has its shapes at the outputs
         flipped = "transposed" in z and bool(z["transposed"])
         layout = Layout(flipped, *((inputs, outputs) if flipped else (outputs, inputs)))
-        extra = {k: z[k] for k in ("mpc", "mpd", "complexity", "frf_correlation", "peaks_hz")
-                 if k in z}
+        extra = {k: z[k] for k in QUALITY_KEYS if k in z}
         return IdentifiedModel(
             StateSpace(z["A"], z["B"], z["C"], z["D"]), z["residual_states"], z["poles"],
             z["frequency_hz"], z["damping_ratio"], z["shapes"], z["participation"],

@@ -79,19 +79,18 @@ def write_uff(path: str | os.PathLike[str], data: FRFData, *, binary: bool = Fal
                                     "writes no function type 26); keep it in .npz or .mat"),
                       stacklevel=2)  # fmt: skip
         coherence = None
-    for o, co in enumerate(data.outputs):
-        for i, ci in enumerate(data.inputs):
-            if coherence is None:
-                break
-            sets.append(pyuff.prepare_58(
-                binary=int(binary), id1=f"Coherence {co.label} / {ci.label}", id2="NONE",
-                id3="coherence", id4="femcal", id5="NONE", func_type=6,
-                rsp_node=co.grid if co.grid is not None else 0, rsp_dir=_uff_direction(co),
-                ref_node=ci.grid if ci.grid is not None else 0, ref_dir=_uff_direction(ci),
-                ord_data_type=4, abscissa_spacing=1 if even else 0,
-                abscissa_spec_data_type=18, ordinate_spec_data_type=0,
-                orddenom_spec_data_type=0, data=coherence[o, i], x=f,
-            ))  # fmt: skip
+    pairs = [] if coherence is None else [
+        (o, co, i, ci) for o, co in enumerate(data.outputs) for i, ci in enumerate(data.inputs)]
+    for o, co, i, ci in pairs:
+        sets.append(pyuff.prepare_58(
+            binary=int(binary), id1=f"Coherence {co.label} / {ci.label}", id2="NONE",
+            id3="coherence", id4="femcal", id5="NONE", func_type=6,
+            rsp_node=co.grid if co.grid is not None else 0, rsp_dir=_uff_direction(co),
+            ref_node=ci.grid if ci.grid is not None else 0, ref_dir=_uff_direction(ci),
+            ord_data_type=4, abscissa_spacing=1 if even else 0,
+            abscissa_spec_data_type=18, ordinate_spec_data_type=0,
+            orddenom_spec_data_type=0, data=coherence[o, i], x=f,
+        ))  # fmt: skip
 
     return write_uff_sets(path, sets)
 
