@@ -41,6 +41,11 @@ class TimeDataError(FemcalError, ValueError):
     file, the keyword or channel, and what was expected."""
 
 
+class DriveLimitError(FemcalError):
+    """A drive beyond its actuators' limits, refused as the user chose: the message names
+    each actuator, the quantity (stroke, velocity, acceleration), the peak and the limit."""
+
+
 class ResourceError(FemcalError):
     """A request would need more memory (or another resource) than the machine has; raised
     before allocating."""

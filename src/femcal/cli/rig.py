@@ -15,13 +15,16 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
+import scipy.signal as ss
 
-from ..errors import TimeDataError
+from ..errors import DriveLimitError, FemcalWarning, TimeDataError
 from ..io.identified import read_model
 from ..io.rig import (
+    IterationFacts,
     iteration_dict,
     write_comparison_html,
     write_iteration_html,
@@ -35,6 +38,7 @@ from ..jobs.rig_compare import (
     model_with_values,
 )
 from ..model.build import load_model
+from ..rig.inverse import describe_pattern
 from ..rig.iterate import (
     IterationSettings,
     correct_drive,
@@ -43,7 +47,15 @@ from ..rig.iterate import (
     iterate_drive,
     measured_frf,
 )
+from ..rig.limits import (
+    ActuatorLimits,
+    LimitCheck,
+    check_limits,
+    read_limits,
+    scale_into_limits,
+)
 from ..rig.plant import RigPlant, build_plant, damping_from_modes
+from ..rig.quality import band_rms, channel_stats, relative_damage
 from ..rig.simulate import simulate
 from ..testdata.formats import read_frf, read_time_data, suffixes, write_time_data
 from ..testdata.points import read_points
@@ -75,18 +87,51 @@ def _plant_options(p: argparse.ArgumentParser, *, deck: bool = True) -> None:
                    help="modes kept (default up to 200 Hz; the others enter statically)")
 
 
-def _iteration_options(p: argparse.ArgumentParser, *, iterations: bool = True) -> None:
-    """The settings of the iteration (:class:`IterationSettings`)."""
+def _iteration_options(p: argparse.ArgumentParser, *, iterations: bool = True,
+                       limits: bool = True) -> None:  # fmt: skip
+    """The settings of the iteration (:class:`IterationSettings`), the channels' weights and
+    the actuators' limits."""
     if iterations:
         p.add_argument("--iterations", type=int, default=_D.iterations, metavar="N",
                        help=f"corrections after the first drive (default {_D.iterations})")
     p.add_argument("--gain", type=float, default=_D.gain,
                    help=f"gain of each correction (default {_D.gain:g})")
-    p.add_argument("--rcond", type=float, default=_D.rcond,
-                   help=f"singular values below RCOND x the largest are left out of the "
-                   f"inverse (default {_D.rcond:g})")  # fmt: skip
     p.add_argument("--band", type=float, nargs=2, default=_D.band, metavar=("F1", "F2"),
                    help=f"drive band (default {_D.band[0]:g} {_D.band[1]:g} Hz)")
+    p.add_argument("--noise-floor", type=float, metavar="FRACTION",
+                   help="the target's noise as a fraction of each channel's RMS (default: "
+                   "measured on the target above the drive band); drive directions the "
+                   "control channels do not see above it are held, not amplified")  # fmt: skip
+    p.add_argument("--effort", type=float, default=0.0, metavar="ALPHA",
+                   help="drive-effort penalty, relative to the best-seen drive direction "
+                   "(default 0)")  # fmt: skip
+    p.add_argument("--roll-off", type=float, default=0.0, metavar="HZ",
+                   help="roll the drive off below HZ as a fourth-order high-pass (default: "
+                   "none)")  # fmt: skip
+    p.add_argument("--no-frf-update", action="store_true",
+                   help="keep the FRF as inverted (default: updated from each drive and "
+                   "response, as RPC Pro updates its system model)")  # fmt: skip
+    p.add_argument("--taper", type=float, metavar="S",
+                   help="fade the target in and out over S seconds (default: one period of "
+                   "the band's low edge, only when the target's ends do not join; 0: never)")
+    p.add_argument("--weight", action="append", default=[], metavar="CHANNEL=W",
+                   help="weight of a control channel (default 1; mixed control: e.g. LVDTs "
+                   "at 0.5 beside accelerometers)")  # fmt: skip
+    if not limits:
+        return
+    p.add_argument("--limits", type=Path, metavar="CSV",
+                   help="actuator limits: label and any of stroke (+/-), velocity, "
+                   "acceleration, in the model's length unit (default: those columns of "
+                   "--actuators)")  # fmt: skip
+    p.add_argument("--stroke", type=float, metavar="L",
+                   help="stroke of every actuator (+/- from mid-stroke, model length unit)")
+    p.add_argument("--max-velocity", type=float, metavar="V",
+                   help="largest velocity of every actuator (length unit per s)")
+    p.add_argument("--max-acceleration", type=float, metavar="A",
+                   help="largest acceleration of every actuator (length unit per s^2)")
+    p.add_argument("--on-limit", choices=("warn", "scale", "refuse"), default="refuse",
+                   help="a drive beyond a limit: refuse to write it (default), scale it down "
+                   "as a whole until it fits, or write it with a warning")  # fmt: skip
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -109,9 +154,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
     it = rsub.add_parser("iterate", help="iterate drives to reproduce a target",
                          description="Find the drives that make the control channels follow "
-                         "a target: the model's FRF inverted (regularised SVD), first drive = "
-                         "inverse x target, then drive += gain x inverse x (target - "
-                         "response), each response played on the plant.")  # fmt: skip
+                         "a target, as RPC Pro iterates them: the FRF inverted line by line, "
+                         "regularised by the target's noise floor (drive directions the "
+                         "control channels do not see above it are held, and said), first "
+                         "drive = inverse x target, then regularised corrections from each "
+                         "response played on the plant, the FRF updated from each step. "
+                         "Errors are judged in the drive band; the drive is checked against "
+                         "the actuators' limits before it is written.")  # fmt: skip
     _plant_options(it)
     it.add_argument("--target", type=Path, required=True, help=f"target file ({time_sfx})")
     it.add_argument("--control", nargs="+", required=True, metavar="CHANNEL",
@@ -126,14 +175,22 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     help="invert the model's FRF (default), or the FRF measured by playing "
                     "noise drives on the plant, as a rig does")  # fmt: skip
     _iteration_options(it)
+    it.add_argument("--reference-drive", type=Path, metavar="DRIVE",
+                    help="the drive that made the target, when known: compared with the one "
+                    "found (in the band) and drawn beside it")  # fmt: skip
+    it.add_argument("--sn-slope", type=float, default=5.0, metavar="M",
+                    help="S-N slope of the relative damage, response over target, by "
+                    "rainflow and Miner's sum (default 5)")  # fmt: skip
     it.add_argument("--out", type=Path, required=True, metavar="DIR", help="folder to write")
 
     cor = rsub.add_parser("correct", help="one iteration step for a physical rig",
                           description="The drive/response exchange of a physical rig: without "
-                          "--drive, the first drive (the model's inverse FRF x the target); "
-                          "with --drive and --response (the control channels measured while "
-                          "--drive played), the next drive = drive + gain x inverse x (target "
-                          "- response).")  # fmt: skip
+                          "--drive, the first drive (the regularised inverse FRF x the "
+                          "target); with --drive and --response pairs (each response the "
+                          "control channels measured while its drive played, in the order "
+                          "played), the FRF updated from every pair and the next drive after "
+                          "the last. The drive is checked against the actuators' limits before "
+                          "it is written.")  # fmt: skip
     _plant_options(cor)
     cor.add_argument("--target", type=Path, required=True, help=f"target file ({time_sfx})")
     cor.add_argument("--control", nargs="+", required=True, metavar="CHANNEL",
@@ -142,8 +199,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                      help="invert these FRFs (femcal timedata frf of noise drives played on "
                      "the rig: inputs the actuators, LABEL or LABEL:displacement; outputs the "
                      "control channels, one unit a file) instead of the model's")  # fmt: skip
-    cor.add_argument("--drive", type=Path, help="the drive that was played")
-    cor.add_argument("--response", type=Path, help="the response measured while it played")
+    cor.add_argument("--drive", type=Path, action="append", default=[],
+                     help="a drive that was played (repeat for each step, in order)")
+    cor.add_argument("--response", type=Path, action="append", default=[],
+                     help="the response measured while that drive played (repeat likewise)")
     _iteration_options(cor, iterations=False)
     cor.add_argument("--out", type=Path, required=True, metavar="DRIVE",
                      help=f"the next drive ({time_sfx})")
@@ -168,7 +227,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                      help="control channels (names in the target and the rig's outputs)")
     cmp.add_argument("--reference-drive", type=Path, metavar="DRIVE",
                      help="the drives the physical rig used, to compare the models' with")
-    _iteration_options(cmp)
+    _iteration_options(cmp, limits=False)
     cmp.add_argument("--out", type=Path, required=True, metavar="DIR", help="folder to write")
 
 
@@ -252,9 +311,80 @@ def _simulate(args: argparse.Namespace) -> int:
 def _iteration_settings(args: argparse.Namespace) -> IterationSettings:
     try:
         return IterationSettings(iterations=getattr(args, "iterations", 0), gain=args.gain,
-                                 rcond=args.rcond, band=tuple(args.band))  # fmt: skip
+                                 band=tuple(args.band), noise_floor=args.noise_floor,
+                                 effort=args.effort, roll_off_hz=args.roll_off,
+                                 update_frf=not args.no_frf_update,
+                                 taper_s=args.taper)  # fmt: skip
+    except ValueError as e:
+        raise UsageError(str(e).replace("drive iteration: ", "")) from None
+
+
+def _weights(args: argparse.Namespace) -> list[float]:
+    """One weight per control channel from ``--weight CHANNEL=W`` (1 where none is given)."""
+    given = _pairs(args.weight, "--weight")
+    for name in given:
+        if name not in args.control:
+            raise UsageError(f"--weight {name}=...: not a control channel; expected one of "
+                             f"{', '.join(args.control)}")  # fmt: skip
+    out = []
+    for name in args.control:
+        text = given.get(name, "1")
+        try:
+            w = float(text)
+        except ValueError:
+            w = float("nan")
+        if not (np.isfinite(w) and w > 0):
+            raise UsageError(f"--weight {name}={text}: expected a positive number")
+        out.append(w)
+    return out
+
+
+def _limits(args: argparse.Namespace, plant: RigPlant) -> ActuatorLimits:
+    """The actuators' limits: --limits (else the limit columns of --actuators), then the
+    options that set one value for every actuator."""
+    if args.limits is not None:
+        limits = read_limits(args.limits, plant.inputs, required=True)
+    else:
+        limits = read_limits(args.actuators, plant.inputs)
+    try:
+        return limits.overridden(args.stroke, args.max_velocity, args.max_acceleration)
     except ValueError as e:
         raise UsageError(str(e)) from None
+
+
+def _enforce(drive: np.ndarray, dt: float, plant: RigPlant, args: argparse.Namespace,
+             target: Path) -> tuple[np.ndarray, LimitCheck, float]:  # fmt: skip
+    """The drive to write, its check against the limits and the factor it was scaled by,
+    as --on-limit says; a warning for a drive written beyond them, or scaled."""
+    check = check_limits(drive, dt, _limits(args, plant))
+    scale = 1.0
+    if check.exceeded:
+        lines = "; ".join(check.messages(plant.inputs, plant.input_units))
+        if args.on_limit == "scale":
+            drive, scale = scale_into_limits(drive, check)
+            warnings.warn(f"the drive for {target} exceeded the actuators' limits ({lines}); "
+                          f"scaled down by {scale:.4g} as a whole (--on-limit scale): it "
+                          "reproduces the target that much smaller", FemcalWarning,
+                          stacklevel=2)  # fmt: skip
+        elif args.on_limit == "warn":
+            warnings.warn(f"the drive written exceeds the actuators' limits: {lines} "
+                          "(--on-limit warn)", FemcalWarning, stacklevel=2)  # fmt: skip
+    return drive, check, scale
+
+
+def _refuse(check: LimitCheck, plant: RigPlant, drive_path: Path, report: str) -> None:
+    """The error of a drive refused for its limits (a stale drive file of that name is
+    removed first, so that no drive beyond them is left where one is expected)."""
+    removed = ""
+    if drive_path.is_file():
+        drive_path.unlink()
+        removed = f" (the earlier {drive_path.name} there was removed)"
+    raise DriveLimitError(f"the drive exceeds the actuators' limits: "
+                          f"{'; '.join(check.messages(plant.inputs, plant.input_units))}; not "
+                          f"written to {drive_path}{removed}. {report}--on-limit scale scales "
+                          "it down as a whole, --on-limit warn writes it anyway; --roll-off or "
+                          "--effort make the drive smaller where the control channels barely "
+                          "see it")  # fmt: skip
 
 
 def _iterate(args: argparse.Namespace) -> int:
@@ -277,11 +407,24 @@ def _iterate(args: argparse.Namespace) -> int:
             raise UsageError(f"--control {name}: not an output of the rig; expected one of "
                              f"{', '.join(model.outputs)}")  # fmt: skip
         control.append(model.outputs.index(name))
+    weights = _weights(args)
+    if not (np.isfinite(args.sn_slope) and args.sn_slope > 0):
+        raise UsageError(f"--sn-slope {args.sn_slope:g}: expected a positive S-N slope (3 for "
+                         "welded steel joints; 5 is common for components)")  # fmt: skip
+    limits = _limits(args, model)
     target = _channels(target_data, args.control, args.target, model)
     dt, n = target_data.dt, target.shape[1]
     if settings.band[1] >= 0.5 / dt:
         raise UsageError(f"--band {settings.band[0]:g} {settings.band[1]:g}: above the "
                          f"target's Nyquist frequency {0.5 / dt:g} Hz")  # fmt: skip
+    reference = None
+    if args.reference_drive is not None:
+        ref = read_time_data(args.reference_drive)
+        if abs(ref.dt - dt) > 1e-9 * dt or ref.n_samples < n:
+            raise UsageError(f"--reference-drive {args.reference_drive}: {ref.n_samples} "
+                             f"samples every {ref.dt:g} s; expected at least the target's {n} "
+                             f"every {dt:g} s")  # fmt: skip
+        reference = drive_channels(ref, model, args.reference_drive)[:, :n]
     if args.frf == "model":
         H = frf_on_lines(model, control, n, dt, settings.band)
         how = "the model's FRF"
@@ -289,40 +432,127 @@ def _iterate(args: argparse.Namespace) -> int:
         _say(t0, "measuring the FRF: noise drives on the plant")
         H = measured_frf(plant, control, n, dt, settings.band)
         how = "the FRF measured with noise drives on the plant"
-    result = iterate_drive(plant, H, target, control, dt, settings,
+    result = iterate_drive(plant, H, target, control, dt, settings, weights=weights,
                            progress=lambda m: _say(t0, m))  # fmt: skip
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
-    units = (model.input_units,) * len(model.inputs)
-    write_time_data(out / "drive.rsp", TimeData(dt, result.drive, model.inputs, units))
-    write_time_data(out / "response.rsp",
-                    TimeData(dt, result.response, plant.outputs, plant.output_units))  # fmt: skip
+    drive, check, scale = _enforce(result.drive, dt, model, args, args.target)
+    del limits
+    written = not (check.exceeded and args.on_limit == "refuse")
+    response = result.response * scale
     names = list(args.control)
     cunits = [model.output_units[c] for c in control]
-    response = result.response[control]
+    controlled = response[control]
+    stats = channel_stats(result.target, controlled)
+    damage = relative_damage(result.target, controlled, args.sn_slope)
+    ref_error = ref_rms = None
+    if reference is not None:
+        ref_rms = np.sqrt(np.mean(reference**2, axis=1))
+        size = band_rms(reference, dt, settings.band)
+        ref_error = band_rms(drive - reference, dt, settings.band) / np.where(size > 0, size, 1)
+    facts = IterationFacts(check, args.on_limit, scale, written, stats, damage, args.sn_slope,
+                           ref_error, ref_rms)  # fmt: skip
+    figures = _iteration_pictures(out, result, model, names, cunits, controlled, drive, dt,
+                                  settings, check, reference)  # fmt: skip
+    report = iteration_dict(result, plant, settings, target=str(args.target),
+                            model=str(args.deck), plant_deck=str(args.plant or args.deck),
+                            frf=how, facts=facts)  # fmt: skip
+    write_iteration_json(out / "iteration.json", report)
+    write_iteration_html(out / "report.html", report, figures)
+    write_time_data(out / "response.rsp",
+                    TimeData(dt, response, plant.outputs, plant.output_units))  # fmt: skip
+    if not written:
+        _refuse(check, model, out / "drive.rsp", f"The report is in {out}. ")
+    units = (model.input_units,) * len(model.inputs)
+    write_time_data(out / "drive.rsp", TimeData(dt, drive, model.inputs, units))
+    _say(t0, f"wrote {out}: drive.rsp, response.rsp, iteration.json, report.html, pictures")
+    _print_iteration(result, names, model, check, damage, ref_error)
+    return 0
+
+
+def _iteration_pictures(out: Path, result, model: RigPlant, names: list[str],
+                        cunits: list[str], controlled: np.ndarray, drive: np.ndarray,
+                        dt: float, settings: IterationSettings, check: LimitCheck,
+                        reference: np.ndarray | None) -> list[tuple[str, str, str]]:  # fmt: skip
+    """The iteration's pictures, drawn into ``out``: (title, file, caption) each."""
+    unit = model.input_units
     figures = [
-        ("Error at each iteration", "rms_error.png", "RMS of target - response over the "
-         "target's RMS, each control channel, after the first drive (0) and each correction."),
+        ("Error at each iteration", "rms_error.png", "RMS of target - response in the drive "
+         "band over the target's RMS there, each control channel, after the first drive (0) "
+         "and each correction."),
+        ("Drives at each iteration", "drives_psd.png", "PSDs (Welch, 4 s Hann segments) of "
+         "each actuator's drive, light for the first drive to dark for the last"
+         + (", and the reference drive dashed." if reference is not None else ".")),
+        ("Drives over time", "drives_time.png", "The last drive of each actuator over the "
+         "whole record, with its stroke dashed in red where one is given"
+         + (" and the reference drive in grey." if reference is not None else ".")),
         ("Target and response", "target_response.png", "The control channels around the "
          "target's peak after the last step."),
         ("Target and response: PSDs", "target_response_psd.png", "Welch PSDs (4 s Hann "
          "segments) of target and response after the last step."),
+        ("Error spectra", "error_psd.png", "PSD of target - response after the last step "
+         "against the target's, the drive band shaded and the target's noise floor dotted."),
     ]  # fmt: skip
     pictures.error_history(out / figures[0][1], result.rms_error, names)
-    pictures.target_and_response(out / figures[1][1], dt, target, response, names, cunits)
-    pictures.target_and_response_psd(out / figures[2][1], dt, target, response, names, cunits,
-                                     band=settings.band)  # fmt: skip
-    report = iteration_dict(result, plant, settings, target=str(args.target),
-                            model=str(args.deck), plant_deck=str(args.plant or args.deck),
-                            frf=how)  # fmt: skip
-    write_iteration_json(out / "iteration.json", report)
-    write_iteration_html(out / "report.html", report, figures)
-    _say(t0, f"wrote {out}: drive.rsp, response.rsp, iteration.json, report.html, pictures")
+    ref_psd = None
+    if reference is not None:
+        ref_psd = np.vstack([np.interp(result.psd_hz, *_welch(r, dt)) for r in reference])
+    pictures.drive_psd_history(out / figures[1][1], result.psd_hz, result.drive_psd,
+                               list(model.inputs), unit, reference=ref_psd,
+                               band=settings.band)  # fmt: skip
+    pictures.drive_histories(out / figures[2][1], dt, drive, list(model.inputs), unit,
+                             stroke=check.limit[0], reference=reference)  # fmt: skip
+    pictures.target_and_response(out / figures[3][1], dt, result.target, controlled, names,
+                                 cunits)  # fmt: skip
+    pictures.target_and_response_psd(out / figures[4][1], dt, result.target, controlled,
+                                     names, cunits, band=settings.band)  # fmt: skip
+    pictures.error_spectra(out / figures[5][1], dt, result.target, controlled, names, cunits,
+                           noise_fraction=None if result.noise is None
+                           else result.noise.fraction, band=settings.band)  # fmt: skip
+    return figures
+
+
+def _welch(x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """(frequencies, PSD) of one signal, as the iteration's drive PSDs are made."""
+    m = min(len(x), max(8, round(4.0 / dt)))
+    return ss.welch(x, fs=1.0 / dt, nperseg=m)
+
+
+def _print_iteration(result, names: list[str], model: RigPlant, check: LimitCheck,
+                     damage: np.ndarray, ref_error: np.ndarray | None) -> None:  # fmt: skip
+    """The iteration on the console: the noise floor and taper, each control channel's
+    in-band error after each step, its error outside the band, damage and state; the
+    directions not seen; the drives against their limits."""
+    if result.noise is not None:
+        print(f"target noise floor: {result.noise.source}: "
+              + ", ".join(f"{100 * v:.2g} %" for v in result.noise.fraction))
+    if result.taper_s:
+        print(f"the target's ends do not join: faded in and out over {result.taper_s:g} s "
+              "(--taper 0 takes it as one period)")  # fmt: skip
     width = max(len(n) for n in names)
-    print(f"{'control channel':<{width}}  RMS error (% of target) after each step")
+    print(f"{'control channel':<{width}}  in-band RMS error (% of target) after each step; "
+          "outside the band; relative damage")  # fmt: skip
     for k, name in enumerate(names):
-        print(f"{name:<{width}}  " + " ".join(f"{100 * e:7.2f}" for e in result.rms_error[:, k]))
-    return 0
+        print(f"{name:<{width}}  " + " ".join(f"{100 * e:7.2f}" for e in result.rms_error[:, k])
+              + f" | {100 * result.out_of_band[-1, k]:6.2f} | {damage[k]:6.3g}")
+    for k, name in enumerate(names):
+        print(f"  {name}: {result.status[k]}")
+    n_drives = len(model.inputs)
+    for u in result.unseen:
+        what = ("all directions" if u.directions >= n_drives else
+                f"{u.directions} direction(s), the weakest "
+                f"{describe_pattern(u.pattern, model.inputs)}")  # fmt: skip
+        print(f"not seen above the noise at {u.low_hz:.3g}-{u.high_hz:.3g} Hz: {what}; held")
+    aw = max(len(a) for a in model.inputs)
+    unit = model.input_units
+    print(f"{'actuator':<{aw}}  {'RMS':>9} {'peak':>9} {'stroke':>9}"
+          + (f" {'vs reference in band %':>23}" if ref_error is not None else ""))
+    for j, a in enumerate(model.inputs):
+        stroke = check.limit[0, j]
+        limit = f"{stroke:9.4g}" if np.isfinite(stroke) else f"{'-':>9}"
+        print(f"{a:<{aw}}  {result.drives[-1, j]:9.4g} {check.peak[0, j]:9.4g} {limit}"
+              + (f" {100 * ref_error[j]:23.1f}" if ref_error is not None else "")
+              + f"  ({unit})")
 
 
 def _channels(data: TimeData, names: list[str], where: Path, plant: RigPlant) -> np.ndarray:
@@ -343,9 +573,10 @@ def _channels(data: TimeData, names: list[str], where: Path, plant: RigPlant) ->
 def _correct(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     settings = _iteration_settings(args)
-    if (args.drive is None) != (args.response is None):
-        raise UsageError("--drive and --response go together (the drive played and the "
-                         "response measured); give neither for the first drive")
+    if len(args.drive) != len(args.response):
+        raise UsageError(f"{len(args.drive)} --drive and {len(args.response)} --response: they "
+                         "go in pairs (each drive played and the response measured while it "
+                         "played); give neither for the first drive")  # fmt: skip
     output_file(args.out, "--out", "time")
     target_data = read_time_data(args.target)
     model = _plant(args.deck, args, args.damping, t0)
@@ -354,32 +585,58 @@ def _correct(args: argparse.Namespace) -> int:
         bad = args.control[control.index(-1)]
         raise UsageError(f"--control {bad}: not an output of the rig; expected one of "
                          f"{', '.join(model.outputs)}")  # fmt: skip
+    weights = _weights(args)
+    _limits(args, model)
     target = _channels(target_data, args.control, args.target, model)
     dt, n = target_data.dt, target.shape[1]
     if args.frf is not None:
         H = _frf_files(args.frf, model, args.control, n, dt, settings.band)
     else:
         H = frf_on_lines(model, control, n, dt, settings.band)
-    drive = response = None
-    if args.drive is not None:
-        played, measured = read_time_data(args.drive), read_time_data(args.response)
-        for path, data in ((args.drive, played), (args.response, measured)):
+    drives, responses = [], []
+    for drive_path, response_path in zip(args.drive, args.response, strict=True):
+        played, measured = read_time_data(drive_path), read_time_data(response_path)
+        for path, data in ((drive_path, played), (response_path, measured)):
             if abs(data.dt - dt) > 1e-9 * dt or data.n_samples != n:
                 raise UsageError(f"{path}: {data.n_samples} samples every {data.dt:g} s; "
                                  f"expected the target's {n} every {dt:g} s")  # fmt: skip
-        drive = drive_channels(played, model, args.drive)
-        response = _channels(measured, args.control, args.response, model)
-    nxt = correct_drive(H, target, settings.rcond, drive, response, settings.gain)
+        drives.append(drive_channels(played, model, drive_path))
+        responses.append(_channels(measured, args.control, response_path, model))
+    step = correct_drive(H, target, dt, settings, drives=drives, responses=responses,
+                         weights=weights)  # fmt: skip
+    drive, check, _scale = _enforce(step.drive, dt, model, args, args.target)
+    if check.exceeded and args.on_limit == "refuse":
+        _refuse(check, model, args.out, "")
     units = (model.input_units,) * len(model.inputs)
-    write_time_data(args.out, TimeData(dt, nxt, model.inputs, units))
+    write_time_data(args.out, TimeData(dt, drive, model.inputs, units))
     _say(t0, f"wrote {args.out}")
-    if response is not None:
-        size = np.sqrt(np.mean(target**2, axis=1))
-        err = np.sqrt(np.mean((target - response) ** 2, axis=1)) / np.where(size > 0, size, 1)
+    p = step.prepared
+    print(f"target noise floor: {p.noise.source}: "
+          + ", ".join(f"{100 * v:.2g} %" for v in p.noise.fraction))
+    if p.taper_s:
+        print(f"the target's ends do not join: faded in and out over {p.taper_s:g} s (the "
+              "drive starts and ends at rest; --taper 0 takes it as one period)")  # fmt: skip
+    if step.frf_updates:
+        print("FRF lines updated from each drive and response pair: "
+              + ", ".join(str(k) for k in step.frf_updates))
+    for u in step.unseen:
+        what = ("all directions" if u.directions >= len(model.inputs) else
+                f"{u.directions} direction(s), the weakest "
+                f"{describe_pattern(u.pattern, model.inputs)}")  # fmt: skip
+        print(f"not seen above the noise at {u.low_hz:.3g}-{u.high_hz:.3g} Hz: {what}; held")
+    if step.error is not None:
         width = max(len(c) for c in args.control)
-        print(f"{'control channel':<{width}}  RMS error of the response (% of target)")
-        for c, e in zip(args.control, err, strict=True):
-            print(f"{c:<{width}}  {100 * e:7.2f}")
+        print(f"{'control channel':<{width}}  RMS error of the last response (% of target): in "
+              "the band, outside it")  # fmt: skip
+        for k, c in enumerate(args.control):
+            print(f"{c:<{width}}  {100 * step.error.in_band[k]:7.2f} "
+                  f"{100 * step.error.out_of_band[k]:7.2f}")  # fmt: skip
+    aw = max(len(a) for a in model.inputs)
+    for j, a in enumerate(model.inputs):
+        stroke = check.limit[0, j]
+        limit = f" of stroke {stroke:.4g}" if np.isfinite(stroke) else ""
+        print(f"{a:<{aw}}  RMS {np.sqrt(np.mean(drive[j] ** 2)):.4g}, peak "
+              f"{check.peak[0, j]:.4g}{limit} {model.input_units}")  # fmt: skip
     return 0
 
 
@@ -453,6 +710,7 @@ def _compare(args: argparse.Namespace) -> int:
     if args.reference_drive is not None:
         reference = drive_channels(ref, models[0][1], args.reference_drive)
     runs = compare_models(models, target, args.control, settings, reference_drive=reference,
+                          weights=_weights(args),
                           progress=lambda m: _say(t0, m))  # fmt: skip
     report = comparison_dict(runs, settings, target=str(args.target), control=args.control)
     figures = _compare_pictures(args.out, runs, target, args.control, reference, settings)

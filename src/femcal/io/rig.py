@@ -9,44 +9,131 @@ from __future__ import annotations
 import html
 import json
 import os
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..atomic import write_lines
 from ..rig.iterate import Iteration, IterationSettings
+from ..rig.limits import QUANTITIES, LimitCheck
 from ..rig.plant import RigPlant
+from ..rig.quality import ChannelStats
 from .html import HEADER_STYLE, embedded_figure, file_facts, html_header, html_table, provenance
 
 _STYLE = ("body{font-family:sans-serif;margin:2em;max-width:1400px}"
           "table{border-collapse:collapse;margin:1em 0}"
           "td,th{border:1px solid #bbb;padding:3px 8px;text-align:right}th{background:#eee}"
           "img{max-width:100%;display:block;margin:0.5em 0}"
-          "figcaption{color:#333;font-size:0.95em}" + HEADER_STYLE)
+          "figcaption{color:#333;font-size:0.95em}.warn{color:#a00}" + HEADER_STYLE)
+
+
+def settings_dict(settings: IterationSettings) -> dict:
+    """The iteration's settings as JSON."""
+    s = settings
+    return {"iterations": s.iterations, "gain": s.gain, "band_hz": list(s.band),
+            "noise_floor": "measured" if s.noise_floor is None else s.noise_floor,
+            "effort": s.effort, "roll_off_hz": s.roll_off_hz, "update_frf": s.update_frf,
+            "taper_s": "when the ends do not join" if s.taper_s is None else s.taper_s}
+
+
+@dataclass(frozen=True)
+class IterationFacts:
+    """What the command adds to an iteration for its report.
+
+    Attributes
+    ----------
+    limits : the last drive's peaks against the actuators' limits.
+    limit_action : warn, scale or refuse; scale : the factor the drive was scaled by (1:
+        not); drive_written : whether drive.rsp was written.
+    stats : the control channels' minimum, maximum and RMS (target as iterated and
+        response).
+    damage : (n_control,) relative damage, response over target; sn_slope : its S-N slope.
+    reference_error : (n_drives,) in the band, RMS of drive - reference over the
+        reference's, when a reference drive was given; reference_rms : (n_drives,) its RMS.
+    """
+
+    limits: LimitCheck
+    limit_action: str
+    scale: float
+    drive_written: bool
+    stats: ChannelStats
+    damage: np.ndarray
+    sn_slope: float
+    reference_error: np.ndarray | None = None
+    reference_rms: np.ndarray | None = None
 
 
 def iteration_dict(result: Iteration, plant: RigPlant, settings: IterationSettings, *,
                    target: str, model: str, plant_deck: str, frf: str,
+                   facts: IterationFacts | None = None,
                    uncontrolled: dict[str, float] | None = None) -> dict:  # fmt: skip
-    """The JSON summary: settings, files, per control channel the RMS error (fraction of the
-    target's RMS) after each step, each drive's RMS after each step, and each output's RMS
-    in the last response."""
+    """The JSON summary: settings, files, the target's noise floor and taper, per control
+    channel its weight, in-band and out-of-band error after each step, its state, extremes
+    and relative damage; per drive its RMS after each step and its peaks against its
+    limits; the drive directions not seen; and each output's RMS in the last response."""
     names = [plant.outputs[c] for c in result.control]
     rms = np.sqrt(np.mean(result.response**2, axis=1))
-    return {
+    control = []
+    for k, n in enumerate(names):
+        entry = {"channel": n, "rms_error": [float(e) for e in result.rms_error[:, k]]}
+        if result.out_of_band.size:
+            entry["out_of_band_error"] = [float(e) for e in result.out_of_band[:, k]]
+        if result.weights.size:
+            entry["weight"] = float(result.weights[k])
+        if result.status:
+            entry["status"] = result.status[k]
+        if result.noise is not None:
+            entry["noise_floor"] = float(result.noise.fraction[k])
+        if facts is not None:
+            st = facts.stats
+            entry["target"] = {"min": float(st.target_min[k]), "max": float(st.target_max[k]),
+                               "rms": float(st.target_rms[k])}
+            entry["response"] = {"min": float(st.response_min[k]),
+                                 "max": float(st.response_max[k]),
+                                 "rms": float(st.response_rms[k])}
+            entry["relative_damage"] = float(facts.damage[k])
+        control.append(entry)
+    drives = []
+    for j, a in enumerate(plant.inputs):
+        entry = {"actuator": a, "unit": plant.input_units,
+                 "rms": [float(v) for v in result.drives[:, j]]}
+        if facts is not None:
+            for q, name in enumerate(QUANTITIES):
+                entry[f"peak_{name}"] = float(facts.limits.peak[q, j])
+                lim = facts.limits.limit[q, j]
+                entry[f"limit_{name}"] = float(lim) if np.isfinite(lim) else None
+            if facts.reference_error is not None:
+                entry["reference_rms"] = float(facts.reference_rms[j])
+                entry["reference_error"] = float(facts.reference_error[j])
+        drives.append(entry)
+    report = {
         "target": target, "model": model, "plant": plant_deck, "frf": frf,
-        "settings": {"iterations": settings.iterations, "gain": settings.gain,
-                     "rcond": settings.rcond, "band_hz": list(settings.band)},
-        "control": [{"channel": n, "rms_error": [float(e) for e in result.rms_error[:, k]]}
-                    for k, n in enumerate(names)],
-        "drives": [{"actuator": a, "unit": plant.input_units,
-                    "rms": [float(v) for v in result.drives[:, j]]}
-                   for j, a in enumerate(plant.inputs)],
+        "settings": settings_dict(settings),
+        "taper_s": result.taper_s,
+        "control": control,
+        "drives": drives,
+        "unseen": [{"low_hz": u.low_hz, "high_hz": u.high_hz, "directions": u.directions,
+                    "pattern": {a: float(v) for a, v in zip(plant.inputs, u.pattern,
+                                                             strict=True)}}
+                   for u in result.unseen],
+        "frf_updates": list(result.frf_updates),
         "response_rms": {n: float(v) for n, v in zip(plant.outputs, rms, strict=True)},
         "final_rms_error": {"worst": float(result.rms_error[-1].max()),
                             "median": float(np.median(result.rms_error[-1]))},
         **({"uncontrolled": uncontrolled} if uncontrolled else {}),
     }  # fmt: skip
+    if result.noise is not None:
+        report["noise_floor"] = {"source": result.noise.source,
+                                 "measured": result.noise.measured}
+    if facts is not None:
+        report["limits"] = {"action": facts.limit_action, "exceeded": facts.limits.exceeded,
+                            "worst_ratio": facts.limits.worst, "scale": facts.scale,
+                            "drive_written": facts.drive_written,
+                            "messages": facts.limits.messages(plant.inputs,
+                                                              plant.input_units)}
+        report["sn_slope"] = facts.sn_slope
+    return report
 
 
 def write_iteration_json(path: str | os.PathLike[str], report: dict) -> Path:
@@ -74,34 +161,116 @@ def _header(report: dict, roles: list[tuple[str, str]]) -> str:
     return html_header(provenance(inputs))
 
 
+def _settings_text(s: dict) -> str:
+    """The iteration's settings in a sentence."""
+    floor = ("measured on the target" if s.get("noise_floor", "measured") == "measured"
+             else f"{s['noise_floor']:g} of each channel's RMS")  # fmt: skip
+    parts = [f"{s['iterations']} corrections with gain {s['gain']:g}",
+             f"drives in {s['band_hz'][0]:g}-{s['band_hz'][1]:g} Hz",
+             f"noise floor {floor}"]  # fmt: skip
+    if s.get("effort"):
+        parts.append(f"drive-effort penalty {s['effort']:g}")
+    if s.get("roll_off_hz"):
+        parts.append(f"roll-off below {s['roll_off_hz']:g} Hz")
+    parts.append("FRF updated from each step" if s.get("update_frf", False)
+                 else "FRF kept as inverted")  # fmt: skip
+    return "; ".join(parts)
+
+
 def write_iteration_html(path: str | os.PathLike[str], report: dict,
                          figures: list[tuple[str, str, str]]) -> Path:  # fmt: skip
-    """The page: a header (version, date, command, input files), what was iterated, the
-    error table (channel x iteration), the drives' RMS, the pictures (title, PNG file
+    """The page: a header (version, date, command, input files), what was iterated and how,
+    each control channel's state, the error tables (in the band after each step, outside
+    it), the channels' extremes and relative damage, the drives against their limits, the
+    drive directions the control channels do not see, and the pictures (title, PNG file
     relative to the page's folder, caption), numbered and embedded."""
+    esc = html.escape
     steps = len(report["control"][0]["rms_error"]) if report["control"] else 0
-    head = ["control channel"] + [f"{k}" for k in range(steps)]
-    rows = [[c["channel"], *(f"{100 * e:.2f}" for e in c["rms_error"])]
+    head = ["control channel", "weight"] + [f"{k}" for k in range(steps)] + ["outside band"]
+    rows = [[c["channel"], f"{c.get('weight', 1.0):g}",
+             *(f"{100 * e:.2f}" for e in c["rms_error"]),
+             f"{100 * c['out_of_band_error'][-1]:.2f}" if "out_of_band_error" in c else "-"]
             for c in report["control"]]  # fmt: skip
+    unit = report["drives"][0]["unit"] if report["drives"] else ""
     drives = [[d["actuator"], *(f"{v:.4g}" for v in d["rms"])] for d in report["drives"]]
-    s = report["settings"]
     last = report["final_rms_error"]
+    parts = []
+    status = [c for c in report["control"] if "status" in c]
+    if status:
+        parts.append("<h2>State of each control channel</h2><ul>" + "".join(
+            f"<li><b>{esc(c['channel'])}</b>: {esc(c['status'])}</li>" for c in status)
+            + "</ul>")  # fmt: skip
+    limits = report.get("limits")
+    if limits:
+        if limits["exceeded"]:
+            what = {"warn": "written as found, with this warning",
+                    "scale": f"scaled down by {limits['scale']:.3g} as a whole, then written",
+                    "refuse": "<b>not written</b>"}[limits["action"]]  # fmt: skip
+            parts.append(f"<p class=\"warn\"><b>The drive exceeds the actuators' limits</b> "
+                         f"(--on-limit {esc(limits['action'])}: {what}):</p><ul>"
+                         + "".join(f"<li>{esc(m)}</li>" for m in limits["messages"])
+                         + "</ul>")  # fmt: skip
+        elif any(d.get(f"limit_{q}") for d in report["drives"] for q in QUANTITIES):
+            parts.append(f"<p>The drive stays within every limit given (at worst "
+                         f"{100 * limits['worst_ratio']:.0f} % of one).</p>")
+    parts.append("<h2>RMS error of each control channel in the drive band (% of the target's "
+                 "RMS there) after each step; outside the band (% of the target's whole "
+                 "RMS) after the last</h2>" + html_table(rows, head))
+    if report["control"] and "target" in report["control"][0]:
+        stat_rows = [[c["channel"], *(f"{c[w][k]:.4g}" for w in ("target", "response")
+                                       for k in ("min", "max", "rms")),
+                      f"{c['relative_damage']:.3g}"] for c in report["control"]]  # fmt: skip
+        parts.append(f"<h2>Control channels: extremes, RMS and relative damage (S-N slope "
+                     f"{report.get('sn_slope', 0):g})</h2>" + html_table(stat_rows, [
+                         "channel", "target min", "target max", "target RMS", "response min",
+                         "response max", "response RMS", "damage response / target"]))
+    parts.append(f"<h2>RMS of each drive ({esc(unit)}) after each step</h2>"
+                 + html_table(drives, ["actuator"] + [f"{k}" for k in range(steps)]))
+    if report["drives"] and "peak_stroke" in report["drives"][0]:
+        units = (unit, f"{unit}/s", f"{unit}/s²")
+
+        def cell(d: dict, q: str) -> str:
+            lim = d[f"limit_{q}"]
+            return f"{d[f'peak_{q}']:.4g}" + (f" / {lim:.4g}" if lim is not None else "")
+
+        lim_rows = [[d["actuator"], *(cell(d, q) for q in QUANTITIES),
+                     *([f"{d['reference_rms']:.4g}", f"{100 * d['reference_error']:.1f}"]
+                       if "reference_error" in d else [])] for d in report["drives"]]
+        lim_head = ["actuator", *(f"peak {q} ({u}) / limit" for q, u in zip(
+            QUANTITIES, units, strict=True))]  # fmt: skip
+        if report["drives"] and "reference_error" in report["drives"][0]:
+            lim_head += [f"reference RMS ({unit})", "drive - reference in band (%)"]
+        parts.append("<h2>Last drive: peaks against the actuators' limits</h2>"
+                     + html_table(lim_rows, lim_head))
+    unseen = report.get("unseen", [])
+    if unseen:
+        n_drives = len(report["drives"])
+        rows_u = [[f"{u['low_hz']:.3g}-{u['high_hz']:.3g}", f"{u['directions']} of {n_drives}",
+                   "all" if u["directions"] >= n_drives else esc(" ".join(
+                       f"{v:+.2f} {a}" for a, v in sorted(u["pattern"].items(),
+                                                          key=lambda kv: -abs(kv[1]))
+                       if abs(v) >= 0.2))] for u in unseen]  # fmt: skip
+        parts.append("<h2>Drive directions the control channels do not see above the "
+                     "target's noise</h2><p>There the inverse keeps less than half of the "
+                     "drive a direction would need: the drive is held near the least effort "
+                     "(the minimal-warp drive, when the warp is the unseen direction) instead "
+                     "of amplifying noise and model error. Control channels that see them "
+                     "(LVDTs, load cells) release them.</p>"
+                     + html_table(rows_u, ["band (Hz)", "directions", "weakest direction"]))
+    noise = report.get("noise_floor")
+    taper = report.get("taper_s", 0.0)
     page = f"""<!DOCTYPE html><html><head><meta charset="utf-8">
 <title>femcal drive iteration</title><style>{_STYLE}</style></head><body>
 <h1>femcal drive iteration</h1>
 {_header(report, [("target", "target"), ("model", "model deck"), ("plant", "plant deck")])}
-<p>Target <code>{html.escape(report['target'])}</code>; FRF inverted: {html.escape(report['frf'])}
-of <code>{html.escape(report['model'])}</code>; plant played: <code>{
-html.escape(report['plant'])}</code>. {s['iterations']} corrections with gain {s['gain']:g}, the
-FRF's singular values below {s['rcond']:g} of the largest left out, drives in
-{s['band_hz'][0]:g}-{s['band_hz'][1]:g} Hz.</p>
-<p><b>After the last step the RMS error is {100 * last['worst']:.2f} % of the target's RMS at
-worst, {100 * last['median']:.2f} % median.</b></p>
-<h2>RMS error of each control channel (% of its target's RMS) after each step</h2>
-{html_table(rows, head)}
-<h2>RMS of each drive ({html.escape(report['drives'][0]['unit'] if report['drives'] else '')})
-after each step</h2>
-{html_table(drives, ["actuator"] + [f"{k}" for k in range(steps)])}
+<p>Target <code>{esc(report['target'])}</code>; FRF inverted: {esc(report['frf'])}
+of <code>{esc(report['model'])}</code>; plant played: <code>{esc(report['plant'])}</code>.
+{esc(_settings_text(report['settings']))}.{
+f" The target's noise floor: {esc(noise['source'])}." if noise else ""}{
+f" Its ends do not join: faded in and out over {taper:g} s." if taper else ""}</p>
+<p><b>After the last step the RMS error in the drive band is {100 * last['worst']:.2f} % of
+the target's at worst, {100 * last['median']:.2f} % median.</b></p>
+{''.join(parts)}
 {_figures(path, figures)}
 </body></html>"""
     return write_lines(path, [page])

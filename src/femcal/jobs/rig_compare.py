@@ -20,10 +20,12 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError, TimeDataError
+from ..io.rig import settings_dict
 from ..model.build import load_model
 from ..model.model import Model
 from ..rig.iterate import Iteration, IterationSettings, frf_on_lines, iterate_drive
 from ..rig.plant import RigPlant
+from ..rig.quality import band_rms
 from ..testdata.timedata import TimeData
 from ..testdata.units import unit_factor
 from .synthetic_test import hidden_values
@@ -52,17 +54,10 @@ class ModelOnRig:
     channel_error: dict[str, float]
 
 
-def _band_rms(x: np.ndarray, dt: float, band: tuple[float, float]) -> np.ndarray:
-    """RMS of each row of x (rows, n) over the lines in ``band`` (Parseval)."""
-    X = np.fft.rfft(x, axis=1)
-    f = np.fft.rfftfreq(x.shape[1], dt)
-    keep = (f >= band[0]) & (f <= band[1])
-    return np.sqrt(2 * np.sum(np.abs(X[:, keep]) ** 2, axis=1)) / x.shape[1]
-
-
 def compare_models(models: Sequence[tuple[str, RigPlant]], target: TimeData,
                    control: Sequence[str], settings: IterationSettings | None = None, *,
                    reference_drive: np.ndarray | None = None,
+                   weights: Sequence[float] | None = None,
                    progress: Callable[[str], None] | None = None) -> list[ModelOnRig]:  # fmt: skip
     """Iterate every model on itself against the target's ``control`` channels and compare
     (see the module docstring). ``reference_drive`` (n_drives, n): the drives the physical
@@ -110,13 +105,13 @@ def compare_models(models: Sequence[tuple[str, RigPlant]], target: TimeData,
         if progress is not None:
             progress(f"model {name}: iterating on itself")
         H = frf_on_lines(plant, idx, n, dt, s.band)
-        it = iterate_drive(plant, H, values, idx, dt, s,
+        it = iterate_drive(plant, H, values, idx, dt, s, weights=weights,
                            progress=None if progress is None
                            else (lambda m, name=name: progress(f"model {name}: {m}")))  # fmt: skip
         drive_error = None
         if reference_drive is not None:
-            drive_error = (_band_rms(it.drive - reference_drive, dt, s.band)
-                           / _band_rms(reference_drive, dt, s.band))  # fmt: skip
+            drive_error = (band_rms(it.drive - reference_drive, dt, s.band)
+                           / band_rms(reference_drive, dt, s.band))  # fmt: skip
         errors = {}
         for c in others:
             meas = measured(c)
@@ -168,8 +163,7 @@ def comparison_dict(runs: Sequence[ModelOnRig], settings: IterationSettings, *, 
                                         zip(r.plant.inputs, r.drive_error, strict=True)}
         models.append(entry)
     return {"target": target, "control": list(control),
-            "settings": {"iterations": settings.iterations, "gain": settings.gain,
-                         "rcond": settings.rcond, "band_hz": list(settings.band)},
+            "settings": settings_dict(settings),
             "actuators": list(runs[0].plant.inputs) if runs else [],
             "models": models}  # fmt: skip
 

@@ -4,24 +4,33 @@ the control channels follow a target.
 1. The system FRF ``H`` (n_control, n_drives) from the drives to the control channels: from
    a model (:meth:`~femcal.rig.plant.RigPlant.frf`), or measured by playing noise drives on
    the plant and estimating H1 (:func:`measured_frf`).
-2. Its regularised inverse at each line, with each control channel scaled by its target's
-   RMS first (so that channels in N and in mm/s^2 weigh alike): the SVD ``H = U S V^H``,
-   singular values below ``rcond`` times the largest left out, ``H^+ = V S^-1 U^H`` (Golub
-   and Van Loan, Matrix Computations, 4th ed., sec. 5.5.4); zero outside the drive band.
-3. The first drive ``d_0 = H^+ t`` of the target ``t``, line by line over the whole record's
-   spectrum, then ``d_{k+1} = d_k + g H^+ (t - r_k)`` with ``r_k`` the plant's response to
-   ``d_k``; the RMS error of each control channel relative to its target's RMS is recorded at
-   every iteration.
-4. The gain ``g`` is kept line by line: it starts at ``gain`` and halves at a line whose
-   error grew in the last step. Where the inverted FRF is far from the plant's (a resonance
-   the model puts elsewhere, so the phase is wrong by more than 90 degrees) the plain
-   correction diverges at those lines; the halved gain stops it there while the other
-   lines converge at the full gain.
+2. The target as iterated: the record is taken as one period of a looped drive when its
+   ends join (:func:`ends_join`); a record whose ends do not join (a slice of a road
+   measurement) is faded in and out over a taper, so that the drive starts and ends at rest
+   and the wrap-around makes no step that only a huge low-frequency drive could follow.
+3. The regularised inverse at each line of the record's spectrum (:mod:`femcal.rig.inverse`):
+   the target's noise floor, the drive power its lines show, each control channel's weight;
+   zero outside the drive band.
+4. The first drive is the inverse times the target. Each correction then takes a
+   Gauss-Newton step on each line's objective (the weighted error plus the drive penalty,
+   :func:`femcal.rig.inverse.objective`)::
+
+       D <- D + g A^-1 (H^H W (T - R) - diag(pen) D),
+
+   so that the corrections keep the regularisation (a plain ``D + g H^+ (T - R)`` would
+   converge to the unregularised drive and amplify the noise again). The gain ``g`` is kept
+   line by line: it starts at ``gain`` and halves at a line whose objective grew in the
+   last step (there the inverted FRF is far from the plant's).
+5. With ``update_frf`` the FRF is updated after each step from the drive and response pairs
+   (:mod:`femcal.rig.update`), as RPC Pro updates its system model.
+6. Convergence is judged in the drive band (:mod:`femcal.rig.quality`): outside it the rig
+   is not driven and the error is the target's noise floor; each control channel's last
+   state is explained (:func:`explain`).
 
 The plant that plays the drives may be another model than the one whose FRF is inverted: the
-model stands in for the physical rig, as the physical rig stands in for the road. The record
-is taken as one period of a periodic target (the drive loops), so the spectra are exact and
-the responses steady; :func:`~femcal.rig.simulate.simulate` plays it.
+model stands in for the physical rig, as the physical rig stands in for the road. Each
+drive loops (:func:`~femcal.rig.simulate.simulate` plays it periodically), so the spectra are
+exact and the responses steady.
 """
 
 from __future__ import annotations
@@ -30,11 +39,23 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.signal as ss
 
 from ..errors import TimeDataError
 from ..testdata import signal
+from . import inverse
+from .inverse import NoiseFloor, UnseenBand
 from .plant import RigPlant
+from .quality import BandErrors, band_errors
 from .simulate import simulate
+from .update import broyden_update
+
+#: The wrap-around step's chi-square (over channels, in units of a typical step) above
+#: which a record's ends do not join: n + 4 sqrt(2 n) (a periodic record exceeds it by
+#: chance about once in 500).
+JOIN_SIGMAS = 4.0
+#: Relative fall of the in-band error in the last step below which a channel has stalled.
+STALL = 0.05
 
 
 @dataclass(frozen=True)
@@ -44,17 +65,27 @@ class IterationSettings:
     Attributes
     ----------
     iterations : corrections after the first drive.
-    gain : of each correction at first, in (0, 1]; halved line by line where the error
+    gain : of each correction at first, in (0, 1]; halved line by line where the objective
         grows.
-    rcond : singular values of the FRF below ``rcond`` times the largest are left out of the
-        inverse.
-    band : (low, high) Hz: the drive band; the inverse is zero outside it.
+    band : (low, high) Hz: the drive band; the drive is zero outside it.
+    noise_floor : the target's noise as a fraction of each channel's RMS (white); None:
+        measured on the target above the drive band (:func:`femcal.rig.inverse.noise_floor`).
+    effort : drive-effort penalty relative to the best-seen direction (0: none).
+    roll_off_hz : the drive rolls off below this frequency (0: no roll-off).
+    update_frf : update the FRF from each step's drive and response.
+    taper_s : fade-in and fade-out of a target whose ends do not join (s); None: one period
+        of the band's low edge, at most a tenth of the record, and only when the ends do not
+        join; 0: never (the target is taken as one period).
     """
 
     iterations: int = 8
     gain: float = 0.5
-    rcond: float = 1e-3
     band: tuple[float, float] = (0.5, 40.0)
+    noise_floor: float | None = None
+    effort: float = 0.0
+    roll_off_hz: float = 0.0
+    update_frf: bool = True
+    taper_s: float | None = None
 
     def __post_init__(self) -> None:
         """Check every setting (ValueError naming it)."""
@@ -62,14 +93,118 @@ class IterationSettings:
             ("iterations", isinstance(self.iterations, int) and self.iterations >= 0,
              "a whole number, 0 or more"),
             ("gain", np.isfinite(self.gain) and 0 < self.gain <= 1, "in (0, 1]"),
-            ("rcond", np.isfinite(self.rcond) and 0 <= self.rcond < 1, "in [0, 1)"),
             ("band", len(self.band) == 2 and 0 <= self.band[0] < self.band[1],
              "0 <= F1 < F2 in Hz"),
+            ("noise_floor", self.noise_floor is None
+             or (np.isfinite(self.noise_floor) and 0 < self.noise_floor < 1),
+             "a fraction in (0, 1) of each channel's RMS, or measured (None)"),
+            ("effort", np.isfinite(self.effort) and self.effort >= 0, "0 or more"),
+            ("roll_off_hz", np.isfinite(self.roll_off_hz) and self.roll_off_hz >= 0,
+             "0 Hz (none) or more"),
+            ("taper_s", self.taper_s is None
+             or (np.isfinite(self.taper_s) and self.taper_s >= 0),
+             "0 s (none) or more, or None (when the ends do not join)"),
         )  # fmt: skip
         for name, ok, expected in checks:
             if not ok:
                 raise ValueError(f"drive iteration: {name} = {getattr(self, name)!r}: expected "
                                  f"{expected}")  # fmt: skip
+
+
+def ends_join(target: np.ndarray) -> tuple[bool, float]:
+    """(whether the record's ends join, the statistic): the step from the last sample to the
+    first, in units of the RMS of each channel's steps, squared and summed over channels. A
+    record that is one period of a looped signal makes an ordinary step there (chi-square
+    with one degree of freedom a channel); a slice of a longer record makes a jump of the
+    signal's own size. The ends join when the sum is below ``n + 4 sqrt(2 n)``."""
+    steps = np.diff(target, axis=1)
+    scale = np.sqrt(np.mean(steps**2, axis=1)) if steps.shape[1] else np.ones(len(target))
+    wrap = target[:, 0] - target[:, -1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.where(scale > 0, wrap / scale, 0.0)
+    stat = float(np.sum(z**2))
+    n = len(target)
+    return stat <= n + JOIN_SIGMAS * np.sqrt(2 * n), stat
+
+
+def taper_window(n: int, m: int) -> np.ndarray:
+    """(n,) ones with half-cosine ramps of m samples at both ends (a Tukey window)."""
+    w = np.ones(n)
+    m = min(m, n // 2)
+    if m > 0:
+        ramp = 0.5 - 0.5 * np.cos(np.pi * (np.arange(m) + 0.5) / m)
+        w[:m] = ramp
+        w[n - m :] = ramp[::-1]
+    return w
+
+
+@dataclass(frozen=True)
+class Prepared:
+    """A target and an FRF made ready for the regularised inverse.
+
+    Attributes
+    ----------
+    target : (n_control, n) the target as iterated (faded in and out when tapered).
+    taper_s : the taper applied (0: none); ends_statistic : :func:`ends_join`'s statistic.
+    frequency_hz : (n_lines,) the drive band's lines; lines : (n // 2 + 1,) their mask.
+    T : (n_control, n_lines) the target's spectrum there.
+    noise : its noise floor; weight : (n_control,) ``w_c / nu_c``; channel_weight : w_c.
+    prior : (n_drives, n_lines) the drive power the target shows; pen : the penalty.
+    Hf : (n_lines, n_control, n_drives) the FRF on the lines.
+    """
+
+    target: np.ndarray
+    taper_s: float
+    ends_statistic: float
+    frequency_hz: np.ndarray
+    lines: np.ndarray
+    T: np.ndarray
+    noise: NoiseFloor
+    weight: np.ndarray
+    channel_weight: np.ndarray
+    prior: np.ndarray
+    pen: np.ndarray
+    Hf: np.ndarray
+
+
+def prepare(H: np.ndarray, target: np.ndarray, dt: float, settings: IterationSettings,
+            weights: Sequence[float] | None = None) -> Prepared:  # fmt: skip
+    """The target (tapered when its ends do not join, as ``settings.taper_s`` says), its
+    noise floor and drive prior, and the penalty, for the FRF ``H`` (n_control, n_drives,
+    n // 2 + 1).
+
+    Raises
+    ------
+    TimeDataError
+        For weights that are not one positive number per control channel.
+    """
+    s = settings
+    n = target.shape[1]
+    joined, stat = ends_join(target)
+    taper = 0.0
+    if s.taper_s is None:
+        if not joined:
+            taper = min(1.0 / max(s.band[0], 1e-3), 0.1 * n * dt)
+    else:
+        taper = float(s.taper_s)
+    if taper > 0:
+        target = target * taper_window(n, round(taper / dt))
+    w = np.ones(len(target)) if weights is None else np.asarray(weights, float)
+    if w.shape != (len(target),) or not (np.isfinite(w).all() and (w > 0).all()):
+        raise TimeDataError(f"channel weights {list(np.atleast_1d(w))}: expected one positive "
+                            f"number per control channel ({len(target)})")  # fmt: skip
+    f = np.fft.rfftfreq(n, dt)
+    T_all = np.fft.rfft(target, axis=1)
+    size = np.sqrt(np.mean(target**2, axis=1))
+    noise = inverse.noise_floor(T_all, f, s.band, n, size, s.noise_floor)
+    weight = w / noise.variance
+    lines = (f >= s.band[0]) & (f <= s.band[1]) & (f > 0)
+    Hf = np.ascontiguousarray(np.moveaxis(H[:, :, lines], 2, 0))
+    T = T_all[:, lines]
+    fl = f[lines]
+    prior = inverse.drive_prior(Hf, T, weight, fl)
+    pen = inverse.penalty(Hf, weight, prior, fl, effort=s.effort, roll_off_hz=s.roll_off_hz)
+    return Prepared(target, taper, stat, fl, lines, T, noise, weight, w, prior, pen, Hf)
 
 
 @dataclass(frozen=True)
@@ -81,9 +216,21 @@ class Iteration:
     drive : (n_drives, n) the last drive (the model's length unit).
     response : (n_out, n) every output of the plant to it.
     control : (n_control,) indices of the control channels among the plant's outputs.
-    rms_error : (iterations + 1, n_control) RMS of target - response over RMS of target,
-        per control channel, after the first drive and after each correction.
+    rms_error : (iterations + 1, n_control) in the drive band, the RMS of target - response
+        over the target's, per control channel, after the first drive and each correction.
     drives : (iterations + 1, n_drives) RMS of each drive after each step.
+    out_of_band : (iterations + 1, n_control) outside the band, RMS of target - response
+        over the target's whole RMS.
+    drive_psd : (iterations + 1, n_drives, n_psd) each step's drive PSD (Welch, Hann);
+        psd_hz : (n_psd,) its frequencies.
+    target : (n_control, n) the target as iterated (tapered when it was).
+    taper_s : the taper applied (0: none).
+    noise : the target's noise floor; weights : (n_control,) the channels' weights.
+    unseen : bands where drive directions are not seen above the noise (held).
+    frf_updates : (iterations,) lines of the FRF updated after each step.
+    halved : (n_lines,) lines of the band where the gain was halved at least once;
+        frequency_hz : (n_lines,) the band's lines.
+    status : (n_control,) each control channel's last state, in words (:func:`explain`).
     """
 
     drive: np.ndarray
@@ -91,17 +238,18 @@ class Iteration:
     control: tuple[int, ...]
     rms_error: np.ndarray
     drives: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
-
-
-def regularised_inverse(H: np.ndarray, rcond: float) -> np.ndarray:
-    """H^+ (n_in, n_out, n_f) of H (n_out, n_in, n_f) by truncated SVD at each line."""
-    Hf = np.moveaxis(H, 2, 0)  # (n_f, n_out, n_in)
-    U, s, Vh = np.linalg.svd(Hf, full_matrices=False)
-    top = s[:, :1]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv_s = np.where((s > rcond * top) & (s > 0), 1.0 / s, 0.0)
-    Hinv = np.einsum("fji,fj,fkj->fik", Vh.conj(), inv_s, U.conj())  # V S^-1 U^H
-    return np.moveaxis(Hinv, 0, 2)
+    out_of_band: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    drive_psd: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 0)))
+    psd_hz: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    target: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    taper_s: float = 0.0
+    noise: NoiseFloor | None = None
+    weights: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    unseen: tuple[UnseenBand, ...] = ()
+    frf_updates: tuple[int, ...] = ()
+    halved: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    frequency_hz: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    status: tuple[str, ...] = ()
 
 
 def frf_on_lines(plant: RigPlant, control: Sequence[int], n: int, dt: float,
@@ -180,82 +328,224 @@ def _check(H: np.ndarray, target: np.ndarray, n_control: int, n_drives: int) -> 
     return target
 
 
-def target_inverse(H: np.ndarray, target: np.ndarray, rcond: float) -> tuple[np.ndarray,
-                                                                            np.ndarray]:
-    """(H^+ (n_drives, n_control, n_f), the target's RMS per channel (n_control,)): the
-    inverse with each control channel in units of its target's RMS, so that the SVD's
-    threshold does not depend on the channels' units (a force in N beside an acceleration
-    in mm/s^2)."""
-    size = np.sqrt(np.mean(target**2, axis=1))
-    size = np.where(size > 0, size, 1.0)
-    return regularised_inverse(H / size[:, None, None], rcond) / size[None, :, None], size
+def _on_lines(x: np.ndarray, p: Prepared) -> np.ndarray:
+    """The spectrum of a record (rows, n) on the band's lines (rows, n_lines)."""
+    return np.fft.rfft(x, axis=1)[:, p.lines]
 
 
-def correct_drive(H: np.ndarray, target: np.ndarray, rcond: float,
-                  drive: np.ndarray | None = None, response: np.ndarray | None = None,
-                  gain: float = 1.0) -> np.ndarray:  # fmt: skip
-    """One step of the iteration for a rig femcal does not play (the drive/response
-    exchange of a physical rig): the first drive ``H^+ t`` when ``drive`` is None, else
-    ``drive + gain H^+ (t - response)`` with ``response`` (n_control, n) the control
-    channels measured when ``drive`` (n_drives, n) was played.
+def _to_time(D: np.ndarray, p: Prepared, n: int) -> np.ndarray:
+    """The drive (n_drives, n) of a spectrum on the band's lines (zero elsewhere)."""
+    full = np.zeros((D.shape[0], n // 2 + 1), complex)
+    full[:, p.lines] = D
+    return np.fft.irfft(full, n, axis=1)
 
-    Raises
-    ------
-    TimeDataError
-        As :func:`iterate_drive`, or a drive or response of another shape.
-    """
-    target = _check(H, target, H.shape[0], H.shape[1])
-    n = target.shape[1]
-    Hinv, _ = target_inverse(H, target, rcond)
-    if drive is None:
-        return np.fft.irfft(np.einsum("iof,of->if", Hinv, np.fft.rfft(target, axis=1)), n,
-                            axis=1)  # fmt: skip
-    if response is None or drive.shape != (H.shape[1], n) or response.shape != target.shape:
-        raise TimeDataError(f"a drive of shape {np.shape(drive)} and a response of shape "
-                            f"{np.shape(response)}; expected ({H.shape[1]}, {n}) and "
-                            f"{target.shape}: the drive played and the control channels "
-                            "measured, as long as the target")  # fmt: skip
-    E = np.fft.rfft(target - response, axis=1)
-    return drive + gain * np.fft.irfft(np.einsum("iof,of->if", Hinv, E), n, axis=1)
+
+def _step(p: Prepared, Hf: np.ndarray, Ainv: np.ndarray, E: np.ndarray,
+          D: np.ndarray) -> np.ndarray:  # fmt: skip
+    """The Gauss-Newton step A^-1 (H^H W E - diag(pen) D) (n_drives, n_lines)."""
+    g = inverse.gradient(Hf, p.weight, p.pen, E, D)
+    return np.einsum("fij,jf->if", Ainv, g)
+
+
+def _update(p: Prepared, Hf: np.ndarray, pairs: list[tuple[np.ndarray, np.ndarray]]
+            ) -> tuple[np.ndarray, int]:  # fmt: skip
+    """The FRF after Broyden's update with the last of ``pairs`` (drive, response on the
+    lines) against the one before it (or the rig at rest), and the lines updated."""
+    D, R = pairs[-1]
+    if len(pairs) > 1:
+        D, R = D - pairs[-2][0], R - pairs[-2][1]
+    Hf, ok = broyden_update(Hf, D, R, p.weight)
+    return Hf, int(ok.sum())
+
+
+def _psd(x: np.ndarray, dt: float, segment_s: float = 4.0) -> tuple[np.ndarray, np.ndarray]:
+    """Welch PSDs (rows, n_f) of each row of x, Hann segments of ``segment_s``."""
+    m = min(x.shape[1], max(8, round(segment_s / dt)))
+    f, P = ss.welch(x, fs=1.0 / dt, nperseg=m, axis=1)
+    return f, P
 
 
 def iterate_drive(plant: RigPlant, H: np.ndarray, target: np.ndarray, control: Sequence[int],
                   dt: float, settings: IterationSettings | None = None, *,
+                  weights: Sequence[float] | None = None,
                   progress: Callable[[str], None] | None = None) -> Iteration:  # fmt: skip
     """Iterate drives on ``plant`` so that its outputs ``control`` follow ``target``
     (n_control, n) sampled at ``dt``, inverting ``H`` (n_control, n_drives, n // 2 + 1; see
-    :func:`frf_on_lines`, :func:`measured_frf`) as the module docstring says.
+    :func:`frf_on_lines`, :func:`measured_frf`) as the module docstring says; ``weights``
+    (n_control,) weigh the control channels (default 1 each).
 
     Raises
     ------
     TimeDataError
         For a target of another channel count than the control channels, non-finite
-        samples, or an FRF not on the target's lines.
+        samples, an FRF not on the target's lines, or weights that are not one positive
+        number per control channel.
     """
     s = settings or IterationSettings()
     target = _check(H, target, len(control), plant.beta.shape[1])
     n = target.shape[1]
-    Hinv, size = target_inverse(H, target, s.rcond)
-    T = np.fft.rfft(target, axis=1)
-    D = np.einsum("iof,of->if", Hinv, T)  # the drive's spectrum
-    gain = np.full(T.shape[1], s.gain)
+    p = prepare(H, target, dt, s, weights)
+    Hf = p.Hf
+    Ainv = inverse.solver(Hf, p.weight, p.pen)
+    D = _step(p, Hf, Ainv, p.T, np.zeros((Hf.shape[2], len(p.frequency_hz)), complex))
+    gain = np.full(len(p.frequency_hz), s.gain)
+    halved = np.zeros(len(p.frequency_hz), bool)
     before = None
-    errors, drives = [], []
+    errors, outside, drives, psds, updates = [], [], [], [], []
+    pairs: list[tuple[np.ndarray, np.ndarray]] = []
+    control = list(control)
     for k in range(s.iterations + 1):
-        drive = np.fft.irfft(D, n, axis=1)
+        drive = _to_time(D, p, n)
         response = simulate(plant, drive, dt, periodic=True)
-        error = target - response[list(control)]
-        errors.append(np.sqrt(np.mean(error**2, axis=1)) / size)
+        err: BandErrors = band_errors(p.target, response[control], dt, s.band)
+        errors.append(err.in_band)
+        outside.append(err.out_of_band)
         drives.append(np.sqrt(np.mean(drive**2, axis=1)))
+        psd_hz, psd = _psd(drive, dt)
+        psds.append(psd)
         if progress is not None:
-            progress(f"iteration {k}: RMS error {100 * errors[-1].max():.2f} % at worst, "
-                     f"{100 * np.median(errors[-1]):.2f} % median")  # fmt: skip
+            progress(f"iteration {k}: in-band RMS error {100 * err.in_band.max():.2f} % at "
+                     f"worst, {100 * np.median(err.in_band):.2f} % median")  # fmt: skip
         if k == s.iterations:
             break
-        E = np.fft.rfft(error, axis=1)
-        now = np.linalg.norm(E / size[:, None], axis=0)
+        R = _on_lines(response[control], p)
+        E = p.T - R
+        if s.update_frf:
+            pairs.append((D.copy(), R))
+            Hf, changed = _update(p, Hf, pairs)
+            updates.append(changed)
+            if changed:
+                Ainv = inverse.solver(Hf, p.weight, p.pen)
+        now = inverse.objective(p.weight, p.pen, E, D)
         if before is not None:
-            gain = np.where(now > before, gain / 2, gain)
+            grew = now > before
+            gain = np.where(grew, gain / 2, gain)
+            halved |= grew
         before = now
-        D = D + gain * np.einsum("iof,of->if", Hinv, E)
-    return Iteration(drive, response, tuple(control), np.array(errors), np.array(drives))
+        D = D + gain * _step(p, Hf, Ainv, E, D)
+    unseen = inverse.unseen_directions(Hf, p.weight, p.pen, p.frequency_hz)
+    held = inverse.unseen_count(Hf, p.weight, p.pen) > 0
+    result = Iteration(drive, response, tuple(control), np.array(errors), np.array(drives),
+                       np.array(outside), np.array(psds), psd_hz, p.target, p.taper_s,
+                       p.noise, p.channel_weight, tuple(unseen), tuple(updates), halved,
+                       p.frequency_hz)  # fmt: skip
+    status = explain(result, p, held)
+    return Iteration(**{**result.__dict__, "status": status})
+
+
+def explain(result: Iteration, p: Prepared, held: np.ndarray) -> tuple[str, ...]:
+    """Each control channel's last state in words: converged (to the noise floor, or to
+    round-off), still falling, or stalled and why: most of its remaining error at lines
+    where the drive is held (not seen above the noise), or where the gain was halved (the
+    FRF far from the plant's), or neither (the FRF differs from the plant's everywhere)."""
+    errors = result.rms_error
+    last = errors[-1]
+    E = p.T - _on_lines(result.response[list(result.control)], p)
+    band_power = np.sum(np.abs(p.T) ** 2, axis=1)
+    floor = np.sqrt(p.noise.variance * len(p.frequency_hz) / np.maximum(band_power, 1e-300))
+    out = []
+    for c in range(len(last)):
+        e = last[c]
+        share = np.abs(E[c]) ** 2
+        total = share.sum()
+
+        def part(mask: np.ndarray, share: np.ndarray = share, total: float = total) -> float:
+            return float(share[mask].sum() / total) if total > 0 else 0.0
+
+        def where(mask: np.ndarray) -> str:
+            f = p.frequency_hz[mask]
+            return f"{f.min():.3g}-{f.max():.3g} Hz" if f.size else "-"
+
+        if e <= 1.5 * floor[c] or e < 1e-4:
+            out.append(f"converged: {100 * e:.3g} % in band, at the target's noise floor "
+                       f"({100 * floor[c]:.2g} %)" if e > 1e-4 else
+                       f"converged: {100 * e:.2g} % in band")  # fmt: skip
+            continue
+        fall = 1 - e / errors[-2, c] if len(errors) > 1 and errors[-2, c] > 0 else 0.0
+        if fall > STALL:
+            out.append(f"still falling: {100 * errors[-2, c]:.3g} -> {100 * e:.3g} % in band "
+                       "in the last step; more iterations would lower it")  # fmt: skip
+            continue
+        h, g = part(held), part(result.halved & ~held)
+        if h >= 0.5:
+            out.append(f"stalled at {100 * e:.3g} % in band: {100 * h:.0f} % of the error lies "
+                       f"where the drive is held ({where(held)}): the control channels do not "
+                       "see the drive there above the target's noise")  # fmt: skip
+        elif g >= 0.5:
+            out.append(f"stalled at {100 * e:.3g} % in band: {100 * g:.0f} % of the error lies "
+                       f"where the gain was halved ({where(result.halved & ~held)}): the FRF "
+                       "inverted is far from the plant's there; a measured FRF or more "
+                       "iterations with the FRF update would help")  # fmt: skip
+        else:
+            out.append(f"stalled at {100 * e:.3g} % in band: the FRF inverted differs from the "
+                       "plant's across the band; a measured FRF or the FRF update would "
+                       "help")  # fmt: skip
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class Correction:
+    """One step of the iteration for a physical rig.
+
+    Attributes
+    ----------
+    drive : (n_drives, n) the next drive.
+    prepared : the target, noise floor and inverse it used.
+    unseen : bands where drive directions are not seen above the noise (held).
+    frf_updates : lines of the FRF updated from each drive and response pair given.
+    error : BandErrors of the last response given (None for the first drive).
+    """
+
+    drive: np.ndarray
+    prepared: Prepared
+    unseen: tuple[UnseenBand, ...]
+    frf_updates: tuple[int, ...]
+    error: BandErrors | None
+
+
+def correct_drive(H: np.ndarray, target: np.ndarray, dt: float,
+                  settings: IterationSettings | None = None, *,
+                  drives: Sequence[np.ndarray] = (), responses: Sequence[np.ndarray] = (),
+                  weights: Sequence[float] | None = None) -> Correction:  # fmt: skip
+    """One step of the iteration for a rig femcal does not play (the drive/response
+    exchange of a physical rig): the first drive when no drive was played, else the next
+    one after the last of ``drives`` (each (n_drives, n), played in order) whose control
+    channels measured ``responses`` (each as the target), the FRF updated with every pair
+    in order when ``settings.update_frf``.
+
+    Raises
+    ------
+    TimeDataError
+        As :func:`iterate_drive`, or drives and responses of other shapes or counts.
+    """
+    s = settings or IterationSettings()
+    target = _check(H, target, H.shape[0], H.shape[1])
+    n = target.shape[1]
+    if len(drives) != len(responses):
+        raise TimeDataError(f"{len(drives)} drives and {len(responses)} responses; expected a "
+                            "response measured for each drive played")  # fmt: skip
+    for k, (d, r) in enumerate(zip(drives, responses, strict=True)):
+        if np.shape(d) != (H.shape[1], n) or np.shape(r) != target.shape:
+            raise TimeDataError(f"drive {k + 1}: shape {np.shape(d)}, its response "
+                                f"{np.shape(r)}; expected ({H.shape[1]}, {n}) and "
+                                f"{target.shape}: the drive played and the control channels "
+                                "measured, as long as the target")  # fmt: skip
+    p = prepare(H, target, dt, s, weights)
+    Hf = p.Hf
+    pairs: list[tuple[np.ndarray, np.ndarray]] = []
+    updates = []
+    for d, r in zip(drives, responses, strict=True):
+        pairs.append((_on_lines(np.asarray(d, float), p), _on_lines(np.asarray(r, float), p)))
+        if s.update_frf:
+            Hf, changed = _update(p, Hf, pairs)
+            updates.append(changed)
+    Ainv = inverse.solver(Hf, p.weight, p.pen)
+    if not pairs:
+        D = _step(p, Hf, Ainv, p.T, np.zeros((H.shape[1], len(p.frequency_hz)), complex))
+        error = None
+    else:
+        D_last, R_last = pairs[-1]
+        D = D_last + s.gain * _step(p, Hf, Ainv, p.T - R_last, D_last)
+        error = band_errors(p.target, np.asarray(responses[-1], float), dt, s.band)
+    unseen = inverse.unseen_directions(Hf, p.weight, p.pen, p.frequency_hz)
+    return Correction(_to_time(D, p, n), p, tuple(unseen), tuple(updates), error)

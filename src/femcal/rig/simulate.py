@@ -62,7 +62,7 @@ _D1 = np.array([-1, 9, -45, 0, 45, -9, 1]) / 60
 _D2 = np.array([2, -27, 270, -490, 270, -27, 2]) / 180
 
 
-def _derivatives(s: np.ndarray, dt: float, periodic: bool) -> tuple[np.ndarray, np.ndarray]:
+def derivatives(s: np.ndarray, dt: float, periodic: bool) -> tuple[np.ndarray, np.ndarray]:
     """(s', s'') of s (n_in, n) by sixth-order central differences, wrapped at the ends of
     a periodic drive, else over the drive continued by odd reflection."""
     n = s.shape[1]
@@ -105,7 +105,7 @@ def simulate(plant: RigPlant, drive: np.ndarray, dt: float, *, periodic: bool = 
     g = 1.0 / (2j * wd)
     c0, c1 = _hold_coefficients(mu, dt)
     gamma, feed = g * (lam * c1 + c0), g * c1
-    s1, s2 = _derivatives(s, dt, periodic)
+    s1, s2 = derivatives(s, dt, periodic)
     k = plant.n_modes
     rate = (2 * z * w)[:, None]
 

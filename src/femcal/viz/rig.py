@@ -8,6 +8,7 @@ import os
 from collections.abc import Sequence
 
 import numpy as np
+import scipy.signal as ss
 
 from ..testdata.signal import cross_spectra
 from .figures import pyplot, save_figure
@@ -106,4 +107,104 @@ def overlay_psd(path: str | os.PathLike[str], dt: float, names: Sequence[str],
         axes[c // cols, c % cols].axis("off")
     axes[0, 0].legend(fontsize=7)
     fig.suptitle(title or "Power spectral densities")
+    return save_figure(fig, path)
+
+
+def _panels(plt, count: int, height: float = 2.2):
+    """A grid of two columns of panels (fewer for one), the extra ones hidden."""
+    rows = min(count, MAX_PANELS)
+    cols = 2 if rows > 1 else 1
+    n_rows = -(-rows // cols)
+    fig, axes = plt.subplots(n_rows, cols, figsize=(5.2 * cols, 1.6 + height * n_rows),
+                             squeeze=False, sharex=True)  # fmt: skip
+    for c in range(rows, axes.size):
+        axes[c // cols, c % cols].axis("off")
+    return fig, [axes[c // cols, c % cols] for c in range(rows)]
+
+
+def drive_psd_history(path: str | os.PathLike[str], frequency_hz: np.ndarray,
+                      psd: np.ndarray, names: Sequence[str], unit: str, *,
+                      reference: np.ndarray | None = None,
+                      band: tuple[float, float] | None = None, title: str = ""):  # fmt: skip
+    """One panel per actuator: its drive's PSD after each step (``psd``: (steps, n_drives,
+    n_f), light to dark from the first drive to the last), and the reference drive's
+    (n_drives, n_f) in black when given."""
+    plt = pyplot()
+    fig, axes = _panels(plt, len(names))
+    steps = psd.shape[0]
+    colours = plt.get_cmap("viridis")(np.linspace(0.85, 0.0, max(steps, 1)))
+    keep = frequency_hz > 0
+    for j, ax in enumerate(axes):
+        for k in range(steps):
+            label = ("first drive" if k == 0 else "last drive" if k == steps - 1 else None)
+            ax.semilogy(frequency_hz[keep], psd[k, j, keep], color=colours[k],
+                        lw=1.2 if k == steps - 1 else 0.7, label=label)  # fmt: skip
+        if reference is not None:
+            ax.semilogy(frequency_hz[keep], reference[j, keep], color="k", lw=1.0, ls="--",
+                        label="reference")  # fmt: skip
+        ax.set_title(names[j], fontsize=9, loc="left")
+        ax.set_ylabel(f"PSD ({unit}²/Hz)")
+        ax.grid(True, which="both", alpha=0.3)
+        if band is not None:
+            ax.set_xlim(0, min(frequency_hz[-1], 1.5 * band[1]))
+    axes[-1].set_xlabel("frequency (Hz)")
+    axes[0].legend(fontsize=7)
+    fig.suptitle(title or "Drives at each iteration: power spectral densities")
+    return save_figure(fig, path)
+
+
+def drive_histories(path: str | os.PathLike[str], dt: float, drive: np.ndarray,
+                    names: Sequence[str], unit: str, *, stroke: np.ndarray | None = None,
+                    reference: np.ndarray | None = None, title: str = ""):  # fmt: skip
+    """One panel per actuator: the drive over the whole record, its stroke (+/-) dashed in
+    red where one is given, and the reference drive in grey when given."""
+    plt = pyplot()
+    fig, axes = _panels(plt, len(names), height=1.8)
+    t = np.arange(drive.shape[1]) * dt
+    for j, ax in enumerate(axes):
+        if reference is not None:
+            ax.plot(t, reference[j], color="0.6", lw=0.6, label="reference")
+        ax.plot(t, drive[j], color="tab:blue", lw=0.6, label="drive")
+        if stroke is not None and np.isfinite(stroke[j]):
+            for sign in (1, -1):
+                ax.axhline(sign * stroke[j], color="tab:red", ls="--", lw=0.9,
+                           label="stroke" if sign > 0 else None)  # fmt: skip
+        ax.set_title(names[j], fontsize=9, loc="left")
+        ax.set_ylabel(unit)
+        ax.grid(True, alpha=0.3)
+    axes[-1].set_xlabel("time (s)")
+    axes[0].legend(fontsize=7)
+    fig.suptitle(title or "Drives: time histories")
+    return save_figure(fig, path)
+
+
+def error_spectra(path: str | os.PathLike[str], dt: float, target: np.ndarray,
+                  response: np.ndarray, names: Sequence[str], units: Sequence[str], *,
+                  noise_fraction: np.ndarray | None = None,
+                  band: tuple[float, float] | None = None, segment_s: float = 4.0,
+                  title: str = ""):  # fmt: skip
+    """One panel per control channel: the PSD of target - response against the target's,
+    the drive band shaded, and the target's noise floor (white, ``noise_fraction`` of its
+    RMS) as a dotted line."""
+    plt = pyplot()
+    fig, axes = _panels(plt, len(names))
+    m = min(target.shape[1], max(8, round(segment_s / dt)))
+    f, Pt = ss.welch(target, fs=1.0 / dt, nperseg=m, axis=1)
+    _, Pe = ss.welch(target - response, fs=1.0 / dt, nperseg=m, axis=1)
+    keep = f > 0
+    for c, ax in enumerate(axes):
+        ax.semilogy(f[keep], Pt[c, keep], color="0.55", lw=0.8, label="target")
+        ax.semilogy(f[keep], np.maximum(Pe[c, keep], 1e-300), color="tab:red", lw=0.9,
+                    label="target - response")  # fmt: skip
+        if noise_fraction is not None:
+            level = (noise_fraction[c] * np.sqrt(np.mean(target[c] ** 2))) ** 2 * 2 * dt
+            ax.axhline(level, color="k", ls=":", lw=0.9, label="noise floor")
+        if band is not None:
+            ax.axvspan(band[0], band[1], color="tab:green", alpha=0.07, lw=0)
+        ax.set_title(names[c], fontsize=9, loc="left")
+        ax.set_ylabel(f"PSD ({units[c]}²/Hz)" if units[c] else "PSD")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[-1].set_xlabel("frequency (Hz); shaded: the drive band")
+    axes[0].legend(fontsize=7)
+    fig.suptitle(title or "Error spectra: target - response")
     return save_figure(fig, path)
