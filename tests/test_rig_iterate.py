@@ -282,3 +282,56 @@ def test_files_in_other_units_are_converted_and_wrong_kinds_refused(tmp_path, ca
     assert main(["rig", "simulate", *args, "--drive", str(tmp_path / "n.npz"), "--out",
                  str(tmp_path / "x.npz")]) == 2  # fmt: skip
     assert "channel 'V_front_left': in 'N', a force; expected a length" in capsys.readouterr().err
+
+
+def test_a_drive_beyond_its_limits_lands_only_as_the_user_chose(tmp_path, capsys):
+    """--on-limit refuse (the default): no drive file (an earlier one removed), the report
+    says why, exit status 2; scale: the drive scaled into its stroke, said; warn: written
+    as found, said."""
+    deck = small_rig_deck(tmp_path / "rig.bdf")
+    (tmp_path / "a.csv").write_text("label,grid,x,y,z,direction,stroke\n" + "".join(
+        f"{lab},{g},0,0,0,{c},{0.5 if lab == 'A_z1' else 10}\n" for lab, g, c in ACTUATORS))
+    (tmp_path / "s.csv").write_text("label,grid,x,y,z,direction\n" + "".join(
+        f"{lab},{g},0,0,0,{c}\n" for lab, g, c in SENSORS))  # fmt: skip
+    rng = np.random.default_rng(8)
+    n = round(8 / DT)
+    f = np.fft.rfftfreq(n, DT)
+    S = np.where((f >= 2) & (f <= 80), np.exp(2j * np.pi * rng.uniform(size=(6, len(f)))), 0)
+    known = np.fft.irfft(S, n, axis=1)
+    known *= 1.0 / np.abs(known).max(axis=1, keepdims=True)  # peaks of 1 mm
+    labels = tuple(lab for lab, _, _ in ACTUATORS)
+    write_time_data(tmp_path / "known.rsp", TimeData(DT, known, labels, ("mm",) * 6))
+    rig = ["--actuators", str(tmp_path / "a.csv"), "--sensors", str(tmp_path / "s.csv"),
+           "--modes-to", "300"]  # fmt: skip
+    assert main(["rig", "simulate", str(deck), *rig, "--drive", str(tmp_path / "known.rsp"),
+                 "--periodic", "--out", str(tmp_path / "target.rsp")]) == 0  # fmt: skip
+    base = ["rig", "iterate", str(deck), *rig, "--target", str(tmp_path / "target.rsp"),
+            "--control", "S3:+Z", "S8:+Y", "S12:+Z", "S11:-X", "A_z1:force", "A_y1:force",
+            "--band", "2", "80", "--iterations", "2"]  # fmt: skip
+    out = tmp_path / "it"
+    out.mkdir()
+    (out / "drive.rsp").write_bytes(b"stale")
+    capsys.readouterr()
+    assert main([*base, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "A_z1: stroke" in err and "beyond its limit 0.5 mm" in err
+    assert "the earlier drive.rsp there was removed" in err and "--on-limit scale" in err
+    assert not (out / "drive.rsp").exists()
+    report = json.loads((out / "iteration.json").read_text())
+    assert report["limits"]["exceeded"] and not report["limits"]["drive_written"]
+    assert "not written" in (out / "report.html").read_text()
+    assert main([*base, "--on-limit", "scale", "--out", str(tmp_path / "scaled")]) == 0
+    assert "scaled down by" in capsys.readouterr().err
+    scaled = read_time_data(tmp_path / "scaled" / "drive.rsp").values
+    assert np.abs(scaled[0]).max() <= 0.5 * (1 + 1e-6)
+    assert main([*base, "--on-limit", "warn", "--out", str(tmp_path / "warned")]) == 0
+    assert "exceeds the actuators' limits: A_z1: stroke" in capsys.readouterr().err
+    assert np.abs(read_time_data(tmp_path / "warned" / "drive.rsp").values[0]).max() > 0.9
+    # rig correct: the first drive, refused likewise; within a --stroke for all, written
+    step = ["rig", "correct", str(deck), *rig, "--target", str(tmp_path / "target.rsp"),
+            "--control", "S3:+Z", "S8:+Y", "S12:+Z", "S11:-X", "--band", "2", "80"]  # fmt: skip
+    assert main([*step, "--out", str(tmp_path / "d0.rsp")]) == 2
+    assert "A_z1: stroke" in capsys.readouterr().err
+    assert not (tmp_path / "d0.rsp").exists()
+    assert main([*step, "--stroke", "5", "--out", str(tmp_path / "d0.rsp")]) == 0
+    assert (tmp_path / "d0.rsp").is_file()

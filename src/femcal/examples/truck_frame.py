@@ -667,6 +667,11 @@ VARIANTS = {
 }
 
 
+#: The rig's actuators: stroke +/- 25 mm, 1000 mm/s, 100 000 mm/s^2 (about 10 g), the size
+#: of a frame rig's servo-hydraulic actuators.
+RIG_LIMITS = (25, 1000, 100000)
+
+
 def write_frame(variant: str, out_dir) -> list:
     """Write a variant's deck and data files into ``out_dir`` (each atomically); returns
     the paths.
@@ -675,8 +680,8 @@ def write_frame(variant: str, out_dir) -> list:
     ``.sensors.csv`` (24 positions x 3 directions) and ``.inputs.csv`` (2 hammer impacts);
     rig, rig-battery: ``rig_frame[_battery].bdf``, ``.sensors.csv`` (7 accelerometers near
     the actuators along their strokes, plus a triaxial one on the battery box) and
-    ``.inputs.csv`` (the 7 actuators). A direction is the basic axis 1, 2, 3, negative for
-    the minus direction.
+    ``.inputs.csv`` (the 7 actuators with their limits, :data:`RIG_LIMITS`). A direction is
+    the basic axis 1, 2, 3, negative for the minus direction.
     """
     from pathlib import Path
 
@@ -702,8 +707,11 @@ def write_frame(variant: str, out_dir) -> list:
     rows += [f"{lab},{g},{X[g - 1][0]:g},{X[g - 1][1]:g},{X[g - 1][2]:g},{dirs}"
              for lab, g, dirs in where]  # fmt: skip
     paths.append(write_lines(out_dir / f"{stem}.sensors.csv", rows))
-    rows = ["label,grid,x,y,z,direction"]
-    rows += [f"{lab},{g},{X[g - 1][0]:g},{X[g - 1][1]:g},{X[g - 1][2]:g},{c}"
+    head, limits = "label,grid,x,y,z,direction", ""
+    if variant != "hammer":  # the actuators' stroke (+/- mm), velocity and acceleration
+        head, limits = head + ",stroke,velocity,acceleration", f",{','.join(map(str, RIG_LIMITS))}"
+    rows = [head]
+    rows += [f"{lab},{g},{X[g - 1][0]:g},{X[g - 1][1]:g},{X[g - 1][2]:g},{c}{limits}"
              for lab, g, c in inputs]  # fmt: skip
     paths.append(write_lines(out_dir / f"{stem}.inputs.csv", rows))
     return paths

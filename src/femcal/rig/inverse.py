@@ -22,9 +22,9 @@ frequency, Wiener deconvolution)::
 - ``w_c`` weighs the control channels (mixed control: accelerations, LVDTs and load cells
   in one iteration); each channel's noise floor already puts it in its own units.
 - ``effort`` adds ``effort^2`` times the largest eigenvalue of ``H^H W H`` to ``1 / p_j`` (a
-  drive-effort penalty relative to the best-seen direction) and ``roll_off_hz`` multiplies
-  ``1 / p_j`` by ``1 + (f_r / f)^4``: the drive rolls off below ``f_r`` as a fourth-order
-  high-pass would.
+  drive-effort penalty relative to the best-seen direction), and ``roll_off_hz`` adds
+  ``(f_r / f)^4`` times it: below ``f_r`` the drive rolls off as behind a fourth-order
+  high-pass (at ``f_r`` the best-seen direction keeps half its drive).
 
 The directions the control channels cannot see at a line are those of the whitened FRF
 ``W^1/2 H diag(p)^1/2`` whose singular value is below one: the inverse keeps less than half
@@ -42,6 +42,8 @@ import numpy as np
 DEFAULT_FLOOR = 1e-4
 #: Half-width of the band, relative to the frequency, over which the drive prior is taken.
 PRIOR_BAND = 0.2
+#: Fewest lines either side of a frequency in the band of its drive prior.
+MIN_BAND_LINES = 8
 #: Standard errors by which the drive's power must stand above the noise's to count.
 PRIOR_SIGNIFICANCE = 3.0
 #: Fewest lines above the drive band that measure a noise floor.
@@ -76,9 +78,11 @@ def noise_floor(T: np.ndarray, f: np.ndarray, band: tuple[float, float], n: int,
     With ``fraction`` given: white noise of that fraction of each channel's RMS. Else
     measured on the lines above the drive band (from the larger of 1.1 times its top and two
     lines above it, to 0.8 of the Nyquist frequency, below the anti-alias filter): the
-    median of ``|T|^2`` over ln 2 (a complex Gaussian line's ``|T|^2`` is exponential, its
-    median ln 2 times its mean; the median keeps stray peaks out). With fewer than
-    :data:`MIN_FLOOR_LINES` there, :data:`DEFAULT_FLOOR` of each channel's RMS.
+    lower quartile of ``|T|^2`` over -ln(3/4) (a complex Gaussian line's ``|T|^2`` is
+    exponential, its quantile q is -ln(1 - q) times its mean; the lower quartile keeps
+    resonances and content above the band out as long as they fill less than three
+    quarters of those lines). With fewer than :data:`MIN_FLOOR_LINES` there,
+    :data:`DEFAULT_FLOOR` of each channel's RMS.
     """
     size = np.where(size > 0, size, 1.0)
     if fraction is None:
@@ -86,7 +90,7 @@ def noise_floor(T: np.ndarray, f: np.ndarray, band: tuple[float, float], n: int,
         lo = max(1.1 * band[1], band[1] + 2 * step)
         lines = (f > lo) & (f < 0.8 * f[-1])
         if lines.sum() >= MIN_FLOOR_LINES:
-            var = np.median(np.abs(T[:, lines]) ** 2, axis=1) / np.log(2)
+            var = np.quantile(np.abs(T[:, lines]) ** 2, 0.25, axis=1) / -np.log(0.75)
             var = np.maximum(var, (1e-12 * size) ** 2 * n)
             frac = np.sqrt(var / n) / size
             return NoiseFloor(var, frac, f"measured on the target at {lo:.3g}-"
@@ -100,18 +104,23 @@ def noise_floor(T: np.ndarray, f: np.ndarray, band: tuple[float, float], n: int,
     return NoiseFloor(n * (frac * size) ** 2, frac, source, False)
 
 
-def _band_statistic(x: np.ndarray, f: np.ndarray, how: str) -> np.ndarray:
-    """Each row of x (rows, n_f) as its median (``how="median"``) or mean over the band of
-    +/- :data:`PRIOR_BAND` of each frequency, taken at 24 centres an octave and
-    interpolated to ``f`` (ascending, > 0)."""
-    if len(f) == 0:
-        return x.copy()
+def _band_statistic(x: np.ndarray, f: np.ndarray,
+                    how: str) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """(each row of x (rows, n_f) as its median (``how="median"``) or mean over the band of
+    +/- :data:`PRIOR_BAND` of each frequency, at least :data:`MIN_BAND_LINES` lines either
+    side; the lines in each band (n_f,)), taken at 24 centres an octave and interpolated to
+    ``f`` (ascending, > 0, evenly spaced)."""
+    if len(f) < 2:
+        return x.copy(), np.ones(len(f))
+    step = f[1] - f[0]
     centres = np.geomspace(f[0], f[-1], max(2, int(24 * np.log2(f[-1] / f[0])) + 2))
-    lo = np.searchsorted(f, centres * (1 - PRIOR_BAND))
-    hi = np.maximum(np.searchsorted(f, centres * (1 + PRIOR_BAND), side="right"), lo + 1)
+    half = np.maximum(PRIOR_BAND * centres, MIN_BAND_LINES * step)
+    lo = np.searchsorted(f, centres - half - 1e-9 * step)
+    hi = np.maximum(np.searchsorted(f, centres + half + 1e-9 * step, side="right"), lo + 1)
     reduce = np.median if how == "median" else np.mean
     vals = np.stack([reduce(x[:, a:b], axis=1) for a, b in zip(lo, hi, strict=True)], axis=1)
-    return np.stack([np.interp(f, centres, v) for v in vals])
+    return (np.stack([np.interp(f, centres, v) for v in vals]),
+            np.interp(f, centres, (hi - lo).astype(float)))  # fmt: skip
 
 
 def drive_prior(Hf: np.ndarray, T: np.ndarray, weight: np.ndarray,
@@ -119,7 +128,8 @@ def drive_prior(Hf: np.ndarray, T: np.ndarray, weight: np.ndarray,
     """The drive's power per line p (n_drives, n_lines) that the target shows through the
     FRF ``Hf`` (n_lines, n_control, n_drives) at lines ``f`` (n_lines,) with ``T``
     (n_control, n_lines) and ``W = weight`` (n_control,): the least-squares drive's power,
-    as a band's median over ln 2, less the band's mean noise-propagated variance
+    as a band's median over ln 2 (+/- 20 % of the frequency, at least 8 lines either
+    side), less the band's mean noise-propagated variance
     ``[(H^H W H)^-1]_jj`` times ``1 + 3 / sqrt(lines in the band)``; floored at 1e-6 of its
     largest."""
     G = np.einsum("foi,o,foj->fij", Hf.conj(), weight, Hf)
@@ -128,10 +138,9 @@ def drive_prior(Hf: np.ndarray, T: np.ndarray, weight: np.ndarray,
     Ginv = np.linalg.inv(G + 1e-12 * np.where(scale > 0, scale, 1.0) * eye)
     ls = np.einsum("fij,fkj,k,kf->if", Ginv, Hf.conj(), weight, T)
     var = np.real(np.einsum("fii->if", Ginv))
-    step = f[1] - f[0] if len(f) > 1 else 1.0
-    lines = np.maximum(1.0, 2 * PRIOR_BAND * f / step)
-    signal = _band_statistic(np.abs(ls) ** 2, f, "median") / np.log(2)
-    noise = _band_statistic(var, f, "mean") * (1 + PRIOR_SIGNIFICANCE / np.sqrt(lines))
+    signal, lines = _band_statistic(np.abs(ls) ** 2, f, "median")
+    signal = signal / np.log(2)
+    noise = _band_statistic(var, f, "mean")[0] * (1 + PRIOR_SIGNIFICANCE / np.sqrt(lines))
     p = signal - noise
     top = np.max(signal, axis=1, keepdims=True)
     return np.maximum(p, 1e-6 * np.where(top > 0, top, 1.0))
@@ -139,15 +148,17 @@ def drive_prior(Hf: np.ndarray, T: np.ndarray, weight: np.ndarray,
 
 def penalty(Hf: np.ndarray, weight: np.ndarray, prior: np.ndarray, f: np.ndarray, *,
             effort: float = 0.0, roll_off_hz: float = 0.0) -> np.ndarray:  # fmt: skip
-    """The drive penalty per line (n_drives, n_lines): ``1 / p`` with the roll-off and the
-    effort term (see the module docstring)."""
+    """The drive penalty per line (n_drives, n_lines): ``1 / p`` plus ``effort^2 + (f_r /
+    f)^4`` times the largest eigenvalue of ``H^H W H`` (see the module docstring)."""
     pen = 1.0 / prior
-    if roll_off_hz > 0:
-        pen = pen * (1 + (roll_off_hz / f) ** 4)
+    extra = np.zeros(len(f))
     if effort > 0:
+        extra += effort**2
+    if roll_off_hz > 0:
+        extra += (roll_off_hz / f) ** 4
+    if extra.any():
         G = np.einsum("foi,o,foj->fij", Hf.conj(), weight, Hf)
-        top = np.linalg.eigvalsh(G)[:, -1]
-        pen = pen + effort**2 * top[None, :]
+        pen = pen + extra * np.linalg.eigvalsh(G)[:, -1]
     return pen
 
 

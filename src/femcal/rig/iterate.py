@@ -50,10 +50,11 @@ from .quality import BandErrors, band_errors
 from .simulate import simulate
 from .update import broyden_update
 
-#: The wrap-around step's chi-square (over channels, in units of a typical step) above
-#: which a record's ends do not join: n + 4 sqrt(2 n) (a periodic record exceeds it by
-#: chance about once in 500).
-JOIN_SIGMAS = 4.0
+#: How many times the record's largest run of prediction errors the wrap-around's must be
+#: for a record's ends not to join (:func:`ends_join`).
+JOIN_RATIO = 2.0
+#: Most samples the predictor of :func:`ends_join` is fitted on.
+JOIN_FIT = 65536
 #: Relative fall of the in-band error in the last step below which a channel has stalled.
 STALL = 0.05
 
@@ -111,20 +112,39 @@ class IterationSettings:
                                  f"{expected}")  # fmt: skip
 
 
-def ends_join(target: np.ndarray) -> tuple[bool, float]:
-    """(whether the record's ends join, the statistic): the step from the last sample to the
-    first, in units of the RMS of each channel's steps, squared and summed over channels. A
-    record that is one period of a looped signal makes an ordinary step there (chi-square
-    with one degree of freedom a channel); a slice of a longer record makes a jump of the
-    signal's own size. The ends join when the sum is below ``n + 4 sqrt(2 n)``."""
-    steps = np.diff(target, axis=1)
-    scale = np.sqrt(np.mean(steps**2, axis=1)) if steps.shape[1] else np.ones(len(target))
-    wrap = target[:, 0] - target[:, -1]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        z = np.where(scale > 0, wrap / scale, 0.0)
-    stat = float(np.sum(z**2))
-    n = len(target)
-    return stat <= n + JOIN_SIGMAS * np.sqrt(2 * n), stat
+def ends_join(target: np.ndarray, order: int = 16, across: int = 8) -> tuple[bool, float]:
+    """(whether the record's ends join, the statistic). Each channel is fitted with a linear
+    predictor of ``order`` past samples (least squares over the record, at most
+    :data:`JOIN_FIT` samples of it). The squared prediction errors of the ``across``
+    samples after the wrap-around (the record taken as periodic), each over the fit's
+    residual variance and summed over the channels, are compared with the same sum over
+    every run of ``across`` samples in the record: for one period of a looped signal the
+    wrap-around is one more such run; a slice of a longer record makes a jump there that no
+    predictor of a band-limited signal foresees. The statistic is the wrap-around's sum over
+    the largest of the record's; the ends join when it is at most :data:`JOIN_RATIO`."""
+    n = target.shape[1]
+    if n < 4 * (order + across):
+        return True, 0.0
+    m = min(n, JOIN_FIT)
+    inside = np.zeros(m - order - across + 1)
+    wrap = 0.0
+    for x in target:
+        scale = np.std(x)
+        if not scale > 0:
+            continue
+        x = (x - np.mean(x)) / scale
+        rows = np.lib.stride_tricks.sliding_window_view(x[:m], order + 1)
+        coef, *_ = np.linalg.lstsq(rows[:, :order], rows[:, order], rcond=None)
+        resid = rows[:, order] - rows[:, :order] @ coef
+        var = max(float(np.mean(resid**2)), 1e-30)
+        runs = np.convolve(resid**2, np.ones(across), mode="valid") / var
+        inside += runs[: len(inside)]
+        win = np.lib.stride_tricks.sliding_window_view(
+            np.concatenate([x[n - order :], x[:across]]), order + 1)
+        wrap += float(np.sum((win[:, order] - win[:, :order] @ coef) ** 2) / var)
+    top = float(inside.max()) if inside.size else 0.0
+    stat = wrap / top if top > 0 else 0.0
+    return stat <= JOIN_RATIO, stat
 
 
 def taper_window(n: int, m: int) -> np.ndarray:
