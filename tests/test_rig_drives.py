@@ -199,3 +199,29 @@ def test_the_shipped_rig_test_drive_stays_the_size_of_the_one_played(tmp_path, c
     assert all(abs(c["relative_damage"] - 1) < 0.1 for c in report["control"])
     for name in ("drives_psd.png", "drives_time.png", "error_psd.png", "report.html"):
         assert (out / name).stat().st_size > 1000
+
+
+def test_the_seven_post_warp_is_found_and_held_when_asked(rig):
+    """The rig's one redundant combination is the warp of the four vertical posts; with
+    --warp minimal the drive found has none of it, and the response pays for that, while
+    the free iteration drives the warp that was played."""
+    from femcal.rig.kinematics import redundant_drives, rigid_body_drives
+
+    model, physical, control, played, target = rig
+    J = rigid_body_drives(model)
+    assert J.shape == (7, 6) and np.linalg.matrix_rank(J) == 6
+    warp = redundant_drives(model)
+    assert warp.shape == (7, 1)
+    assert np.allclose(warp[:, 0], [0.5, -0.5, -0.5, 0.5, 0, 0, 0], atol=1e-9)
+    n = target.shape[1]
+    H = frf_on_lines(model, control, n, DT, (0.5, 40.0))
+    runs = {w: iterate_drive(physical, H, target, control, DT,
+                             IterationSettings(iterations=6, warp=w)) for w in ("free", "minimal")}
+    played_warp = np.linalg.norm(warp[:, 0] @ played)
+    free, minimal = (np.linalg.norm(warp[:, 0] @ runs[w].drive) for w in ("free", "minimal"))
+    assert abs(free / played_warp - 1) < 0.05
+    assert minimal < 0.01 * played_warp
+    held = response_error(runs["minimal"].response[control], target).max()
+    assert held > 0.05 and held > 5 * response_error(runs["free"].response[control],
+                                                     target).max()
+    assert runs["free"].redundant.shape == (7, 1) and runs["free"].redundant_unseen == ((),)

@@ -47,6 +47,7 @@ from ..rig.iterate import (
     iterate_drive,
     measured_frf,
 )
+from ..rig.kinematics import redundant_drives
 from ..rig.limits import (
     ActuatorLimits,
     LimitCheck,
@@ -114,6 +115,10 @@ def _iteration_options(p: argparse.ArgumentParser, *, iterations: bool = True,
     p.add_argument("--taper", type=float, metavar="S",
                    help="fade the target in and out over S seconds (default: one period of "
                    "the band's low edge, only when the target's ends do not join; 0: never)")
+    p.add_argument("--warp", choices=("free", "minimal"), default="free",
+                   help="the redundant actuators' combination (a 7-post rig's warp): driven "
+                   "where the control channels see it and held where they do not (free, the "
+                   "default), or held at its least everywhere (minimal)")  # fmt: skip
     p.add_argument("--weight", action="append", default=[], metavar="CHANNEL=W",
                    help="weight of a control channel (default 1; mixed control: e.g. LVDTs "
                    "at 0.5 beside accelerometers)")  # fmt: skip
@@ -314,7 +319,7 @@ def _iteration_settings(args: argparse.Namespace) -> IterationSettings:
                                  band=tuple(args.band), noise_floor=args.noise_floor,
                                  effort=args.effort, roll_off_hz=args.roll_off,
                                  update_frf=not args.no_frf_update,
-                                 taper_s=args.taper)  # fmt: skip
+                                 taper_s=args.taper, warp=args.warp)  # fmt: skip
     except ValueError as e:
         raise UsageError(str(e).replace("drive iteration: ", "")) from None
 
@@ -466,7 +471,7 @@ def _iterate(args: argparse.Namespace) -> int:
     units = (model.input_units,) * len(model.inputs)
     write_time_data(out / "drive.rsp", TimeData(dt, drive, model.inputs, units))
     _say(t0, f"wrote {out}: drive.rsp, response.rsp, iteration.json, report.html, pictures")
-    _print_iteration(result, names, model, check, damage, ref_error)
+    _print_iteration(result, names, model, check, damage, ref_error, settings.warp)
     return 0
 
 
@@ -518,8 +523,25 @@ def _welch(x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
     return ss.welch(x, fs=1.0 / dt, nperseg=m)
 
 
+def _print_redundant(redundant: np.ndarray, unseen, model: RigPlant, warp: str) -> None:
+    """Each redundant drive combination (the warp), where it is not seen, what was done."""
+    for k in range(redundant.shape[1]):
+        name = "the warp" if redundant.shape[1] == 1 else f"redundant combination {k + 1}"
+        what = describe_pattern(redundant[:, k] / np.abs(redundant[:, k]).max(), model.inputs)
+        if warp == "minimal":
+            done = "held at its least everywhere (--warp minimal)"
+        elif unseen[k]:
+            bands = ", ".join(f"{a:.3g}-{b:.3g} Hz" for a, b in unseen[k])
+            done = (f"not seen above the noise at {bands}: held at its least there; LVDTs or "
+                    "load cells in the control set would see it")  # fmt: skip
+        else:
+            done = "seen by the control channels throughout the band"
+        print(f"{name} ({what}): {done}")
+
+
 def _print_iteration(result, names: list[str], model: RigPlant, check: LimitCheck,
-                     damage: np.ndarray, ref_error: np.ndarray | None) -> None:  # fmt: skip
+                     damage: np.ndarray, ref_error: np.ndarray | None,
+                     warp: str = "free") -> None:  # fmt: skip
     """The iteration on the console: the noise floor and taper, each control channel's
     in-band error after each step, its error outside the band, damage and state; the
     directions not seen; the drives against their limits."""
@@ -543,6 +565,7 @@ def _print_iteration(result, names: list[str], model: RigPlant, check: LimitChec
                 f"{u.directions} direction(s), the weakest "
                 f"{describe_pattern(u.pattern, model.inputs)}")  # fmt: skip
         print(f"not seen above the noise at {u.low_hz:.3g}-{u.high_hz:.3g} Hz: {what}; held")
+    _print_redundant(result.redundant, result.redundant_unseen, model, warp)
     aw = max(len(a) for a in model.inputs)
     unit = model.input_units
     print(f"{'actuator':<{aw}}  {'RMS':>9} {'peak':>9} {'stroke':>9}"
@@ -603,7 +626,7 @@ def _correct(args: argparse.Namespace) -> int:
         drives.append(drive_channels(played, model, drive_path))
         responses.append(_channels(measured, args.control, response_path, model))
     step = correct_drive(H, target, dt, settings, drives=drives, responses=responses,
-                         weights=weights)  # fmt: skip
+                         weights=weights, redundant=redundant_drives(model))  # fmt: skip
     drive, check, _scale = _enforce(step.drive, dt, model, args, args.target)
     if check.exceeded and args.on_limit == "refuse":
         _refuse(check, model, args.out, "")
@@ -624,6 +647,7 @@ def _correct(args: argparse.Namespace) -> int:
                 f"{u.directions} direction(s), the weakest "
                 f"{describe_pattern(u.pattern, model.inputs)}")  # fmt: skip
         print(f"not seen above the noise at {u.low_hz:.3g}-{u.high_hz:.3g} Hz: {what}; held")
+    _print_redundant(p.redundant, step.redundant_unseen, model, settings.warp)
     if step.error is not None:
         width = max(len(c) for c in args.control)
         print(f"{'control channel':<{width}}  RMS error of the last response (% of target): in "

@@ -34,7 +34,8 @@ def settings_dict(settings: IterationSettings) -> dict:
     return {"iterations": s.iterations, "gain": s.gain, "band_hz": list(s.band),
             "noise_floor": "measured" if s.noise_floor is None else s.noise_floor,
             "effort": s.effort, "roll_off_hz": s.roll_off_hz, "update_frf": s.update_frf,
-            "taper_s": "when the ends do not join" if s.taper_s is None else s.taper_s}
+            "taper_s": "when the ends do not join" if s.taper_s is None else s.taper_s,
+            "warp": s.warp}
 
 
 @dataclass(frozen=True)
@@ -117,6 +118,10 @@ def iteration_dict(result: Iteration, plant: RigPlant, settings: IterationSettin
                     "pattern": {a: float(v) for a, v in zip(plant.inputs, u.pattern,
                                                              strict=True)}}
                    for u in result.unseen],
+        "redundant": [{"pattern": {a: float(v) for a, v in zip(plant.inputs, result.redundant[:, k],
+                                                                strict=True)},
+                       "unseen_hz": [list(b) for b in result.redundant_unseen[k]]}
+                      for k in range(result.redundant.shape[1])],
         "frf_updates": list(result.frf_updates),
         "response_rms": {n: float(v) for n, v in zip(plant.outputs, rms, strict=True)},
         "final_rms_error": {"worst": float(result.rms_error[-1].max()),
@@ -257,6 +262,27 @@ def write_iteration_html(path: str | os.PathLike[str], report: dict,
                      "of amplifying noise and model error. Control channels that see them "
                      "(LVDTs, load cells) release them.</p>"
                      + html_table(rows_u, ["band (Hz)", "directions", "weakest direction"]))
+    redundant = report.get("redundant", [])
+    if redundant:
+        minimal = report["settings"].get("warp") == "minimal"
+        items = []
+        for k, r in enumerate(redundant):
+            name = "The warp" if len(redundant) == 1 else f"Redundant combination {k + 1}"
+            top = max(abs(v) for v in r["pattern"].values()) or 1.0
+            what = " ".join(f"{v / top:+.2f} {a}" for a, v in r["pattern"].items()
+                            if abs(v) >= 0.2 * top)  # fmt: skip
+            if minimal:
+                done = "held at its least everywhere (--warp minimal)"
+            elif r["unseen_hz"]:
+                done = ("not seen above the noise at " + ", ".join(
+                    f"{a:.3g}-{b:.3g} Hz" for a, b in r["unseen_hz"])
+                    + ": held at its least there")  # fmt: skip
+            else:
+                done = "seen by the control channels throughout the band"
+            items.append(f"<li>{name} ({esc(what)}): {done}</li>")
+        parts.append("<h2>Redundant actuators</h2><p>More actuators than the frame has "
+                     "rigid-body motions: these drive combinations only deform it.</p><ul>"
+                     + "".join(items) + "</ul>")
     noise = report.get("noise_floor")
     taper = report.get("taper_s", 0.0)
     page = f"""<!DOCTYPE html><html><head><meta charset="utf-8">

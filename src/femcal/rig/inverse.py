@@ -162,24 +162,49 @@ def penalty(Hf: np.ndarray, weight: np.ndarray, prior: np.ndarray, f: np.ndarray
     return pen
 
 
-def solver(Hf: np.ndarray, weight: np.ndarray, pen: np.ndarray) -> np.ndarray:
-    """``A^-1 = (H^H W H + diag(pen))^-1`` per line (n_lines, n_drives, n_drives)."""
+def held_penalty(Hf: np.ndarray, weight: np.ndarray, directions: np.ndarray,
+                 strength: float = 1e4) -> np.ndarray:  # fmt: skip
+    """A penalty (n_lines, n_drives, n_drives) that holds drive ``directions`` (n_drives, k,
+    orthonormal) near zero: ``strength`` times the largest eigenvalue of ``H^H W H`` on
+    their projector, so that a drive along them costs that many times more than along the
+    best-seen direction."""
+    G = np.einsum("foi,o,foj->fij", Hf.conj(), weight, Hf)
+    top = np.linalg.eigvalsh(G)[:, -1]
+    P = directions @ directions.conj().T
+    return strength * top[:, None, None] * P[None]
+
+
+def solver(Hf: np.ndarray, weight: np.ndarray, pen: np.ndarray,
+           coupled: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
+    """``A^-1 = (H^H W H + diag(pen) + coupled)^-1`` per line (n_lines, n_drives,
+    n_drives); ``coupled`` (n_lines, n_drives, n_drives) a penalty across drives, or
+    None."""
     A = np.einsum("foi,o,foj->fij", Hf.conj(), weight, Hf)
     idx = np.arange(A.shape[1])
     A[:, idx, idx] += pen.T
+    if coupled is not None:
+        A += coupled
     return np.linalg.inv(A)
 
 
 def gradient(Hf: np.ndarray, weight: np.ndarray, pen: np.ndarray, E: np.ndarray,
-             D: np.ndarray) -> np.ndarray:  # fmt: skip
-    """``H^H W E - diag(pen) D`` (n_drives, n_lines): the descent direction of the line's
-    objective at drive ``D`` with response error ``E = T - response``."""
-    return np.einsum("foi,o,of->if", Hf.conj(), weight, E) - pen * D
+             D: np.ndarray, coupled: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
+    """``H^H W E - (diag(pen) + coupled) D`` (n_drives, n_lines): the descent direction of
+    the line's objective at drive ``D`` with response error ``E = T - response``."""
+    g = np.einsum("foi,o,of->if", Hf.conj(), weight, E) - pen * D
+    if coupled is not None:
+        g -= np.einsum("fij,jf->if", coupled, D)
+    return g
 
 
-def objective(weight: np.ndarray, pen: np.ndarray, E: np.ndarray, D: np.ndarray) -> np.ndarray:
-    """The line's objective ``sum_c W_c |E_c|^2 + sum_j pen_j |D_j|^2`` (n_lines,)."""
-    return weight @ np.abs(E) ** 2 + np.sum(pen * np.abs(D) ** 2, axis=0)
+def objective(weight: np.ndarray, pen: np.ndarray, E: np.ndarray, D: np.ndarray,
+              coupled: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
+    """The line's objective ``sum_c W_c |E_c|^2 + D^H (diag(pen) + coupled) D``
+    (n_lines,)."""
+    out = weight @ np.abs(E) ** 2 + np.sum(pen * np.abs(D) ** 2, axis=0)
+    if coupled is not None:
+        out += np.real(np.einsum("if,fij,jf->f", D.conj(), coupled, D))
+    return out
 
 
 @dataclass(frozen=True)
@@ -212,6 +237,19 @@ def unseen_count(Hf: np.ndarray, weight: np.ndarray, pen: np.ndarray) -> np.ndar
     return (s < 1.0).sum(axis=1) + max(0, Hf.shape[2] - s.shape[1])
 
 
+def runs(mask: np.ndarray, min_lines: int = 3) -> list[tuple[int, int]]:
+    """The runs [a, b) of a line mask (n_lines,) at least ``min_lines`` long, gaps of up to
+    two lines closed."""
+    mask = mask.copy()
+    idx = np.flatnonzero(mask)
+    for a, b in pairwise(idx):
+        if 1 < b - a <= 3:
+            mask[a:b] = True
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(int), [0]])))
+    return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)
+            if b - a >= min_lines]  # fmt: skip
+
+
 def unseen_directions(Hf: np.ndarray, weight: np.ndarray, pen: np.ndarray, f: np.ndarray, *,
                       min_lines: int = 3) -> list[UnseenBand]:  # fmt: skip
     """The bands (runs of at least ``min_lines`` lines, gaps of up to two lines closed)
@@ -220,16 +258,8 @@ def unseen_directions(Hf: np.ndarray, weight: np.ndarray, pen: np.ndarray, f: np
     if len(f) == 0:
         return []
     count = unseen_count(Hf, weight, pen)
-    unseen = count > 0
-    idx = np.flatnonzero(unseen)
-    for a, b in pairwise(idx):
-        if 1 < b - a <= 3:
-            unseen[a:b] = True
     out = []
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], unseen.astype(int), [0]])))
-    for a, b in zip(edges[::2], edges[1::2], strict=True):
-        if b - a < min_lines:
-            continue
+    for a, b in runs(count > 0, min_lines):
         mid = (a + b - 1) // 2
         v = np.linalg.svd(_whitened(Hf[mid : mid + 1], weight, pen[:, mid : mid + 1])[0])[2]
         v = v[-1].conj() / np.sqrt(pen[:, mid])
@@ -240,8 +270,19 @@ def unseen_directions(Hf: np.ndarray, weight: np.ndarray, pen: np.ndarray, f: np
     return out
 
 
+def direction_seen(Hf: np.ndarray, weight: np.ndarray, pen: np.ndarray,
+                   direction: np.ndarray) -> np.ndarray:  # fmt: skip
+    """How well the control channels see one drive direction (n_drives,) at each line
+    (n_lines,): ``|W^1/2 H w|^2 / (w^H diag(pen) w)``, its signal over noise; below one the
+    inverse keeps less than half of a drive along it."""
+    w = np.asarray(direction, complex)
+    gain = np.einsum("foi,i->fo", Hf, w)
+    return (np.abs(gain) ** 2 @ weight) / np.real(np.abs(w) ** 2 @ pen)
+
+
 def describe_pattern(pattern: np.ndarray, names: tuple[str, ...] | list[str]) -> str:
     """A direction of the drives as text: ``+1.00 V_front_left -0.98 V_rear_left ...``, the
     entries of at least 0.2 of the largest."""
-    keep = [j for j in np.argsort(-np.abs(pattern)) if abs(pattern[j]) >= 0.2]
+    keep = [j for j in np.argsort(-np.abs(pattern).round(6), kind="stable")
+            if abs(pattern[j]) >= 0.2 * np.abs(pattern).max()]
     return " ".join(f"{pattern[j]:+.2f} {names[j]}" for j in keep)

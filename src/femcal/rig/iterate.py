@@ -21,6 +21,10 @@ the control channels follow a target.
    converge to the unregularised drive and amplify the noise again). The gain ``g`` is kept
    line by line: it starts at ``gain`` and halves at a line whose objective grew in the
    last step (there the inverted FRF is far from the plant's).
+   A rig with more actuators than rigid-body motions has drive combinations that only
+   deform the frame (:mod:`femcal.rig.kinematics`; a 7-post rig's warp): they are driven
+   where the control channels see them and held where they do not, or, with
+   ``warp="minimal"``, held at their least everywhere.
 5. With ``update_frf`` the FRF is updated after each step from the drive and response pairs
    (:mod:`femcal.rig.update`), as RPC Pro updates its system model.
 6. Convergence is judged in the drive band (:mod:`femcal.rig.quality`): outside it the rig
@@ -45,6 +49,7 @@ from ..errors import TimeDataError
 from ..testdata import signal
 from . import inverse
 from .inverse import NoiseFloor, UnseenBand
+from .kinematics import redundant_drives
 from .plant import RigPlant
 from .quality import BandErrors, band_errors
 from .simulate import simulate
@@ -77,6 +82,9 @@ class IterationSettings:
     taper_s : fade-in and fade-out of a target whose ends do not join (s); None: one period
         of the band's low edge, at most a tenth of the record, and only when the ends do not
         join; 0: never (the target is taken as one period).
+    warp : "free": the redundant actuators' combinations (:mod:`femcal.rig.kinematics`,
+        the warp) are driven as the control channels ask where they see them, held where
+        they do not; "minimal": held at their least everywhere (the minimal-warp drive).
     """
 
     iterations: int = 8
@@ -87,6 +95,7 @@ class IterationSettings:
     roll_off_hz: float = 0.0
     update_frf: bool = True
     taper_s: float | None = None
+    warp: str = "free"
 
     def __post_init__(self) -> None:
         """Check every setting (ValueError naming it)."""
@@ -105,6 +114,7 @@ class IterationSettings:
             ("taper_s", self.taper_s is None
              or (np.isfinite(self.taper_s) and self.taper_s >= 0),
              "0 s (none) or more, or None (when the ends do not join)"),
+            ("warp", self.warp in ("free", "minimal"), "free or minimal"),
         )  # fmt: skip
         for name, ok, expected in checks:
             if not ok:
@@ -171,6 +181,9 @@ class Prepared:
     noise : its noise floor; weight : (n_control,) ``w_c / nu_c``; channel_weight : w_c.
     prior : (n_drives, n_lines) the drive power the target shows; pen : the penalty.
     Hf : (n_lines, n_control, n_drives) the FRF on the lines.
+    redundant : (n_drives, k) the rig's redundant drive combinations (k = 0: none known).
+    coupled : (n_lines, n_drives, n_drives) the penalty holding them (``warp="minimal"``),
+        or None.
     """
 
     target: np.ndarray
@@ -185,18 +198,22 @@ class Prepared:
     prior: np.ndarray
     pen: np.ndarray
     Hf: np.ndarray
+    redundant: np.ndarray
+    coupled: np.ndarray | None
 
 
 def prepare(H: np.ndarray, target: np.ndarray, dt: float, settings: IterationSettings,
-            weights: Sequence[float] | None = None) -> Prepared:  # fmt: skip
+            weights: Sequence[float] | None = None,
+            redundant: np.ndarray | None = None) -> Prepared:  # fmt: skip
     """The target (tapered when its ends do not join, as ``settings.taper_s`` says), its
     noise floor and drive prior, and the penalty, for the FRF ``H`` (n_control, n_drives,
-    n // 2 + 1).
+    n // 2 + 1); ``redundant`` (n_drives, k): the rig's redundant drive combinations.
 
     Raises
     ------
     TimeDataError
-        For weights that are not one positive number per control channel.
+        For weights that are not one positive number per control channel, or a minimal
+        warp asked for without the redundant combinations.
     """
     s = settings
     n = target.shape[1]
@@ -224,7 +241,16 @@ def prepare(H: np.ndarray, target: np.ndarray, dt: float, settings: IterationSet
     fl = f[lines]
     prior = inverse.drive_prior(Hf, T, weight, fl)
     pen = inverse.penalty(Hf, weight, prior, fl, effort=s.effort, roll_off_hz=s.roll_off_hz)
-    return Prepared(target, taper, stat, fl, lines, T, noise, weight, w, prior, pen, Hf)
+    red = np.zeros((H.shape[1], 0)) if redundant is None else np.asarray(redundant, float)
+    coupled = None
+    if s.warp == "minimal":
+        if red.shape[1] == 0:
+            raise TimeDataError("a minimal warp needs the rig's redundant actuator "
+                                "combinations (the actuators' positions and directions); "
+                                "this rig has none, or they are not known")  # fmt: skip
+        coupled = inverse.held_penalty(Hf, weight, red)
+    return Prepared(target, taper, stat, fl, lines, T, noise, weight, w, prior, pen, Hf, red,
+                    coupled)  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -251,6 +277,9 @@ class Iteration:
     halved : (n_lines,) lines of the band where the gain was halved at least once;
         frequency_hz : (n_lines,) the band's lines.
     status : (n_control,) each control channel's last state, in words (:func:`explain`).
+    redundant : (n_drives, k) the rig's redundant drive combinations (the warp);
+        redundant_unseen : for each, the bands (low, high Hz) where the control channels do
+        not see it above the noise.
     """
 
     drive: np.ndarray
@@ -270,6 +299,20 @@ class Iteration:
     halved: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
     frequency_hz: np.ndarray = field(default_factory=lambda: np.zeros(0))
     status: tuple[str, ...] = ()
+    redundant: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    redundant_unseen: tuple[tuple[tuple[float, float], ...], ...] = ()
+
+
+def redundant_unseen(p: Prepared, Hf: np.ndarray) -> tuple[tuple[tuple[float, float], ...],
+                                                           ...]:  # fmt: skip
+    """For each redundant drive combination, the bands where the control channels do not
+    see it above the noise (:func:`femcal.rig.inverse.direction_seen` below one)."""
+    out = []
+    f = p.frequency_hz
+    for k in range(p.redundant.shape[1]):
+        seen = inverse.direction_seen(Hf, p.weight, p.pen, p.redundant[:, k])
+        out.append(tuple((float(f[a]), float(f[b - 1])) for a, b in inverse.runs(seen < 1)))
+    return tuple(out)
 
 
 def frf_on_lines(plant: RigPlant, control: Sequence[int], n: int, dt: float,
@@ -363,7 +406,7 @@ def _to_time(D: np.ndarray, p: Prepared, n: int) -> np.ndarray:
 def _step(p: Prepared, Hf: np.ndarray, Ainv: np.ndarray, E: np.ndarray,
           D: np.ndarray) -> np.ndarray:  # fmt: skip
     """The Gauss-Newton step A^-1 (H^H W E - diag(pen) D) (n_drives, n_lines)."""
-    g = inverse.gradient(Hf, p.weight, p.pen, E, D)
+    g = inverse.gradient(Hf, p.weight, p.pen, E, D, p.coupled)
     return np.einsum("fij,jf->if", Ainv, g)
 
 
@@ -404,9 +447,10 @@ def iterate_drive(plant: RigPlant, H: np.ndarray, target: np.ndarray, control: S
     s = settings or IterationSettings()
     target = _check(H, target, len(control), plant.beta.shape[1])
     n = target.shape[1]
-    p = prepare(H, target, dt, s, weights)
+    red = redundant_drives(plant) if plant.actuators else None
+    p = prepare(H, target, dt, s, weights, red)
     Hf = p.Hf
-    Ainv = inverse.solver(Hf, p.weight, p.pen)
+    Ainv = inverse.solver(Hf, p.weight, p.pen, p.coupled)
     D = _step(p, Hf, Ainv, p.T, np.zeros((Hf.shape[2], len(p.frequency_hz)), complex))
     gain = np.full(len(p.frequency_hz), s.gain)
     halved = np.zeros(len(p.frequency_hz), bool)
@@ -435,8 +479,8 @@ def iterate_drive(plant: RigPlant, H: np.ndarray, target: np.ndarray, control: S
             Hf, changed = _update(p, Hf, pairs)
             updates.append(changed)
             if changed:
-                Ainv = inverse.solver(Hf, p.weight, p.pen)
-        now = inverse.objective(p.weight, p.pen, E, D)
+                Ainv = inverse.solver(Hf, p.weight, p.pen, p.coupled)
+        now = inverse.objective(p.weight, p.pen, E, D, p.coupled)
         if before is not None:
             grew = now > before
             gain = np.where(grew, gain / 2, gain)
@@ -450,7 +494,8 @@ def iterate_drive(plant: RigPlant, H: np.ndarray, target: np.ndarray, control: S
                        p.noise, p.channel_weight, tuple(unseen), tuple(updates), halved,
                        p.frequency_hz)  # fmt: skip
     status = explain(result, p, held)
-    return Iteration(**{**result.__dict__, "status": status})
+    return Iteration(**{**result.__dict__, "status": status, "redundant": p.redundant,
+                        "redundant_unseen": redundant_unseen(p, Hf)})
 
 
 def explain(result: Iteration, p: Prepared, held: np.ndarray) -> tuple[str, ...]:
@@ -477,7 +522,7 @@ def explain(result: Iteration, p: Prepared, held: np.ndarray) -> tuple[str, ...]
             return f"{f.min():.3g}-{f.max():.3g} Hz" if f.size else "-"
 
         if e <= 1.5 * floor[c] or e < 1e-4:
-            out.append(f"converged: {100 * e:.3g} % in band, at the target's noise floor "
+            out.append(f"converged: {100 * e:.3g} % in band, within the target's noise there "
                        f"({100 * floor[c]:.2g} %)" if e > 1e-4 else
                        f"converged: {100 * e:.2g} % in band")  # fmt: skip
             continue
@@ -514,6 +559,7 @@ class Correction:
     unseen : bands where drive directions are not seen above the noise (held).
     frf_updates : lines of the FRF updated from each drive and response pair given.
     error : BandErrors of the last response given (None for the first drive).
+    redundant_unseen : as :attr:`Iteration.redundant_unseen`.
     """
 
     drive: np.ndarray
@@ -521,17 +567,20 @@ class Correction:
     unseen: tuple[UnseenBand, ...]
     frf_updates: tuple[int, ...]
     error: BandErrors | None
+    redundant_unseen: tuple[tuple[tuple[float, float], ...], ...] = ()
 
 
 def correct_drive(H: np.ndarray, target: np.ndarray, dt: float,
                   settings: IterationSettings | None = None, *,
                   drives: Sequence[np.ndarray] = (), responses: Sequence[np.ndarray] = (),
-                  weights: Sequence[float] | None = None) -> Correction:  # fmt: skip
+                  weights: Sequence[float] | None = None,
+                  redundant: np.ndarray | None = None) -> Correction:  # fmt: skip
     """One step of the iteration for a rig femcal does not play (the drive/response
     exchange of a physical rig): the first drive when no drive was played, else the next
     one after the last of ``drives`` (each (n_drives, n), played in order) whose control
     channels measured ``responses`` (each as the target), the FRF updated with every pair
-    in order when ``settings.update_frf``.
+    in order when ``settings.update_frf``; ``redundant`` (n_drives, k) the rig's redundant
+    drive combinations (:func:`femcal.rig.kinematics.redundant_drives`).
 
     Raises
     ------
@@ -550,7 +599,7 @@ def correct_drive(H: np.ndarray, target: np.ndarray, dt: float,
                                 f"{np.shape(r)}; expected ({H.shape[1]}, {n}) and "
                                 f"{target.shape}: the drive played and the control channels "
                                 "measured, as long as the target")  # fmt: skip
-    p = prepare(H, target, dt, s, weights)
+    p = prepare(H, target, dt, s, weights, redundant)
     Hf = p.Hf
     pairs: list[tuple[np.ndarray, np.ndarray]] = []
     updates = []
@@ -559,7 +608,7 @@ def correct_drive(H: np.ndarray, target: np.ndarray, dt: float,
         if s.update_frf:
             Hf, changed = _update(p, Hf, pairs)
             updates.append(changed)
-    Ainv = inverse.solver(Hf, p.weight, p.pen)
+    Ainv = inverse.solver(Hf, p.weight, p.pen, p.coupled)
     if not pairs:
         D = _step(p, Hf, Ainv, p.T, np.zeros((H.shape[1], len(p.frequency_hz)), complex))
         error = None
@@ -568,4 +617,5 @@ def correct_drive(H: np.ndarray, target: np.ndarray, dt: float,
         D = D_last + s.gain * _step(p, Hf, Ainv, p.T - R_last, D_last)
         error = band_errors(p.target, np.asarray(responses[-1], float), dt, s.band)
     unseen = inverse.unseen_directions(Hf, p.weight, p.pen, p.frequency_hz)
-    return Correction(_to_time(D, p, n), p, tuple(unseen), tuple(updates), error)
+    return Correction(_to_time(D, p, n), p, tuple(unseen), tuple(updates), error,
+                      redundant_unseen(p, Hf))

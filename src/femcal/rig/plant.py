@@ -50,7 +50,7 @@ residual of the modes left out.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -79,6 +79,7 @@ class Actuator:
     ground : the oil column's grounded end, which the actuator moves (NASTRAN id).
     direction : (3,) unit vector of its stroke in the basic frame.
     stiffness : the oil column's stiffness along the stroke (force/length).
+    position : (3,) the frame end's position in the basic frame.
     """
 
     label: str
@@ -86,6 +87,7 @@ class Actuator:
     ground: int
     direction: np.ndarray
     stiffness: float
+    position: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
 
 @dataclass(frozen=True)
@@ -218,7 +220,8 @@ def find_actuators(model: Model, points: Sequence[tuple[str, int, int]],
         if not k > 0:
             raise ModelError(f"{where}: the oil column to grid {model.node_ids[g]} has no "
                              f"stiffness along the stroke ({k:g}); expected a positive one")
-        out.append(Actuator(label, int(gid), int(model.node_ids[g]), e, k))
+        out.append(Actuator(label, int(gid), int(model.node_ids[g]), e, k,
+                            np.asarray(model.xyz[idx], float)))
     return out
 
 
