@@ -11,8 +11,9 @@ import pytest
 
 from femcal.cli import main
 from femcal.model.build import load_model
-from femcal.rig.iterate import IterationSettings, iterate_drive
+from femcal.rig.iterate import IterationSettings, frf_on_lines, iterate_drive
 from femcal.rig.plant import build_plant, damping_from_modes
+from femcal.rig.simulate import simulate
 from femcal.testdata.formats import read_time_data, write_time_data
 from femcal.testdata.points import read_points
 from femcal.testdata.timedata import TimeData
@@ -238,13 +239,13 @@ def test_correct_steps_a_physical_rig_by_files(tmp_path, capsys):
     step = ["rig", "correct", str(deck), *rig, "--target", str(tmp_path / "target.rsp"),
             "--control", *control, "--band", "1", "80", "--frf", *frfs]
     assert main([*step, "--out", str(tmp_path / "d0.rsp")]) == 0
-    errors = []
+    errors, history = [], []
     for k in range(4):
         drive, response = tmp_path / f"d{k}.rsp", tmp_path / f"r{k}.rsp"
         assert main([*play, "--drive", str(drive), "--out", str(response)]) == 0
         capsys.readouterr()
-        assert main([*step, "--drive", str(drive), "--response", str(response), "--out",
-                     str(tmp_path / f"d{k + 1}.rsp")]) == 0  # fmt: skip
+        history += ["--drive", str(drive), "--response", str(response)]  # every pair so far
+        assert main([*step, *history, "--out", str(tmp_path / f"d{k + 1}.rsp")]) == 0
         lines = capsys.readouterr().out.splitlines()
         at = next(i for i, line in enumerate(lines) if line.startswith("control channel"))
         errors.append(max(float(line.split()[1]) for line in lines[at + 1 : at + 1 + 6]))
@@ -335,3 +336,34 @@ def test_a_drive_beyond_its_limits_lands_only_as_the_user_chose(tmp_path, capsys
     assert not (tmp_path / "d0.rsp").exists()
     assert main([*step, "--stroke", "5", "--out", str(tmp_path / "d0.rsp")]) == 0
     assert (tmp_path / "d0.rsp").is_file()
+
+
+def test_a_model_far_from_the_plant_stalls_said_and_the_frf_update_moves_on(tmp_path):
+    """The small rig with a plant 20 % stiffer in bending (a resonance 11 % higher): the
+    model's FRF turns the corrections the wrong way there. Kept, the iteration never ends
+    worse than its first drive and says where and why it stalled; updated from each step
+    (Broyden), the error keeps falling."""
+    deck = small_rig_deck(tmp_path / "rig.bdf")
+    stiff = tmp_path / "stiff.bdf"
+    stiff.write_text(deck.read_text().replace("PBAR,1,1,400.,20000.", "PBAR,1,1,400.,24000."))
+    model = build_plant(load_model(deck), ACTUATORS, SENSORS, modes_to=300.0)
+    plant = build_plant(load_model(stiff), ACTUATORS, SENSORS, modes_to=300.0)
+    control = [model.outputs.index(c) for c in ("S3:+Z", "S8:+Y", "S12:+Z", "S11:-X",
+                                                 "A_z1:force", "A_y1:force")]  # fmt: skip
+    n = 4096
+    f = np.fft.rfftfreq(n, DT)
+    rng = np.random.default_rng(1)
+    S = np.where((f >= 1) & (f <= 80), np.exp(2j * np.pi * rng.uniform(size=(6, len(f)))), 0)
+    target = simulate(plant, np.fft.irfft(S, n, axis=1), DT, periodic=True)[control]
+    H = frf_on_lines(model, control, n, DT, (1.0, 80.0))
+    runs = {upd: iterate_drive(plant, H, target, control, DT,
+                               IterationSettings(iterations=6, band=(1.0, 80.0),
+                                                 update_frf=upd)) for upd in (False, True)}  # fmt: skip
+    kept, updated = runs[False], runs[True]
+    assert np.all(kept.rms_error[-1] <= kept.rms_error[0] * (1 + 1e-9))
+    worst = int(np.argmax(kept.rms_error[-1]))
+    assert kept.status[worst].startswith("stalled") and "gain was halved" in kept.status[worst]
+    band = kept.frequency_hz[kept.halved]
+    assert band.min() < plant.omega[1] / (2 * np.pi) < band.max() + 1.0
+    assert updated.rms_error[-1].max() < 0.2 * kept.rms_error[-1].max()
+    assert updated.frf_updates and min(updated.frf_updates) > 0

@@ -488,8 +488,8 @@ def _iteration_pictures(out: Path, result, model: RigPlant, names: list[str],
         ("Drives at each iteration", "drives_psd.png", "PSDs (Welch, 4 s Hann segments) of "
          "each actuator's drive, light for the first drive to dark for the last"
          + (", and the reference drive dashed." if reference is not None else ".")),
-        ("Drives over time", "drives_time.png", "The last drive of each actuator over the "
-         "whole record, with its stroke dashed in red where one is given"
+        ("Drives over time", "drives_time.png", "The first and the last drive of each "
+         "actuator over the whole record, with its stroke dashed in red where one is given"
          + (" and the reference drive in grey." if reference is not None else ".")),
         ("Target and response", "target_response.png", "The control channels around the "
          "target's peak after the last step."),
@@ -506,7 +506,8 @@ def _iteration_pictures(out: Path, result, model: RigPlant, names: list[str],
                                list(model.inputs), unit, reference=ref_psd,
                                band=settings.band)  # fmt: skip
     pictures.drive_histories(out / figures[2][1], dt, drive, list(model.inputs), unit,
-                             stroke=check.limit[0], reference=reference)  # fmt: skip
+                             stroke=check.limit[0], reference=reference,
+                             first=result.first_drive)  # fmt: skip
     pictures.target_and_response(out / figures[3][1], dt, result.target, controlled, names,
                                  cunits)  # fmt: skip
     pictures.target_and_response_psd(out / figures[4][1], dt, result.target, controlled,

@@ -18,9 +18,12 @@ the control channels follow a target.
        D <- D + g A^-1 (H^H W (T - R) - diag(pen) D),
 
    so that the corrections keep the regularisation (a plain ``D + g H^+ (T - R)`` would
-   converge to the unregularised drive and amplify the noise again). The gain ``g`` is kept
-   line by line: it starts at ``gain`` and halves at a line whose objective grew in the
-   last step (there the inverted FRF is far from the plant's).
+   converge to the unregularised drive and amplify the noise again). Each line's
+   response depends on its own drive only (the drive loops, the plant is linear), so the
+   step is taken line by line from the best drive found so far, and the gain ``g`` is kept
+   line by line: it starts at ``gain`` and halves at a line whose objective did not fall
+   in the last step (there the inverted FRF is far from the plant's), which goes back to
+   its best. The drive written is, at each line, the best one played.
    A rig with more actuators than rigid-body motions has drive combinations that only
    deform the frame (:mod:`femcal.rig.kinematics`; a 7-post rig's warp): they are driven
    where the control channels see them and held where they do not, or, with
@@ -224,8 +227,9 @@ def prepare(H: np.ndarray, target: np.ndarray, dt: float, settings: IterationSet
             taper = min(1.0 / max(s.band[0], 1e-3), 0.1 * n * dt)
     else:
         taper = float(s.taper_s)
-    if taper > 0:
-        target = target * taper_window(n, round(taper / dt))
+    if taper > 0:  # about each channel's mean, so that an offset makes no ramps
+        mean = target.mean(axis=1, keepdims=True)
+        target = mean + (target - mean) * taper_window(n, round(taper / dt))
     w = np.ones(len(target)) if weights is None else np.asarray(weights, float)
     if w.shape != (len(target),) or not (np.isfinite(w).all() and (w > 0).all()):
         raise TimeDataError(f"channel weights {list(np.atleast_1d(w))}: expected one positive "
@@ -280,6 +284,7 @@ class Iteration:
     redundant : (n_drives, k) the rig's redundant drive combinations (the warp);
         redundant_unseen : for each, the bands (low, high Hz) where the control channels do
         not see it above the noise.
+    first_drive : (n_drives, n) the first drive (the inverse times the target).
     """
 
     drive: np.ndarray
@@ -301,6 +306,7 @@ class Iteration:
     status: tuple[str, ...] = ()
     redundant: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     redundant_unseen: tuple[tuple[tuple[float, float], ...], ...] = ()
+    first_drive: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
 
 def redundant_unseen(p: Prepared, Hf: np.ndarray) -> tuple[tuple[tuple[float, float], ...],
@@ -428,6 +434,25 @@ def _psd(x: np.ndarray, dt: float, segment_s: float = 4.0) -> tuple[np.ndarray, 
     return f, P
 
 
+class _Best:
+    """At each line, the drive with the lowest objective so far and its error."""
+
+    def __init__(self, D: np.ndarray) -> None:
+        self.D = D.copy()
+        self.E: np.ndarray | None = None
+        self.J = np.full(D.shape[1], np.inf)
+
+    def keep(self, D: np.ndarray, E: np.ndarray, J: np.ndarray) -> np.ndarray:
+        """Take the lines where ``J`` is lower; returns the mask of the others."""
+        better = J < self.J
+        if self.E is None:
+            self.E = E.copy()
+        self.D[:, better] = D[:, better]
+        self.E[:, better] = E[:, better]
+        self.J[better] = J[better]
+        return ~better
+
+
 def iterate_drive(plant: RigPlant, H: np.ndarray, target: np.ndarray, control: Sequence[int],
                   dt: float, settings: IterationSettings | None = None, *,
                   weights: Sequence[float] | None = None,
@@ -454,48 +479,60 @@ def iterate_drive(plant: RigPlant, H: np.ndarray, target: np.ndarray, control: S
     D = _step(p, Hf, Ainv, p.T, np.zeros((Hf.shape[2], len(p.frequency_hz)), complex))
     gain = np.full(len(p.frequency_hz), s.gain)
     halved = np.zeros(len(p.frequency_hz), bool)
-    before = None
+    best = _Best(D)
     errors, outside, drives, psds, updates = [], [], [], [], []
     pairs: list[tuple[np.ndarray, np.ndarray]] = []
     control = list(control)
-    for k in range(s.iterations + 1):
+
+    def play(D: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """Play a drive spectrum; record its errors as step ``k`` (replacing the last
+        row when ``k`` is already recorded)."""
         drive = _to_time(D, p, n)
         response = simulate(plant, drive, dt, periodic=True)
         err: BandErrors = band_errors(p.target, response[control], dt, s.band)
-        errors.append(err.in_band)
-        outside.append(err.out_of_band)
-        drives.append(np.sqrt(np.mean(drive**2, axis=1)))
-        psd_hz, psd = _psd(drive, dt)
-        psds.append(psd)
+        row = (err.in_band, err.out_of_band, np.sqrt(np.mean(drive**2, axis=1)),
+               _psd(drive, dt)[1])  # fmt: skip
+        for history, value in zip((errors, outside, drives, psds), row, strict=True):
+            if k < len(history):
+                history[k] = value
+            else:
+                history.append(value)
         if progress is not None:
             progress(f"iteration {k}: in-band RMS error {100 * err.in_band.max():.2f} % at "
                      f"worst, {100 * np.median(err.in_band):.2f} % median")  # fmt: skip
-        if k == s.iterations:
-            break
+        return drive, response
+
+    for k in range(s.iterations + 1):
+        drive, response = play(D, k)
+        if k == 0:
+            first = drive
         R = _on_lines(response[control], p)
         E = p.T - R
+        worse = best.keep(D, E, inverse.objective(p.weight, p.pen, E, D, p.coupled))
+        if k == s.iterations:
+            break
+        if k > 0:  # a line whose objective did not fall: back to its best, half the gain
+            gain = np.where(worse, gain / 2, gain)
+            halved |= worse
         if s.update_frf:
             pairs.append((D.copy(), R))
             Hf, changed = _update(p, Hf, pairs)
             updates.append(changed)
             if changed:
                 Ainv = inverse.solver(Hf, p.weight, p.pen, p.coupled)
-        now = inverse.objective(p.weight, p.pen, E, D, p.coupled)
-        if before is not None:
-            grew = now > before
-            gain = np.where(grew, gain / 2, gain)
-            halved |= grew
-        before = now
-        D = D + gain * _step(p, Hf, Ainv, E, D)
+        D = best.D + gain * _step(p, Hf, Ainv, best.E, best.D)
+    if not np.array_equal(best.D, D):  # some lines' best came earlier: write that drive
+        drive, response = play(best.D, s.iterations)
     unseen = inverse.unseen_directions(Hf, p.weight, p.pen, p.frequency_hz)
     held = inverse.unseen_count(Hf, p.weight, p.pen) > 0
     result = Iteration(drive, response, tuple(control), np.array(errors), np.array(drives),
-                       np.array(outside), np.array(psds), psd_hz, p.target, p.taper_s,
+                       np.array(outside), np.array(psds), _psd(drive[:1], dt)[0], p.target,
+                       p.taper_s,
                        p.noise, p.channel_weight, tuple(unseen), tuple(updates), halved,
                        p.frequency_hz)  # fmt: skip
     status = explain(result, p, held)
     return Iteration(**{**result.__dict__, "status": status, "redundant": p.redundant,
-                        "redundant_unseen": redundant_unseen(p, Hf)})
+                        "redundant_unseen": redundant_unseen(p, Hf), "first_drive": first})
 
 
 def explain(result: Iteration, p: Prepared, held: np.ndarray) -> tuple[str, ...]:
@@ -577,10 +614,12 @@ def correct_drive(H: np.ndarray, target: np.ndarray, dt: float,
                   redundant: np.ndarray | None = None) -> Correction:  # fmt: skip
     """One step of the iteration for a rig femcal does not play (the drive/response
     exchange of a physical rig): the first drive when no drive was played, else the next
-    one after the last of ``drives`` (each (n_drives, n), played in order) whose control
-    channels measured ``responses`` (each as the target), the FRF updated with every pair
-    in order when ``settings.update_frf``; ``redundant`` (n_drives, k) the rig's redundant
-    drive combinations (:func:`femcal.rig.kinematics.redundant_drives`).
+    one from ``drives`` (each (n_drives, n), played in order) whose control channels
+    measured ``responses`` (each as the target): at each line a step from the pair with the
+    lowest objective (at half the gain where the last pair did not lower it), the FRF
+    updated with every pair in order when ``settings.update_frf``; ``redundant`` (n_drives,
+    k) the rig's redundant drive combinations (:func:`femcal.rig.kinematics.
+    redundant_drives`).
 
     Raises
     ------
@@ -613,8 +652,13 @@ def correct_drive(H: np.ndarray, target: np.ndarray, dt: float,
         D = _step(p, Hf, Ainv, p.T, np.zeros((H.shape[1], len(p.frequency_hz)), complex))
         error = None
     else:
-        D_last, R_last = pairs[-1]
-        D = D_last + s.gain * _step(p, Hf, Ainv, p.T - R_last, D_last)
+        best = _Best(pairs[0][0])
+        for D_k, R_k in pairs:
+            E_k = p.T - R_k
+            worse = best.keep(D_k, E_k, inverse.objective(p.weight, p.pen, E_k, D_k, p.coupled))
+        # from the best pair at each line; half the gain where the last did not improve it
+        gain = np.where(worse & (len(pairs) > 1), s.gain / 2, s.gain)
+        D = best.D + gain * _step(p, Hf, Ainv, best.E, best.D)
         error = band_errors(p.target, np.asarray(responses[-1], float), dt, s.band)
     unseen = inverse.unseen_directions(Hf, p.weight, p.pen, p.frequency_hz)
     return Correction(_to_time(D, p, n), p, tuple(unseen), tuple(updates), error,

@@ -155,16 +155,20 @@ def drive_psd_history(path: str | os.PathLike[str], frequency_hz: np.ndarray,
 
 def drive_histories(path: str | os.PathLike[str], dt: float, drive: np.ndarray,
                     names: Sequence[str], unit: str, *, stroke: np.ndarray | None = None,
-                    reference: np.ndarray | None = None, title: str = ""):  # fmt: skip
+                    reference: np.ndarray | None = None, first: np.ndarray | None = None,
+                    title: str = ""):  # fmt: skip
     """One panel per actuator: the drive over the whole record, its stroke (+/-) dashed in
-    red where one is given, and the reference drive in grey when given."""
+    red where one is given, the first drive in light green and the reference drive in grey
+    when given."""
     plt = pyplot()
     fig, axes = _panels(plt, len(names), height=1.8)
     t = np.arange(drive.shape[1]) * dt
     for j, ax in enumerate(axes):
         if reference is not None:
             ax.plot(t, reference[j], color="0.6", lw=0.6, label="reference")
-        ax.plot(t, drive[j], color="tab:blue", lw=0.6, label="drive")
+        if first is not None:
+            ax.plot(t, first[j], color="yellowgreen", lw=0.6, label="first drive")
+        ax.plot(t, drive[j], color="tab:blue", lw=0.6, label="last drive")
         if stroke is not None and np.isfinite(stroke[j]):
             for sign in (1, -1):
                 ax.axhline(sign * stroke[j], color="tab:red", ls="--", lw=0.9,
