@@ -250,6 +250,17 @@ def test_correct_steps_a_physical_rig_by_files(tmp_path, capsys):
         at = next(i for i, line in enumerate(lines) if line.startswith("control channel"))
         errors.append(max(float(line.split()[1]) for line in lines[at + 1 : at + 1 + 6]))
     assert errors[-1] < errors[0] / 3 and errors[-1] < 2.0, errors
+    report = tmp_path / "report"
+    assert main([*step, *history, "--report", str(report), "--out",
+                 str(tmp_path / "d5.rsp")]) == 0  # fmt: skip
+    facts = json.loads((report / "correction.json").read_text())
+    assert len(facts["control"][0]["rms_error"]) == 4  # one per response given
+    assert len(facts["drives"][0]["rms"]) == 5  # the drives played and the next
+    assert max(c["rms_error"][-1] for c in facts["control"]) == pytest.approx(
+        errors[-1] / 100, rel=0.02)  # fmt: skip
+    for name in ("report.html", "drives_psd.png", "drives_time.png", "error_psd.png",
+                 "target_response_psd.png"):  # fmt: skip
+        assert (report / name).stat().st_size > 1000
     assert main([*step, "--drive", str(tmp_path / "d0.rsp"), "--out",
                  str(tmp_path / "x.rsp")]) == 2  # fmt: skip
     assert "1 --drive and 0 --response: they go in pairs" in capsys.readouterr().err

@@ -25,6 +25,7 @@ from ..errors import DriveLimitError, FemcalWarning, TimeDataError
 from ..io.identified import read_model
 from ..io.rig import (
     IterationFacts,
+    correction_dict,
     iteration_dict,
     write_comparison_html,
     write_iteration_html,
@@ -209,6 +210,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     cor.add_argument("--response", type=Path, action="append", default=[],
                      help="the response measured while that drive played (repeat likewise)")
     _iteration_options(cor, iterations=False)
+    cor.add_argument("--sn-slope", type=float, default=5.0, metavar="M",
+                     help="S-N slope of the relative damage of the last response (default 5)")
+    cor.add_argument("--report", type=Path, metavar="DIR",
+                     help="also write correction.json, report.html and pictures there: the "
+                     "drives played and the next, the last response against the target, its "
+                     "error spectra")  # fmt: skip
     cor.add_argument("--out", type=Path, required=True, metavar="DRIVE",
                      help=f"the next drive ({time_sfx})")
 
@@ -413,9 +420,7 @@ def _iterate(args: argparse.Namespace) -> int:
                              f"{', '.join(model.outputs)}")  # fmt: skip
         control.append(model.outputs.index(name))
     weights = _weights(args)
-    if not (np.isfinite(args.sn_slope) and args.sn_slope > 0):
-        raise UsageError(f"--sn-slope {args.sn_slope:g}: expected a positive S-N slope (3 for "
-                         "welded steel joints; 5 is common for components)")  # fmt: skip
+    _check_slope(args)
     limits = _limits(args, model)
     target = _channels(target_data, args.control, args.target, model)
     dt, n = target_data.dt, target.shape[1]
@@ -611,6 +616,9 @@ def _correct(args: argparse.Namespace) -> int:
                          f"{', '.join(model.outputs)}")  # fmt: skip
     weights = _weights(args)
     _limits(args, model)
+    _check_slope(args)
+    if args.report is not None:
+        output_folder(args.report, "--report")
     target = _channels(target_data, args.control, args.target, model)
     dt, n = target_data.dt, target.shape[1]
     if args.frf is not None:
@@ -628,9 +636,15 @@ def _correct(args: argparse.Namespace) -> int:
         responses.append(_channels(measured, args.control, response_path, model))
     step = correct_drive(H, target, dt, settings, drives=drives, responses=responses,
                          weights=weights, redundant=redundant_drives(model))  # fmt: skip
-    drive, check, _scale = _enforce(step.drive, dt, model, args, args.target)
-    if check.exceeded and args.on_limit == "refuse":
-        _refuse(check, model, args.out, "")
+    drive, check, scale = _enforce(step.drive, dt, model, args, args.target)
+    refused = check.exceeded and args.on_limit == "refuse"
+    if args.report is not None:
+        _correction_report(args, step, model, settings, drives, responses, drive, check,
+                           scale, not refused, dt, "the FRF files given" if args.frf
+                           else "the model's FRF")  # fmt: skip
+    if refused:
+        _refuse(check, model, args.out, "" if args.report is None
+                else f"The report is in {args.report}. ")  # fmt: skip
     units = (model.input_units,) * len(model.inputs)
     write_time_data(args.out, TimeData(dt, drive, model.inputs, units))
     _say(t0, f"wrote {args.out}")
@@ -663,6 +677,63 @@ def _correct(args: argparse.Namespace) -> int:
         print(f"{a:<{aw}}  RMS {np.sqrt(np.mean(drive[j] ** 2)):.4g}, peak "
               f"{check.peak[0, j]:.4g}{limit} {model.input_units}")  # fmt: skip
     return 0
+
+
+def _check_slope(args: argparse.Namespace) -> None:
+    if not (np.isfinite(args.sn_slope) and args.sn_slope > 0):
+        raise UsageError(f"--sn-slope {args.sn_slope:g}: expected a positive S-N slope (3 for "
+                         "welded steel joints; 5 is common for components)")  # fmt: skip
+
+
+def _correction_report(args: argparse.Namespace, step, model: RigPlant,
+                       settings: IterationSettings, drives: list[np.ndarray],
+                       responses: list[np.ndarray], drive: np.ndarray, check: LimitCheck,
+                       scale: float, written: bool, dt: float, frf: str) -> None:  # fmt: skip
+    """``rig correct --report``: correction.json, report.html and pictures of the drives
+    played and the next one, and of the last response against the target."""
+    out = args.report
+    out.mkdir(parents=True, exist_ok=True)
+    p = step.prepared
+    names = list(args.control)
+    cunits = [model.output_units[model.outputs.index(c)] for c in names]
+    last = responses[-1] if responses else np.zeros_like(p.target)
+    stats = channel_stats(p.target, last)
+    damage = (relative_damage(p.target, last, args.sn_slope) if responses
+              else np.full(len(names), np.nan))  # fmt: skip
+    facts = IterationFacts(check, args.on_limit, scale, written, stats, damage, args.sn_slope)
+    played = [*drives, drive]
+    psd_hz = _welch(played[0][0], dt)[0]
+    psd = np.stack([np.vstack([_welch(d[j], dt)[1] for j in range(d.shape[0])])
+                    for d in played])  # fmt: skip
+    unit = model.input_units
+    figures = [("Drives played and the next", "drives_psd.png", "PSDs (Welch, 4 s Hann "
+                "segments) of each drive played, light to dark, the next one darkest."),
+               ("The next drive over time", "drives_time.png", "The next drive of each "
+                "actuator, the last one played beside it, and its stroke dashed in red where "
+                "one is given.")]  # fmt: skip
+    pictures.drive_psd_history(out / figures[0][1], psd_hz, psd, list(model.inputs), unit,
+                               band=settings.band)  # fmt: skip
+    pictures.drive_histories(out / figures[1][1], dt, drive, list(model.inputs), unit,
+                             stroke=check.limit[0], first=drives[-1] if drives else None,
+                             first_label="last drive played")  # fmt: skip
+    if responses:
+        figures += [
+            ("Target and the last response", "target_response.png", "The control channels "
+             "around the target's peak."),
+            ("Target and the last response: PSDs", "target_response_psd.png", "Welch PSDs "
+             "(4 s Hann segments)."),
+            ("Error spectra", "error_psd.png", "PSD of target - last response against the "
+             "target's, the drive band shaded and the target's noise floor dotted."),
+        ]  # fmt: skip
+        pictures.target_and_response(out / figures[2][1], dt, p.target, last, names, cunits)
+        pictures.target_and_response_psd(out / figures[3][1], dt, p.target, last, names,
+                                         cunits, band=settings.band)  # fmt: skip
+        pictures.error_spectra(out / figures[4][1], dt, p.target, last, names, cunits,
+                               noise_fraction=p.noise.fraction, band=settings.band)
+    report = correction_dict(step, model, settings, names, drives, responses, dt, facts,
+                             target=str(args.target), model=str(args.deck), frf=frf)
+    write_iteration_json(out / "correction.json", report)
+    write_iteration_html(out / "report.html", report, figures)
 
 
 def _frf_files(paths: list[Path], model: RigPlant, control: list[str], n: int, dt: float,

@@ -15,10 +15,10 @@ from pathlib import Path
 import numpy as np
 
 from ..atomic import write_lines
-from ..rig.iterate import Iteration, IterationSettings
+from ..rig.iterate import Correction, Iteration, IterationSettings
 from ..rig.limits import QUANTITIES, LimitCheck
 from ..rig.plant import RigPlant
-from ..rig.quality import ChannelStats
+from ..rig.quality import ChannelStats, band_errors
 from .html import HEADER_STYLE, embedded_figure, file_facts, html_header, html_table, provenance
 
 _STYLE = ("body{font-family:sans-serif;margin:2em;max-width:1400px}"
@@ -141,6 +141,66 @@ def iteration_dict(result: Iteration, plant: RigPlant, settings: IterationSettin
     return report
 
 
+def correction_dict(step: Correction, plant: RigPlant, settings: IterationSettings,
+                    control: list[str], drives: list[np.ndarray],
+                    responses: list[np.ndarray], dt: float, facts: IterationFacts, *,
+                    target: str, model: str, frf: str) -> dict:  # fmt: skip
+    """The JSON summary of one step of a physical rig's iteration, in the form of
+    :func:`iteration_dict` (read by :func:`write_iteration_html`): per control channel its
+    errors for each response given, in and outside the band; per drive its RMS for each
+    drive played and the next one, and the next one's peaks against its limits."""
+    p = step.prepared
+    errors = [band_errors(p.target, r, dt, settings.band) for r in responses]
+    out = []
+    for k, name in enumerate(control):
+        entry = {"channel": name, "rms_error": [float(e.in_band[k]) for e in errors],
+                 "out_of_band_error": [float(e.out_of_band[k]) for e in errors],
+                 "weight": float(p.channel_weight[k]),
+                 "noise_floor": float(p.noise.fraction[k])}  # fmt: skip
+        if responses:
+            st = facts.stats
+            entry["target"] = {"min": float(st.target_min[k]), "max": float(st.target_max[k]),
+                               "rms": float(st.target_rms[k])}
+            entry["response"] = {"min": float(st.response_min[k]),
+                                 "max": float(st.response_max[k]),
+                                 "rms": float(st.response_rms[k])}
+            entry["relative_damage"] = float(facts.damage[k])
+        out.append(entry)
+    played = [*drives, step.drive]
+    drive_rows = []
+    for j, a in enumerate(plant.inputs):
+        entry = {"actuator": a, "unit": plant.input_units,
+                 "rms": [float(np.sqrt(np.mean(d[j] ** 2))) for d in played]}
+        for q, name in enumerate(QUANTITIES):
+            entry[f"peak_{name}"] = float(facts.limits.peak[q, j])
+            lim = facts.limits.limit[q, j]
+            entry[f"limit_{name}"] = float(lim) if np.isfinite(lim) else None
+        drive_rows.append(entry)
+    last = errors[-1].in_band if errors else np.zeros(len(control))
+    return {
+        "target": target, "model": model, "plant": "the physical rig (by files)", "frf": frf,
+        "settings": settings_dict(settings), "taper_s": p.taper_s, "next_drive": True,
+        "control": out, "drives": drive_rows,
+        "unseen": [{"low_hz": u.low_hz, "high_hz": u.high_hz, "directions": u.directions,
+                    "pattern": {a: float(v) for a, v in zip(plant.inputs, u.pattern,
+                                                             strict=True)}}
+                   for u in step.unseen],
+        "redundant": [{"pattern": {a: float(v) for a, v in zip(plant.inputs, p.redundant[:, k],
+                                                                strict=True)},
+                       "unseen_hz": [list(b) for b in step.redundant_unseen[k]]}
+                      for k in range(p.redundant.shape[1])],
+        "frf_updates": list(step.frf_updates),
+        "final_rms_error": {"worst": float(last.max()) if last.size else 0.0,
+                            "median": float(np.median(last)) if last.size else 0.0},
+        "noise_floor": {"source": p.noise.source, "measured": p.noise.measured},
+        "limits": {"action": facts.limit_action, "exceeded": facts.limits.exceeded,
+                   "worst_ratio": facts.limits.worst, "scale": facts.scale,
+                   "drive_written": facts.drive_written,
+                   "messages": facts.limits.messages(plant.inputs, plant.input_units)},
+        "sn_slope": facts.sn_slope,
+    }  # fmt: skip
+
+
 def write_iteration_json(path: str | os.PathLike[str], report: dict) -> Path:
     return write_lines(path, [json.dumps(report, indent=1)])
 
@@ -218,9 +278,10 @@ def write_iteration_html(path: str | os.PathLike[str], report: dict,
         elif any(d.get(f"limit_{q}") for d in report["drives"] for q in QUANTITIES):
             parts.append(f"<p>The drive stays within every limit given (at worst "
                          f"{100 * limits['worst_ratio']:.0f} % of one).</p>")
-    parts.append("<h2>RMS error of each control channel in the drive band (% of the target's "
-                 "RMS there) after each step; outside the band (% of the target's whole "
-                 "RMS) after the last</h2>" + html_table(rows, head))
+    if steps:
+        parts.append("<h2>RMS error of each control channel in the drive band (% of the "
+                     "target's RMS there) after each step; outside the band (% of the "
+                     "target's whole RMS) after the last</h2>" + html_table(rows, head))
     if report["control"] and "target" in report["control"][0]:
         stat_rows = [[c["channel"], *(f"{c[w][k]:.4g}" for w in ("target", "response")
                                        for k in ("min", "max", "rms")),
@@ -229,8 +290,12 @@ def write_iteration_html(path: str | os.PathLike[str], report: dict,
                      f"{report.get('sn_slope', 0):g})</h2>" + html_table(stat_rows, [
                          "channel", "target min", "target max", "target RMS", "response min",
                          "response max", "response RMS", "damage response / target"]))
+    n_drive_steps = len(report["drives"][0]["rms"]) if report["drives"] else 0
+    drive_head = [f"{k}" for k in range(n_drive_steps)]
+    if report.get("next_drive"):
+        drive_head[-1] = "next"
     parts.append(f"<h2>RMS of each drive ({esc(unit)}) after each step</h2>"
-                 + html_table(drives, ["actuator"] + [f"{k}" for k in range(steps)]))
+                 + html_table(drives, ["actuator", *drive_head]))
     if report["drives"] and "peak_stroke" in report["drives"][0]:
         units = (unit, f"{unit}/s", f"{unit}/s²")
 
@@ -294,8 +359,9 @@ of <code>{esc(report['model'])}</code>; plant played: <code>{esc(report['plant']
 {esc(_settings_text(report['settings']))}.{
 f" The target's noise floor: {esc(noise['source'])}." if noise else ""}{
 f" Its ends do not join: faded in and out over {taper:g} s." if taper else ""}</p>
-<p><b>After the last step the RMS error in the drive band is {100 * last['worst']:.2f} % of
-the target's at worst, {100 * last['median']:.2f} % median.</b></p>
+<p><b>{f"After the last step the RMS error in the drive band is {100 * last['worst']:.2f} % of "
+f"the target's at worst, {100 * last['median']:.2f} % median." if steps else
+"No response measured yet: the drive is the first one."}</b></p>
 {''.join(parts)}
 {_figures(path, figures)}
 </body></html>"""

@@ -156,7 +156,7 @@ def drive_psd_history(path: str | os.PathLike[str], frequency_hz: np.ndarray,
 def drive_histories(path: str | os.PathLike[str], dt: float, drive: np.ndarray,
                     names: Sequence[str], unit: str, *, stroke: np.ndarray | None = None,
                     reference: np.ndarray | None = None, first: np.ndarray | None = None,
-                    title: str = ""):  # fmt: skip
+                    first_label: str = "first drive", title: str = ""):  # fmt: skip
     """One panel per actuator: the drive over the whole record, its stroke (+/-) dashed in
     red where one is given, the first drive in light green and the reference drive in grey
     when given."""
@@ -167,8 +167,9 @@ def drive_histories(path: str | os.PathLike[str], dt: float, drive: np.ndarray,
         if reference is not None:
             ax.plot(t, reference[j], color="0.6", lw=0.6, label="reference")
         if first is not None:
-            ax.plot(t, first[j], color="yellowgreen", lw=0.6, label="first drive")
-        ax.plot(t, drive[j], color="tab:blue", lw=0.6, label="last drive")
+            ax.plot(t, first[j], color="yellowgreen", lw=0.6, label=first_label)
+        ax.plot(t, drive[j], color="tab:blue", lw=0.6,
+                label="last drive" if first_label == "first drive" else "next drive")
         if stroke is not None and np.isfinite(stroke[j]):
             for sign in (1, -1):
                 ax.axhline(sign * stroke[j], color="tab:red", ls="--", lw=0.9,
