@@ -65,6 +65,26 @@ class IterationFacts:
     reference_rms: np.ndarray | None = None
 
 
+def _directions(plant: RigPlant, unseen, redundant: np.ndarray, redundant_unseen) -> dict:
+    """The drive directions not seen and the redundant combinations, as JSON."""
+    def by_actuator(values: np.ndarray) -> dict[str, float]:
+        return {a: float(v) for a, v in zip(plant.inputs, values, strict=True)}
+
+    return {"unseen": [{"low_hz": u.low_hz, "high_hz": u.high_hz, "directions": u.directions,
+                        "pattern": by_actuator(u.pattern)} for u in unseen],
+            "redundant": [{"pattern": by_actuator(redundant[:, k]),
+                           "unseen_hz": [list(b) for b in redundant_unseen[k]]}
+                          for k in range(redundant.shape[1])]}  # fmt: skip
+
+
+def _limits_dict(facts: IterationFacts, plant: RigPlant) -> dict:
+    """What the limits check found and did, as JSON."""
+    return {"action": facts.limit_action, "exceeded": facts.limits.exceeded,
+            "worst_ratio": facts.limits.worst, "scale": facts.scale,
+            "drive_written": facts.drive_written,
+            "messages": facts.limits.messages(plant.inputs, plant.input_units)}  # fmt: skip
+
+
 def iteration_dict(result: Iteration, plant: RigPlant, settings: IterationSettings, *,
                    target: str, model: str, plant_deck: str, frf: str,
                    facts: IterationFacts | None = None,
@@ -114,14 +134,7 @@ def iteration_dict(result: Iteration, plant: RigPlant, settings: IterationSettin
         "taper_s": result.taper_s,
         "control": control,
         "drives": drives,
-        "unseen": [{"low_hz": u.low_hz, "high_hz": u.high_hz, "directions": u.directions,
-                    "pattern": {a: float(v) for a, v in zip(plant.inputs, u.pattern,
-                                                             strict=True)}}
-                   for u in result.unseen],
-        "redundant": [{"pattern": {a: float(v) for a, v in zip(plant.inputs, result.redundant[:, k],
-                                                                strict=True)},
-                       "unseen_hz": [list(b) for b in result.redundant_unseen[k]]}
-                      for k in range(result.redundant.shape[1])],
+        **_directions(plant, result.unseen, result.redundant, result.redundant_unseen),
         "frf_updates": list(result.frf_updates),
         "response_rms": {n: float(v) for n, v in zip(plant.outputs, rms, strict=True)},
         "final_rms_error": {"worst": float(result.rms_error[-1].max()),
@@ -132,11 +145,7 @@ def iteration_dict(result: Iteration, plant: RigPlant, settings: IterationSettin
         report["noise_floor"] = {"source": result.noise.source,
                                  "measured": result.noise.measured}
     if facts is not None:
-        report["limits"] = {"action": facts.limit_action, "exceeded": facts.limits.exceeded,
-                            "worst_ratio": facts.limits.worst, "scale": facts.scale,
-                            "drive_written": facts.drive_written,
-                            "messages": facts.limits.messages(plant.inputs,
-                                                              plant.input_units)}
+        report["limits"] = _limits_dict(facts, plant)
         report["sn_slope"] = facts.sn_slope
     return report
 
@@ -181,22 +190,12 @@ def correction_dict(step: Correction, plant: RigPlant, settings: IterationSettin
         "target": target, "model": model, "plant": "the physical rig (by files)", "frf": frf,
         "settings": settings_dict(settings), "taper_s": p.taper_s, "next_drive": True,
         "control": out, "drives": drive_rows,
-        "unseen": [{"low_hz": u.low_hz, "high_hz": u.high_hz, "directions": u.directions,
-                    "pattern": {a: float(v) for a, v in zip(plant.inputs, u.pattern,
-                                                             strict=True)}}
-                   for u in step.unseen],
-        "redundant": [{"pattern": {a: float(v) for a, v in zip(plant.inputs, p.redundant[:, k],
-                                                                strict=True)},
-                       "unseen_hz": [list(b) for b in step.redundant_unseen[k]]}
-                      for k in range(p.redundant.shape[1])],
+        **_directions(plant, step.unseen, p.redundant, step.redundant_unseen),
         "frf_updates": list(step.frf_updates),
         "final_rms_error": {"worst": float(last.max()) if last.size else 0.0,
                             "median": float(np.median(last)) if last.size else 0.0},
         "noise_floor": {"source": p.noise.source, "measured": p.noise.measured},
-        "limits": {"action": facts.limit_action, "exceeded": facts.limits.exceeded,
-                   "worst_ratio": facts.limits.worst, "scale": facts.scale,
-                   "drive_written": facts.drive_written,
-                   "messages": facts.limits.messages(plant.inputs, plant.input_units)},
+        "limits": _limits_dict(facts, plant),
         "sn_slope": facts.sn_slope,
     }  # fmt: skip
 
