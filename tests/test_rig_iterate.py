@@ -378,3 +378,29 @@ def test_a_model_far_from_the_plant_stalls_said_and_the_frf_update_moves_on(tmp_
     assert band.min() < plant.omega[1] / (2 * np.pi) < band.max() + 1.0
     assert updated.rms_error[-1].max() < 0.2 * kept.rms_error[-1].max()
     assert updated.frf_updates and min(updated.frf_updates) > 0
+
+
+def test_a_sine_target_beside_a_channel_held_at_zero(tmp_path):
+    """A sine dwell on one control channel and the other held at zero (or 1e-4 of it): the
+    sine is reproduced (one line alone is a drive, not noise), the quiet channel stays
+    quiet and is said to be held; a target that never moves is refused."""
+    model = build_plant(load_model(small_rig_deck(tmp_path / "rig.bdf")), ACTUATORS, SENSORS,
+                        modes_to=300.0)  # fmt: skip
+    control = [model.outputs.index("S3:+Z"), model.outputs.index("S8:+Y")]
+    n = 4096
+    t = np.arange(n) * DT
+    sine = 1e4 * np.sin(2 * np.pi * 16.0 * t)  # 16 Hz: whole periods in the record
+    H = frf_on_lines(model, control, n, DT, (1.0, 80.0))
+    settings = IterationSettings(iterations=2, band=(1.0, 80.0))
+    for quiet in (0.0, 1e-4):
+        target = np.vstack([sine, quiet * np.cos(2 * np.pi * 16.0 * t)])
+        it = iterate_drive(model, H, target, control, DT, settings)
+        y = it.response[control]
+        assert np.sqrt(np.mean((y[0] - sine) ** 2)) < 1e-3 * np.sqrt(np.mean(sine**2))
+        if quiet == 0.0:
+            assert np.isnan(it.rms_error[-1, 1]) and it.status[1].startswith("held at zero")
+            assert np.sqrt(np.mean(y[1] ** 2)) < 1e-6 * np.sqrt(np.mean(sine**2))
+        else:
+            assert it.rms_error[-1, 1] < 0.01
+    with pytest.raises(ValueError, match="the target is constant on every control channel"):
+        iterate_drive(model, H, np.full((2, n), 3.0), control, DT, settings)

@@ -560,9 +560,13 @@ def _print_iteration(result, names: list[str], model: RigPlant, check: LimitChec
     width = max(len(n) for n in names)
     print(f"{'control channel':<{width}}  in-band RMS error (% of target) after each step; "
           "outside the band; relative damage")  # fmt: skip
+    def pct(x: float, width: int) -> str:
+        return f"{100 * x:{width}.2f}" if np.isfinite(x) else f"{'-':>{width}}"
+
     for k, name in enumerate(names):
-        print(f"{name:<{width}}  " + " ".join(f"{100 * e:7.2f}" for e in result.rms_error[:, k])
-              + f" | {100 * result.out_of_band[-1, k]:6.2f} | {damage[k]:6.3g}")
+        print(f"{name:<{width}}  " + " ".join(pct(e, 7) for e in result.rms_error[:, k])
+              + f" | {pct(result.out_of_band[-1, k], 6)} | "
+              + (f"{damage[k]:6.3g}" if np.isfinite(damage[k]) else f"{'-':>6}"))
     for k, name in enumerate(names):
         print(f"  {name}: {result.status[k]}")
     n_drives = len(model.inputs)
@@ -668,8 +672,9 @@ def _correct(args: argparse.Namespace) -> int:
         print(f"{'control channel':<{width}}  RMS error of the last response (% of target): in "
               "the band, outside it")  # fmt: skip
         for k, c in enumerate(args.control):
-            print(f"{c:<{width}}  {100 * step.error.in_band[k]:7.2f} "
-                  f"{100 * step.error.out_of_band[k]:7.2f}")  # fmt: skip
+            e, o = step.error.in_band[k], step.error.out_of_band[k]
+            print(f"{c:<{width}}  " + " ".join(f"{100 * x:7.2f}" if np.isfinite(x)
+                                               else f"{'-':>7}" for x in (e, o)))  # fmt: skip
     aw = max(len(a) for a in model.inputs)
     for j, a in enumerate(model.inputs):
         stroke = check.limit[0, j]

@@ -137,8 +137,7 @@ def iteration_dict(result: Iteration, plant: RigPlant, settings: IterationSettin
         **_directions(plant, result.unseen, result.redundant, result.redundant_unseen),
         "frf_updates": list(result.frf_updates),
         "response_rms": {n: float(v) for n, v in zip(plant.outputs, rms, strict=True)},
-        "final_rms_error": {"worst": float(result.rms_error[-1].max()),
-                            "median": float(np.median(result.rms_error[-1]))},
+        "final_rms_error": _worst_and_median(result.rms_error[-1]),
         **({"uncontrolled": uncontrolled} if uncontrolled else {}),
     }  # fmt: skip
     if result.noise is not None:
@@ -192,16 +191,45 @@ def correction_dict(step: Correction, plant: RigPlant, settings: IterationSettin
         "control": out, "drives": drive_rows,
         **_directions(plant, step.unseen, p.redundant, step.redundant_unseen),
         "frf_updates": list(step.frf_updates),
-        "final_rms_error": {"worst": float(last.max()) if last.size else 0.0,
-                            "median": float(np.median(last)) if last.size else 0.0},
+        "final_rms_error": _worst_and_median(last),
         "noise_floor": {"source": p.noise.source, "measured": p.noise.measured},
         "limits": _limits_dict(facts, plant),
         "sn_slope": facts.sn_slope,
     }  # fmt: skip
 
 
+def _worst_and_median(errors: np.ndarray) -> dict:
+    """The worst and the median of the channels' errors that are defined (None if none is:
+    every target held at zero)."""
+    e = errors[np.isfinite(errors)]
+    return {"worst": float(e.max()) if e.size else None,
+            "median": float(np.median(e)) if e.size else None}
+
+
+def _pct(x: float | None) -> str:
+    """A fraction as a percentage with two decimals, '-' where it is not defined."""
+    return f"{100 * x:.2f}" if x is not None and np.isfinite(x) else "-"
+
+
+def _num(x: float | None, fmt: str) -> str:
+    return format(x, fmt) if x is not None and np.isfinite(x) else "-"
+
+
+def _jsonable(value):
+    """``value`` with every NaN or infinite float as None (JSON has no NaN)."""
+    if isinstance(value, dict):
+        return {k: _jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value
+
+
 def write_iteration_json(path: str | os.PathLike[str], report: dict) -> Path:
-    return write_lines(path, [json.dumps(report, indent=1)])
+    """The report as JSON (NaN, such as the relative error of a target held at zero, as
+    null)."""
+    return write_lines(path, [json.dumps(_jsonable(report), indent=1)])
 
 
 def _figures(path: str | os.PathLike[str], figures: list[tuple[str, str, str]]) -> str:
@@ -252,8 +280,8 @@ def write_iteration_html(path: str | os.PathLike[str], report: dict,
     steps = len(report["control"][0]["rms_error"]) if report["control"] else 0
     head = ["control channel", "weight"] + [f"{k}" for k in range(steps)] + ["outside band"]
     rows = [[c["channel"], f"{c.get('weight', 1.0):g}",
-             *(f"{100 * e:.2f}" for e in c["rms_error"]),
-             f"{100 * c['out_of_band_error'][-1]:.2f}" if "out_of_band_error" in c else "-"]
+             *(_pct(e) for e in c["rms_error"]),
+             _pct(c["out_of_band_error"][-1]) if "out_of_band_error" in c else "-"]
             for c in report["control"]]  # fmt: skip
     unit = report["drives"][0]["unit"] if report["drives"] else ""
     drives = [[d["actuator"], *(f"{v:.4g}" for v in d["rms"])] for d in report["drives"]]
@@ -284,7 +312,7 @@ def write_iteration_html(path: str | os.PathLike[str], report: dict,
     if report["control"] and "target" in report["control"][0]:
         stat_rows = [[c["channel"], *(f"{c[w][k]:.4g}" for w in ("target", "response")
                                        for k in ("min", "max", "rms")),
-                      f"{c['relative_damage']:.3g}"] for c in report["control"]]  # fmt: skip
+                      _num(c["relative_damage"], ".3g")] for c in report["control"]]  # fmt: skip
         parts.append(f"<h2>Control channels: extremes, RMS and relative damage (S-N slope "
                      f"{report.get('sn_slope', 0):g})</h2>" + html_table(stat_rows, [
                          "channel", "target min", "target max", "target RMS", "response min",
@@ -358,8 +386,8 @@ of <code>{esc(report['model'])}</code>; plant played: <code>{esc(report['plant']
 {esc(_settings_text(report['settings']))}.{
 f" The target's noise floor: {esc(noise['source'])}." if noise else ""}{
 f" Its ends do not join: faded in and out over {taper:g} s." if taper else ""}</p>
-<p><b>{f"After the last step the RMS error in the drive band is {100 * last['worst']:.2f} % of "
-f"the target's at worst, {100 * last['median']:.2f} % median." if steps else
+<p><b>{f"After the last step the RMS error in the drive band is {_pct(last['worst'])} % of "
+f"the target's at worst, {_pct(last['median'])} % median." if steps else
 "No response measured yet: the drive is the first one."}</b></p>
 {''.join(parts)}
 {_figures(path, figures)}

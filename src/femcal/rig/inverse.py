@@ -7,28 +7,33 @@ the linear Gaussian model (Tikhonov regularisation in its statistical form: Kaip
 Somersalo, Statistical and Computational Inverse Problems, Springer 2005, sec. 3.3; over
 frequency, Wiener deconvolution)::
 
-    T = H D + N,     N ~ CN(0, diag(nu_c / w_c)),     D ~ CN(0, diag(p_j)),
+    T = H D + N,     N ~ CN(0, diag(nu_c / w_c)),     D ~ CN(0, p I),
 
-    D = A^-1 H^H W T,     A = H^H W H + diag(1 / p_j),     W = diag(w_c / nu_c).
+    D = A^-1 H^H W T,     A = H^H W H + I / p,     W = diag(w_c / nu_c),
+
+solved as the least squares ``min |W^1/2 (T - H D)|^2 + |D|^2 / p`` by QR
+(:class:`LineSolver`), never through ``A`` itself, whose condition is the square of theirs.
 
 - ``nu_c`` is the target's noise floor per line (:func:`noise_floor`): measured where the
-  drive makes no response, above its band, or given as a fraction of each channel's RMS.
-- ``p_j`` is how much drive the data show at the line (:func:`drive_prior`, empirical
-  Bayes): where the drive's effect on the control channels stands clear of the noise,
-  ``p_j`` is its power and the inverse the plain one; where it does not (accelerations fall
-  as ``w^2`` at low frequency, and one combination of seven actuators on six rigid-body
-  motions, the warp, may barely move the control channels), ``p_j`` is small and that
-  direction of the drive is held near zero instead of being amplified out of the noise.
+  drive makes no response, above its band, or given as a fraction of each channel's RMS
+  (bounded so that no channel's weight runs away from the others', :func:`bounded_floor`).
+- ``p`` is how much drive the data show at the line and around it (:func:`drive_prior`,
+  empirical Bayes). A drive direction whose effect on the control channels stands clear
+  of the noise is inverted plainly; one whose effect does not (accelerations fall as
+  ``w^2`` at low frequency, and one combination of seven actuators on six rigid-body
+  motions, the warp, may barely move the control channels) is held near zero instead of
+  being amplified out of the noise. The prior is the same for every drive, so that
+  directions no channel sees are left at the least drive.
 - ``w_c`` weighs the control channels (mixed control: accelerations, LVDTs and load cells
   in one iteration); each channel's noise floor already puts it in its own units.
-- ``effort`` adds ``effort^2`` times the largest eigenvalue of ``H^H W H`` to ``1 / p_j`` (a
+- ``effort`` adds ``effort^2`` times the largest eigenvalue of ``H^H W H`` to ``1 / p`` (a
   drive-effort penalty relative to the best-seen direction), and ``roll_off_hz`` adds
   ``(f_r / f)^4`` times it: below ``f_r`` the drive rolls off as behind a fourth-order
   high-pass (at ``f_r`` the best-seen direction keeps half its drive).
 
 The directions the control channels cannot see at a line are those of the whitened FRF
-``W^1/2 H diag(p)^1/2`` whose singular value is below one: the inverse keeps less than half
-of their drive (:func:`unseen_directions`).
+``W^1/2 H p^1/2`` whose singular value is below one: the inverse keeps less than half of
+their drive (:func:`unseen_directions`).
 """
 
 from __future__ import annotations
@@ -40,12 +45,17 @@ import numpy as np
 
 #: Relative noise floor taken when the target has no lines to measure it on.
 DEFAULT_FLOOR = 1e-4
+#: The finest relative amplitude a target holds (double-precision sums of a record).
+ROUND_OFF = 1e-6
 #: Half-width of the band, relative to the frequency, over which the drive prior is taken.
 PRIOR_BAND = 0.2
 #: Fewest lines either side of a frequency in the band of its drive prior.
 MIN_BAND_LINES = 8
 #: Standard errors by which the drive's power must stand above the noise's to count.
 PRIOR_SIGNIFICANCE = 3.0
+#: How many times its noise-propagated variance a single line's drive power must be to
+#: count on its own (noise alone exceeds 25 times its mean power once in 7e10 lines).
+LINE_SIGNIFICANCE = 25.0
 #: Fewest lines above the drive band that measure a noise floor.
 MIN_FLOOR_LINES = 32
 
@@ -104,6 +114,37 @@ def noise_floor(T: np.ndarray, f: np.ndarray, band: tuple[float, float], n: int,
     return NoiseFloor(n * (frac * size) ** 2, frac, source, False)
 
 
+def bounded_floor(noise: NoiseFloor, Hf: np.ndarray, T: np.ndarray) -> NoiseFloor:
+    """The noise floor bounded so that no channel's weight runs away from the others':
+
+    - a channel with signal in the band: at least :data:`ROUND_OFF` squared of its mean
+      power per line there (a target read from single precision or made in double holds
+      nothing finer);
+    - a quiet channel (no power in the band above its noise, such as one held at zero): at
+      least :data:`DEFAULT_FLOOR` squared of the power the drive would make there, the
+      drive sized line by line from the other channels (their target power over their
+      summed FRF power), so that holding it still weighs like a channel measured to
+      :data:`DEFAULT_FLOOR` of its response.
+
+    ``Hf`` (n_lines, n_control, n_drives) and ``T`` (n_control, n_lines) on the band's lines.
+    """
+    if T.shape[1] == 0:
+        return noise
+    power = np.mean(np.abs(T) ** 2, axis=1)
+    var = np.maximum(noise.variance, ROUND_OFF**2 * power)
+    quiet = power <= 4 * var
+    if quiet.any():
+        loud = ~quiet
+        gain = np.sum(np.abs(Hf) ** 2, axis=2)  # (n_lines, n_control)
+        if loud.any():
+            drive = np.sum(np.abs(T[loud]) ** 2, axis=0) / np.maximum(
+                gain[:, loud].sum(axis=1), 1e-300)  # fmt: skip
+            made = np.mean(gain[:, quiet] * drive[:, None], axis=0)
+            var[quiet] = np.maximum(var[quiet], DEFAULT_FLOOR**2 * made)
+        var = np.maximum(var, 1e-300)
+    return NoiseFloor(var, noise.fraction, noise.source, noise.measured)
+
+
 def _band_statistic(x: np.ndarray, f: np.ndarray,
                     how: str) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """(each row of x (rows, n_f) as its median (``how="median"``) or mean over the band of
@@ -127,23 +168,53 @@ def drive_prior(Hf: np.ndarray, T: np.ndarray, weight: np.ndarray,
                 f: np.ndarray) -> np.ndarray:  # fmt: skip
     """The drive's power per line p (n_drives, n_lines) that the target shows through the
     FRF ``Hf`` (n_lines, n_control, n_drives) at lines ``f`` (n_lines,) with ``T``
-    (n_control, n_lines) and ``W = weight`` (n_control,): the least-squares drive's power,
-    as a band's median over ln 2 (+/- 20 % of the frequency, at least 8 lines either
-    side), less the band's mean noise-propagated variance
-    ``[(H^H W H)^-1]_jj`` times ``1 + 3 / sqrt(lines in the band)``; floored at 1e-6 of its
-    largest."""
-    G = np.einsum("foi,o,foj->fij", Hf.conj(), weight, Hf)
-    scale = np.real(np.trace(G, axis1=1, axis2=2))[:, None, None]
-    eye = np.eye(G.shape[1])
-    Ginv = np.linalg.inv(G + 1e-12 * np.where(scale > 0, scale, 1.0) * eye)
-    ls = np.einsum("fij,fkj,k,kf->if", Ginv, Hf.conj(), weight, T)
-    var = np.real(np.einsum("fii->if", Ginv))
-    signal, lines = _band_statistic(np.abs(ls) ** 2, f, "median")
+    (n_control, n_lines) and ``W = weight`` (n_control,), each drive's:
+
+    - the least-squares drive's power as a band's median over ln 2 (+/- 20 % of the
+      frequency, at least 8 lines either side), less the band's mean noise-propagated
+      variance times ``1 + 3 / sqrt(lines in the band)``;
+    - or a line's own power less that variance where it is more than
+      :data:`LINE_SIGNIFICANCE` times it (a sine);
+
+    then their mean over the drives, the same for each (an isotropic prior), floored at 1e-6
+    of its largest. The least squares are solved by QR of ``W^1/2 H`` (with a ridge of 1e-6
+    of its norm), not by normal equations, so that channels whose weights differ by many
+    orders (a channel held at zero beside loud ones) keep their precision; the variance is
+    that of the regularised least-squares drive, finite where fewer channels than drives
+    leave directions unseen.
+    """
+    _, n_out, n_in = Hf.shape
+    G = np.sqrt(weight)[None, :, None] * Hf
+    top = np.linalg.norm(G, axis=(1, 2))
+    ridge = 1e-6 * np.where(top > 0, top, 1.0)
+    M = np.concatenate([G, ridge[:, None, None] * np.eye(n_in)[None]], axis=1)
+    Q, R = np.linalg.qr(M)
+    Q1 = Q[:, :n_out]  # G = Q1 R
+    rhs = np.sqrt(weight)[None, :] * T.T  # (n_lines, n_out)
+    ls = np.linalg.solve(R, np.einsum("fmi,fm->fi", Q1.conj(), rhs)[..., None])[..., 0].T
+    # the least-squares drive's covariance under unit whitened noise, R^-1 Q1^H Q1 R^-H
+    # (finite along directions no channel sees, where the drive is left at zero)
+    X = np.linalg.solve(R.conj().transpose(0, 2, 1), Q1.conj().transpose(0, 2, 1))
+    var = np.sum(np.abs(X) ** 2, axis=2).T  # (n_in, n_lines)
+    power = np.abs(ls) ** 2
+    signal, lines = _band_statistic(power, f, "median")
     signal = signal / np.log(2)
     noise = _band_statistic(var, f, "mean")[0] * (1 + PRIOR_SIGNIFICANCE / np.sqrt(lines))
-    p = signal - noise
-    top = np.max(signal, axis=1, keepdims=True)
-    return np.maximum(p, 1e-6 * np.where(top > 0, top, 1.0))
+    # a line standing alone far above the noise (a sine, a sparse multisine) is a drive even
+    # where its band's median is not
+    alone = np.where(power > LINE_SIGNIFICANCE * var, power - var, 0.0)
+    # one power for every drive at a line (their mean): a prior that favoured some actuators
+    # would push the drive into them along directions the channels barely see
+    p = np.broadcast_to(np.mean(np.maximum(signal - noise, alone), axis=0), power.shape)
+    top = np.max(np.mean(signal, axis=0))
+    return np.maximum(p, 1e-6 * (top if top > 0 else 1.0)).copy()
+
+
+def _largest_eigenvalue(Hf: np.ndarray, weight: np.ndarray) -> np.ndarray:
+    """The largest eigenvalue of ``H^H W H`` per line (n_lines,): the squared largest
+    singular value of ``W^1/2 H``."""
+    G = np.sqrt(weight)[None, :, None] * Hf
+    return np.linalg.svd(G, compute_uv=False)[:, 0] ** 2
 
 
 def penalty(Hf: np.ndarray, weight: np.ndarray, prior: np.ndarray, f: np.ndarray, *,
@@ -157,53 +228,61 @@ def penalty(Hf: np.ndarray, weight: np.ndarray, prior: np.ndarray, f: np.ndarray
     if roll_off_hz > 0:
         extra += (roll_off_hz / f) ** 4
     if extra.any():
-        G = np.einsum("foi,o,foj->fij", Hf.conj(), weight, Hf)
-        pen = pen + extra * np.linalg.eigvalsh(G)[:, -1]
+        pen = pen + extra * _largest_eigenvalue(Hf, weight)
     return pen
 
 
-def held_penalty(Hf: np.ndarray, weight: np.ndarray, directions: np.ndarray,
-                 strength: float = 1e4) -> np.ndarray:  # fmt: skip
-    """A penalty (n_lines, n_drives, n_drives) that holds drive ``directions`` (n_drives, k,
-    orthonormal) near zero: ``strength`` times the largest eigenvalue of ``H^H W H`` on
-    their projector, so that a drive along them costs that many times more than along the
-    best-seen direction."""
-    G = np.einsum("foi,o,foj->fij", Hf.conj(), weight, Hf)
-    top = np.linalg.eigvalsh(G)[:, -1]
-    P = directions @ directions.conj().T
-    return strength * top[:, None, None] * P[None]
+def held_factor(Hf: np.ndarray, weight: np.ndarray, directions: np.ndarray,
+                strength: float = 1e4) -> np.ndarray:  # fmt: skip
+    """The factor ``C`` (n_lines, k, n_drives) of a penalty ``|C D|^2`` that holds drive
+    ``directions`` (n_drives, k, orthonormal) near zero: ``strength`` times the largest
+    eigenvalue of ``H^H W H`` on their projector, so that a drive along them costs that many
+    times more than along the best-seen direction."""
+    scale = np.sqrt(strength * _largest_eigenvalue(Hf, weight))
+    return scale[:, None, None] * directions.T[None].astype(complex)
 
 
-def solver(Hf: np.ndarray, weight: np.ndarray, pen: np.ndarray,
-           coupled: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
-    """``A^-1 = (H^H W H + diag(pen) + coupled)^-1`` per line (n_lines, n_drives,
-    n_drives); ``coupled`` (n_lines, n_drives, n_drives) a penalty across drives, or
-    None."""
-    A = np.einsum("foi,o,foj->fij", Hf.conj(), weight, Hf)
-    idx = np.arange(A.shape[1])
-    A[:, idx, idx] += pen.T
-    if coupled is not None:
-        A += coupled
-    return np.linalg.inv(A)
+class LineSolver:
+    """The Gauss-Newton step of each line's objective (see :func:`objective`): the least
+    squares ``min |W^1/2 (E - H x)|^2 + |pen^1/2 (D + x)|^2 + |C (D + x)|^2`` solved by QR
+    of the stacked ``[W^1/2 H; diag(pen)^1/2; C]`` (n_lines at once), so that the normal
+    equations' squared condition never arises.
 
+    Parameters
+    ----------
+    Hf : (n_lines, n_control, n_drives); weight : (n_control,) W; pen : (n_drives,
+    n_lines); held : (n_lines, k, n_drives) C, or None.
+    """
 
-def gradient(Hf: np.ndarray, weight: np.ndarray, pen: np.ndarray, E: np.ndarray,
-             D: np.ndarray, coupled: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
-    """``H^H W E - (diag(pen) + coupled) D`` (n_drives, n_lines): the descent direction of
-    the line's objective at drive ``D`` with response error ``E = T - response``."""
-    g = np.einsum("foi,o,of->if", Hf.conj(), weight, E) - pen * D
-    if coupled is not None:
-        g -= np.einsum("fij,jf->if", coupled, D)
-    return g
+    def __init__(self, Hf: np.ndarray, weight: np.ndarray, pen: np.ndarray,
+                 held: np.ndarray | None = None) -> None:  # fmt: skip
+        self.n_out = Hf.shape[1]
+        self.sqrt_w = np.sqrt(weight)
+        self.sqrt_pen = np.sqrt(pen)
+        self.held = held
+        blocks = [self.sqrt_w[None, :, None] * Hf,
+                  np.einsum("if,ij->fij", self.sqrt_pen, np.eye(Hf.shape[2]))]  # fmt: skip
+        if held is not None:
+            blocks.append(held)
+        self.Q, self.R = np.linalg.qr(np.concatenate(blocks, axis=1).astype(complex))
+
+    def step(self, E: np.ndarray, D: np.ndarray) -> np.ndarray:
+        """The step x (n_drives, n_lines) from drive ``D`` with response error ``E``
+        (n_control, n_lines)."""
+        rhs = [(self.sqrt_w[:, None] * E).T, (-self.sqrt_pen * D).T]
+        if self.held is not None:
+            rhs.append(-np.einsum("fki,if->fk", self.held, D))
+        b = np.einsum("fmi,fm->fi", self.Q.conj(), np.concatenate(rhs, axis=1))
+        return np.linalg.solve(self.R, b[..., None])[..., 0].T
 
 
 def objective(weight: np.ndarray, pen: np.ndarray, E: np.ndarray, D: np.ndarray,
-              coupled: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
-    """The line's objective ``sum_c W_c |E_c|^2 + D^H (diag(pen) + coupled) D``
+              held: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
+    """The line's objective ``sum_c W_c |E_c|^2 + sum_j pen_j |D_j|^2 + |C D|^2``
     (n_lines,)."""
     out = weight @ np.abs(E) ** 2 + np.sum(pen * np.abs(D) ** 2, axis=0)
-    if coupled is not None:
-        out += np.real(np.einsum("if,fij,jf->f", D.conj(), coupled, D))
+    if held is not None:
+        out += np.sum(np.abs(np.einsum("fki,if->fk", held, D)) ** 2, axis=1)
     return out
 
 

@@ -185,8 +185,8 @@ class Prepared:
     prior : (n_drives, n_lines) the drive power the target shows; pen : the penalty.
     Hf : (n_lines, n_control, n_drives) the FRF on the lines.
     redundant : (n_drives, k) the rig's redundant drive combinations (k = 0: none known).
-    coupled : (n_lines, n_drives, n_drives) the penalty holding them (``warp="minimal"``),
-        or None.
+    held : (n_lines, k, n_drives) the factor of the penalty holding them
+        (``warp="minimal"``), or None.
     """
 
     target: np.ndarray
@@ -202,7 +202,7 @@ class Prepared:
     pen: np.ndarray
     Hf: np.ndarray
     redundant: np.ndarray
-    coupled: np.ndarray | None
+    held: np.ndarray | None
 
 
 def prepare(H: np.ndarray, target: np.ndarray, dt: float, settings: IterationSettings,
@@ -238,23 +238,24 @@ def prepare(H: np.ndarray, target: np.ndarray, dt: float, settings: IterationSet
     T_all = np.fft.rfft(target, axis=1)
     size = np.sqrt(np.mean(target**2, axis=1))
     noise = inverse.noise_floor(T_all, f, s.band, n, size, s.noise_floor)
-    weight = w / noise.variance
     lines = (f >= s.band[0]) & (f <= s.band[1]) & (f > 0)
     Hf = np.ascontiguousarray(np.moveaxis(H[:, :, lines], 2, 0))
     T = T_all[:, lines]
     fl = f[lines]
+    noise = inverse.bounded_floor(noise, Hf, T)
+    weight = w / noise.variance
     prior = inverse.drive_prior(Hf, T, weight, fl)
     pen = inverse.penalty(Hf, weight, prior, fl, effort=s.effort, roll_off_hz=s.roll_off_hz)
     red = np.zeros((H.shape[1], 0)) if redundant is None else np.asarray(redundant, float)
-    coupled = None
+    held = None
     if s.warp == "minimal":
         if red.shape[1] == 0:
             raise TimeDataError("a minimal warp needs the rig's redundant actuator "
                                 "combinations (the actuators' positions and directions); "
                                 "this rig has none, or they are not known")  # fmt: skip
-        coupled = inverse.held_penalty(Hf, weight, red)
+        held = inverse.held_factor(Hf, weight, red)
     return Prepared(target, taper, stat, fl, lines, T, noise, weight, w, prior, pen, Hf, red,
-                    coupled)  # fmt: skip
+                    held)  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -394,6 +395,10 @@ def _check(H: np.ndarray, target: np.ndarray, n_control: int, n_drives: int) -> 
     if H.shape != (n_control, n_drives, n // 2 + 1):
         raise TimeDataError(f"an FRF of shape {H.shape}; expected (control channels, drives, "
                             f"lines) = ({n_control}, {n_drives}, {n // 2 + 1})")
+    if target.size and not np.any(target - target.mean(axis=1, keepdims=True)):
+        raise TimeDataError("the target is constant on every control channel: nothing for a "
+                            "drive to reproduce; expected a target that moves on at least "
+                            "one")  # fmt: skip
     return target
 
 
@@ -409,11 +414,8 @@ def _to_time(D: np.ndarray, p: Prepared, n: int) -> np.ndarray:
     return np.fft.irfft(full, n, axis=1)
 
 
-def _step(p: Prepared, Hf: np.ndarray, Ainv: np.ndarray, E: np.ndarray,
-          D: np.ndarray) -> np.ndarray:  # fmt: skip
-    """The Gauss-Newton step A^-1 (H^H W E - diag(pen) D) (n_drives, n_lines)."""
-    g = inverse.gradient(Hf, p.weight, p.pen, E, D, p.coupled)
-    return np.einsum("fij,jf->if", Ainv, g)
+def _solver(p: Prepared, Hf: np.ndarray) -> inverse.LineSolver:
+    return inverse.LineSolver(Hf, p.weight, p.pen, p.held)
 
 
 def _update(p: Prepared, Hf: np.ndarray, pairs: list[tuple[np.ndarray, np.ndarray]]
@@ -475,8 +477,8 @@ def iterate_drive(plant: RigPlant, H: np.ndarray, target: np.ndarray, control: S
     red = redundant_drives(plant) if plant.actuators else None
     p = prepare(H, target, dt, s, weights, red)
     Hf = p.Hf
-    Ainv = inverse.solver(Hf, p.weight, p.pen, p.coupled)
-    D = _step(p, Hf, Ainv, p.T, np.zeros((Hf.shape[2], len(p.frequency_hz)), complex))
+    solver = _solver(p, Hf)
+    D = solver.step(p.T, np.zeros((Hf.shape[2], len(p.frequency_hz)), complex))
     gain = np.full(len(p.frequency_hz), s.gain)
     halved = np.zeros(len(p.frequency_hz), bool)
     best = _Best(D)
@@ -497,9 +499,10 @@ def iterate_drive(plant: RigPlant, H: np.ndarray, target: np.ndarray, control: S
                 history[k] = value
             else:
                 history.append(value)
-        if progress is not None:
-            progress(f"iteration {k}: in-band RMS error {100 * err.in_band.max():.2f} % at "
-                     f"worst, {100 * np.median(err.in_band):.2f} % median")  # fmt: skip
+        if progress is not None and np.isfinite(err.in_band).any():
+            e = err.in_band[np.isfinite(err.in_band)]
+            progress(f"iteration {k}: in-band RMS error {100 * e.max():.2f} % at worst, "
+                     f"{100 * np.median(e):.2f} % median")  # fmt: skip
         return drive, response
 
     for k in range(s.iterations + 1):
@@ -508,7 +511,7 @@ def iterate_drive(plant: RigPlant, H: np.ndarray, target: np.ndarray, control: S
             first = drive
         R = _on_lines(response[control], p)
         E = p.T - R
-        worse = best.keep(D, E, inverse.objective(p.weight, p.pen, E, D, p.coupled))
+        worse = best.keep(D, E, inverse.objective(p.weight, p.pen, E, D, p.held))
         if k == s.iterations:
             break
         if k > 0:  # a line whose objective did not fall: back to its best, half the gain
@@ -519,8 +522,8 @@ def iterate_drive(plant: RigPlant, H: np.ndarray, target: np.ndarray, control: S
             Hf, changed = _update(p, Hf, pairs)
             updates.append(changed)
             if changed:
-                Ainv = inverse.solver(Hf, p.weight, p.pen, p.coupled)
-        D = best.D + gain * _step(p, Hf, Ainv, best.E, best.D)
+                solver = _solver(p, Hf)
+        D = best.D + gain * solver.step(best.E, best.D)
     if not np.array_equal(best.D, D):  # some lines' best came earlier: write that drive
         drive, response = play(best.D, s.iterations)
     unseen = inverse.unseen_directions(Hf, p.weight, p.pen, p.frequency_hz)
@@ -550,6 +553,11 @@ def explain(result: Iteration, p: Prepared, held: np.ndarray) -> tuple[str, ...]
         e = last[c]
         share = np.abs(E[c]) ** 2
         total = share.sum()
+        if not np.isfinite(e):
+            rms = np.sqrt(np.mean(result.response[result.control[c]] ** 2))
+            out.append(f"held at zero: its target has no power in the band; the response's "
+                       f"RMS is {rms:.3g}")  # fmt: skip
+            continue
 
         def part(mask: np.ndarray, share: np.ndarray = share, total: float = total) -> float:
             return float(share[mask].sum() / total) if total > 0 else 0.0
@@ -647,18 +655,18 @@ def correct_drive(H: np.ndarray, target: np.ndarray, dt: float,
         if s.update_frf:
             Hf, changed = _update(p, Hf, pairs)
             updates.append(changed)
-    Ainv = inverse.solver(Hf, p.weight, p.pen, p.coupled)
+    solver = _solver(p, Hf)
     if not pairs:
-        D = _step(p, Hf, Ainv, p.T, np.zeros((H.shape[1], len(p.frequency_hz)), complex))
+        D = solver.step(p.T, np.zeros((H.shape[1], len(p.frequency_hz)), complex))
         error = None
     else:
         best = _Best(pairs[0][0])
         for D_k, R_k in pairs:
             E_k = p.T - R_k
-            worse = best.keep(D_k, E_k, inverse.objective(p.weight, p.pen, E_k, D_k, p.coupled))
+            worse = best.keep(D_k, E_k, inverse.objective(p.weight, p.pen, E_k, D_k, p.held))
         # from the best pair at each line; half the gain where the last did not improve it
         gain = np.where(worse & (len(pairs) > 1), s.gain / 2, s.gain)
-        D = best.D + gain * _step(p, Hf, Ainv, best.E, best.D)
+        D = best.D + gain * solver.step(best.E, best.D)
         error = band_errors(p.target, np.asarray(responses[-1], float), dt, s.band)
     unseen = inverse.unseen_directions(Hf, p.weight, p.pen, p.frequency_hz)
     return Correction(_to_time(D, p, n), p, tuple(unseen), tuple(updates), error,

@@ -50,6 +50,9 @@ class BandErrors:
     out_of_band : (n,) RMS of target - response over the other lines (DC out) / the
         target's whole RMS.
     total : (n,) RMS of target - response / RMS of target.
+
+    Each is NaN for a channel whose target has no power where it is measured (a channel
+    held at zero: there is no relative error).
     """
 
     in_band: np.ndarray
@@ -73,11 +76,14 @@ def band_errors(target: np.ndarray, response: np.ndarray, dt: float,
         return (np.abs(X[:, lines]) ** 2) @ w[lines]
 
     whole = power(T, f >= 0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        in_band = np.sqrt(power(E, inside) / power(T, inside))
-        out = np.sqrt(power(E, outside) / whole)
-        total = np.sqrt(power(E, f >= 0) / whole)
-    return BandErrors(np.nan_to_num(in_band), np.nan_to_num(out), np.nan_to_num(total))
+    band = power(T, inside)
+
+    def ratio(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(b > 0, np.sqrt(a / np.where(b > 0, b, 1.0)), np.nan)
+
+    return BandErrors(ratio(power(E, inside), band), ratio(power(E, outside), whole),
+                      ratio(power(E, f >= 0), whole))  # fmt: skip
 
 
 @dataclass(frozen=True)

@@ -17,6 +17,16 @@ from .figures import pyplot, save_figure
 MAX_PANELS = 12
 
 
+def _log(ax, x: np.ndarray, y: np.ndarray, **style) -> None:
+    """``y`` against ``x`` on a logarithmic y axis, its non-positive values left out (a
+    drive that is zero has no PSD to draw on a log scale; the axis stays linear until a
+    curve with a positive value is drawn on it)."""
+    y = np.where(y > 0, y, np.nan)
+    ax.plot(x, y, **style)
+    if np.isfinite(y).any():
+        ax.set_yscale("log")
+
+
 def error_history(path: str | os.PathLike[str], rms_error: np.ndarray, names: Sequence[str],
                   title: str = ""):  # fmt: skip
     """The RMS error over the target's RMS (%) of each control channel against the
@@ -25,8 +35,8 @@ def error_history(path: str | os.PathLike[str], rms_error: np.ndarray, names: Se
     fig, ax = plt.subplots(figsize=(8.0, 4.6))
     k = np.arange(rms_error.shape[0])
     for c, name in list(enumerate(names))[:MAX_PANELS]:
-        ax.semilogy(k, np.maximum(100 * rms_error[:, c], 1e-6), marker="o", ms=3, lw=1.0,
-                    label=name)  # fmt: skip
+        _log(ax, k, np.maximum(100 * rms_error[:, c], 1e-6), marker="o", ms=3, lw=1.0,
+             label=name)  # fmt: skip
     ax.set_xlabel("iteration (0: the first drive, inverse FRF x target)")
     ax.set_ylabel("RMS error / RMS target (%)")
     ax.grid(True, which="both", alpha=0.3)
@@ -96,7 +106,7 @@ def overlay_psd(path: str | os.PathLike[str], dt: float, names: Sequence[str],
         ax = axes[c // cols, c % cols]
         for m, label in enumerate(labels):
             color, ls, lw = styles[m]
-            ax.semilogy(f[keep], psd[m * rows + c, keep], color=color, ls=ls, lw=lw,
+            _log(ax, f[keep], psd[m * rows + c, keep], color=color, ls=ls, lw=lw,
                         label=label)  # fmt: skip
         ax.set_title(names[c], fontsize=9, loc="left")
         ax.set_ylabel(f"PSD ({units[c]}²/Hz)" if units[c] else "PSD")
@@ -137,10 +147,10 @@ def drive_psd_history(path: str | os.PathLike[str], frequency_hz: np.ndarray,
     for j, ax in enumerate(axes):
         for k in range(steps):
             label = ("first drive" if k == 0 else "last drive" if k == steps - 1 else None)
-            ax.semilogy(frequency_hz[keep], psd[k, j, keep], color=colours[k],
+            _log(ax, frequency_hz[keep], psd[k, j, keep], color=colours[k],
                         lw=1.2 if k == steps - 1 else 0.7, label=label)  # fmt: skip
         if reference is not None:
-            ax.semilogy(frequency_hz[keep], reference[j, keep], color="k", lw=1.0, ls="--",
+            _log(ax, frequency_hz[keep], reference[j, keep], color="k", lw=1.0, ls="--",
                         label="reference")  # fmt: skip
         ax.set_title(names[j], fontsize=9, loc="left")
         ax.set_ylabel(f"PSD ({unit}²/Hz)")
@@ -198,12 +208,13 @@ def error_spectra(path: str | os.PathLike[str], dt: float, target: np.ndarray,
     _, Pe = ss.welch(target - response, fs=1.0 / dt, nperseg=m, axis=1)
     keep = f > 0
     for c, ax in enumerate(axes):
-        ax.semilogy(f[keep], Pt[c, keep], color="0.55", lw=0.8, label="target")
-        ax.semilogy(f[keep], np.maximum(Pe[c, keep], 1e-300), color="tab:red", lw=0.9,
+        _log(ax, f[keep], Pt[c, keep], color="0.55", lw=0.8, label="target")
+        _log(ax, f[keep], Pe[c, keep], color="tab:red", lw=0.9,
                     label="target - response")  # fmt: skip
         if noise_fraction is not None:
             level = (noise_fraction[c] * np.sqrt(np.mean(target[c] ** 2))) ** 2 * 2 * dt
-            ax.axhline(level, color="k", ls=":", lw=0.9, label="noise floor")
+            if level > 0 and ax.get_yscale() == "log":
+                ax.axhline(level, color="k", ls=":", lw=0.9, label="noise floor")
         if band is not None:
             ax.axvspan(band[0], band[1], color="tab:green", alpha=0.07, lw=0)
         ax.set_title(names[c], fontsize=9, loc="left")
