@@ -235,10 +235,15 @@ def prepare(H: np.ndarray, target: np.ndarray, dt: float, settings: IterationSet
         raise TimeDataError(f"channel weights {list(np.atleast_1d(w))}: expected one positive "
                             f"number per control channel ({len(target)})")  # fmt: skip
     f = np.fft.rfftfreq(n, dt)
-    T_all = np.fft.rfft(target, axis=1)
-    size = np.sqrt(np.mean(target**2, axis=1))
-    noise = inverse.noise_floor(T_all, f, s.band, n, size, s.noise_floor)
     lines = (f >= s.band[0]) & (f <= s.band[1]) & (f > 0)
+    if lines.sum() < 2:
+        raise TimeDataError(f"the drive band {s.band[0]:g}-{s.band[1]:g} Hz holds "
+                            f"{int(lines.sum())} line(s) of the record's spectrum (one every "
+                            f"{f[1] if len(f) > 1 else 0:g} Hz up to {f[-1]:g} Hz); expected a "
+                            "wider band or a longer record")  # fmt: skip
+    T_all = np.fft.rfft(target, axis=1)
+    size = np.std(target, axis=1)  # about the mean: an offset is no signal to reproduce
+    noise = inverse.noise_floor(T_all, f, s.band, n, size, s.noise_floor)
     Hf = np.ascontiguousarray(np.moveaxis(H[:, :, lines], 2, 0))
     T = T_all[:, lines]
     fl = f[lines]
