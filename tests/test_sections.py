@@ -380,9 +380,13 @@ OLD = {
 
 @pytest.mark.parametrize("kind", list(OLD))
 def test_existing_types_unchanged(kind):
+    """Unchanged to a few units in the last place: the formulas pass through libm (pi,
+    powers) and NumPy's SIMD loops, whose last bit differs between processors (a TUBE's I
+    ends ...097 on one, ...095 on another), so 1e-13 relative, not bit for bit."""
     dims, props, k = OLD[kind]
-    assert section_properties(kind, np.array(dims)).tolist() == props
-    assert shear_factors(kind, np.array(dims)).tolist() == k
+    np.testing.assert_allclose(section_properties(kind, np.array(dims)), props, rtol=1e-13,
+                               atol=0)  # fmt: skip
+    np.testing.assert_allclose(shear_factors(kind, np.array(dims)), k, rtol=1e-13, atol=0)
 
 
 def test_pbarl_l_bar_model_equals_pbar_with_its_properties(write):
