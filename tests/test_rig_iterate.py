@@ -151,6 +151,20 @@ def test_rig_commands_name_what_is_wrong(tmp_path, capsys):
     assert main(["rig", "iterate", *args, "--target", str(tmp_path / "d.rsp"), "--control",
                  "S_X_rear:-X", "--gain", "3", "--out", str(tmp_path / "it")]) == 2  # fmt: skip
     assert "gain = 3.0: expected in (0, 1]" in capsys.readouterr().err
+    # a sensor on a grid the deck lacks, an actuator given twice: named, exit 2
+    sensors = tmp_path / "s.csv"
+    sensors.write_text((FRAME / "rig_frame.sensors.csv").read_text() + "S_x,999999,0,0,0,3\n")
+    actuators = tmp_path / "a.csv"
+    rows = (FRAME / "rig_frame.inputs.csv").read_text().splitlines()
+    actuators.write_text("\n".join([*rows, rows[1]]) + "\n")
+    for a, s, expected in ((FRAME / "rig_frame.inputs.csv", sensors,
+                            "sensor S_x (grid 999999, direction 3): no GRID 999999"),
+                           (actuators, FRAME / "rig_frame.sensors.csv",
+                            "actuator 'V_front_left' given twice")):  # fmt: skip
+        assert main(["rig", "simulate", str(FRAME / "rig_frame.bdf"), "--actuators", str(a),
+                     "--sensors", str(s), "--drive", str(tmp_path / "d.rsp"), "--out",
+                     str(tmp_path / "r.rsp")]) == 2  # fmt: skip
+        assert expected in capsys.readouterr().err
 
 
 def test_compare_ranks_the_model_that_is_the_physical_rig_first(tmp_path, capsys):

@@ -266,11 +266,28 @@ def build_plant(model: Model, actuators: Sequence[tuple[str, int, int]],
     Raises
     ------
     ModelError
-        For an actuator :func:`find_actuators` refuses, a sensor direction that is not a
-        translation, or a frame the actuators do not hold (a rigid-body mode or a
-        singular stiffness).
+        For an actuator :func:`find_actuators` refuses, an actuator or sensor given twice, a
+        sensor on a grid the model lacks or along a direction that is not a translation, or
+        a frame the actuators do not hold (a rigid-body mode or a singular stiffness).
     """
     say = progress or (lambda _msg: None)
+    for kind, rows in (("actuator", actuators), ("sensor", sensors)):
+        seen: dict[str, int] = {}
+        for label, g, code in rows:
+            name = label if kind == "actuator" else f"{label}:{code}"
+            if name in seen:
+                raise ModelError(f"{kind} {label!r} given twice (grids {seen[name]} and {g}"
+                                 f"{'' if kind == 'actuator' else f', direction {code}'}); "
+                                 "expected one row each: its channels are named by it")
+            seen[name] = g
+    for label, g, code in sensors:
+        if not 1 <= abs(code) <= 3:
+            raise ModelError(f"sensor {label}: direction {code}; an accelerometer measures a "
+                             "translation 1-3")  # fmt: skip
+        idx = int(model.node_index(g)[0])
+        if idx < 0 or not model.is_grid[idx]:
+            raise ModelError(f"sensor {label} (grid {g}, direction {code}): no GRID {g} in the "
+                             "model; expected a grid of the frame")  # fmt: skip
     mats = matrices if matrices is not None else assemble(model, Options())
     K = sp.csr_matrix(mats.K)
     modes, red = solve_normal_modes(model, matrices=mats, progress=progress,
@@ -282,10 +299,6 @@ def build_plant(model: Model, actuators: Sequence[tuple[str, int, int]],
                          "expected the oil columns to restrain every rigid-body motion")
     acts = find_actuators(model, actuators, K, red.spc)
     B, F, k = _drive_matrices(model, acts, K)
-    for label, _g, code in sensors:
-        if not 1 <= abs(code) <= 3:
-            raise ModelError(f"sensor {label}: direction {code}; an accelerometer measures a "
-                             "translation 1-3")  # fmt: skip
     sensor_names = [f"{lab}:{point_label(g, c).split(':')[1]}" for lab, g, c in sensors]
     C = channel_matrix(model, [Channel.parse(point_label(g, c)) for _, g, c in sensors])
     say(f"static response to {len(acts)} drives")
