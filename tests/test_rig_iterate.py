@@ -195,6 +195,12 @@ def test_compare_ranks_the_model_that_is_the_physical_rig_first(tmp_path, capsys
                  "S8:+Y", "S12:+Z", "S11:-X", "A_z1:force", "A_y1:force", "--band", "1", "80",
                  "--reference-drive", str(tmp_path / "known.rsp"), "--out", str(out)]) == 0  # fmt: skip
     assert "plain" in capsys.readouterr().out
+    for bad in ("../x", "/tmp/x", ".hidden"):  # a name is a folder under --out, nothing else
+        assert main(["rig", "compare", "--model", f"{bad}={deck}", *rig, "--target",
+                     str(tmp_path / "measured.rsp"), "--control", "S3:+Z", "--out",
+                     str(tmp_path / "bad")]) == 2  # fmt: skip
+        assert "expected a plain name" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()
     report = json.loads((out / "compare.json").read_text())
     plain, right = report["models"]
     assert max(right["control_rms_error"]) < 0.01 and max(plain["control_rms_error"]) < 0.05

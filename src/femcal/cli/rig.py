@@ -13,6 +13,7 @@ All time data are read and written by suffix (RPC III .rsp/.tim/.drv, CSV, NPZ).
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 import time
 import warnings
@@ -783,6 +784,11 @@ def _compare(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     settings = _iteration_settings(args)
     decks = _pairs(args.model, "--model")
+    for name in decks:
+        if not re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.-]*", name) or name in (".", ".."):
+            raise UsageError(f"--model {name}=...: expected a plain name (letters, digits, _, "
+                             "- and ., not starting with a dot): it names the model's folder "
+                             "under --out")  # fmt: skip
     values = _pairs(args.values, "--values")
     unknown = sorted(set(values) - set(decks))
     if unknown:
