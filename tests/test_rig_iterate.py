@@ -424,3 +424,26 @@ def test_a_sine_target_beside_a_channel_held_at_zero(tmp_path):
             assert it.rms_error[-1, 1] < 0.01
     with pytest.raises(ValueError, match="the target is constant on every control channel"):
         iterate_drive(model, H, np.full((2, n), 3.0), control, DT, settings)
+
+
+def test_runs_into_one_folder_take_turns(tmp_path):
+    """folder_lock: while one run holds the output folder, another one's writes wait; when
+    the first lets go, the second writes its whole set (two rig iterate runs into one --out
+    end with one run's files, never a mix)."""
+    import subprocess
+    import sys
+    import time
+
+    from femcal.atomic import folder_lock
+
+    out = tmp_path / "out"
+    script = ("import sys; from pathlib import Path; from femcal.atomic import folder_lock\n"
+              "with folder_lock(sys.argv[1]) as d:\n"
+              "    (Path(d) / 'second.txt').write_text('done')\n")  # fmt: skip
+    with folder_lock(out):
+        child = subprocess.Popen([sys.executable, "-c", script, str(out)])
+        time.sleep(1.0)  # long enough for the child to start and block
+        assert child.poll() is None and not (out / "second.txt").exists()
+    assert child.wait(timeout=60) == 0
+    assert (out / "second.txt").read_text() == "done"
+    assert sorted(p.name for p in out.iterdir()) == ["second.txt"]  # no lock file left

@@ -1,12 +1,15 @@
-"""Atomic file writing: a result file appears whole or not at all."""
+"""Atomic file writing: a result file appears whole or not at all, and a run's set of files
+in a folder is written by one run at a time."""
 
 from __future__ import annotations
 
+import fcntl
 import os
 import re
 import socket
 import tempfile
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 
@@ -91,3 +94,20 @@ def write_lines(path: str | os.PathLike[str], lines: Iterable[str], *,
                 fh.write("\n")
 
     return write_atomic(path, dump)
+
+
+@contextmanager
+def folder_lock(folder: str | os.PathLike[str]) -> Iterator[Path]:
+    """Hold an exclusive lock on ``folder`` (made if missing) while a run writes its set of
+    files there: two runs writing into one folder at once then take turns, and the folder
+    ends with one run's consistent set (the later one's), never a mix. The lock is
+    ``flock`` on the folder itself (no lock file is left); it is released when the block
+    ends, however it ends, and by the system if the process dies."""
+    path = Path(folder)
+    path.mkdir(parents=True, exist_ok=True)
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield path
+    finally:
+        os.close(fd)  # closing the descriptor releases the lock

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 import scipy.signal as ss
 
+from ..atomic import folder_lock
 from ..errors import DriveLimitError, FemcalWarning, TimeDataError
 from ..io.identified import read_model
 from ..io.rig import (
@@ -446,7 +447,6 @@ def _iterate(args: argparse.Namespace) -> int:
     result = iterate_drive(plant, H, target, control, dt, settings, weights=weights,
                            progress=lambda m: _say(t0, m))  # fmt: skip
     out = args.out
-    out.mkdir(parents=True, exist_ok=True)
     drive, check, scale = _enforce(result.drive, dt, model, args, args.target)
     del limits
     written = not (check.exceeded and args.on_limit == "refuse")
@@ -463,19 +463,20 @@ def _iterate(args: argparse.Namespace) -> int:
         ref_error = band_rms(drive - reference, dt, settings.band) / np.where(size > 0, size, 1)
     facts = IterationFacts(check, args.on_limit, scale, written, stats, damage, args.sn_slope,
                            ref_error, ref_rms)  # fmt: skip
-    figures = _iteration_pictures(out, result, model, names, cunits, controlled, drive, dt,
-                                  settings, check, reference)  # fmt: skip
     report = iteration_dict(result, plant, settings, target=str(args.target),
                             model=str(args.deck), plant_deck=str(args.plant or args.deck),
                             frf=how, facts=facts)  # fmt: skip
-    write_iteration_json(out / "iteration.json", report)
-    write_iteration_html(out / "report.html", report, figures)
-    write_time_data(out / "response.rsp",
-                    TimeData(dt, response, plant.outputs, plant.output_units))  # fmt: skip
-    if not written:
-        _refuse(check, model, out / "drive.rsp", f"The report is in {out}. ")
-    units = (model.input_units,) * len(model.inputs)
-    write_time_data(out / "drive.rsp", TimeData(dt, drive, model.inputs, units))
+    with folder_lock(out):  # another run into this folder waits: one run's set, never a mix
+        figures = _iteration_pictures(out, result, model, names, cunits, controlled, drive,
+                                      dt, settings, check, reference)  # fmt: skip
+        write_iteration_json(out / "iteration.json", report)
+        write_iteration_html(out / "report.html", report, figures)
+        write_time_data(out / "response.rsp",
+                        TimeData(dt, response, plant.outputs, plant.output_units))  # fmt: skip
+        if not written:
+            _refuse(check, model, out / "drive.rsp", f"The report is in {out}. ")
+        units = (model.input_units,) * len(model.inputs)
+        write_time_data(out / "drive.rsp", TimeData(dt, drive, model.inputs, units))
     _say(t0, f"wrote {out}: drive.rsp, response.rsp, iteration.json, report.html, pictures")
     _print_iteration(result, names, model, check, damage, ref_error, settings.warp)
     return 0
