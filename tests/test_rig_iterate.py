@@ -151,6 +151,10 @@ def test_rig_commands_name_what_is_wrong(tmp_path, capsys):
     assert main(["rig", "iterate", *args, "--target", str(tmp_path / "d.rsp"), "--control",
                  "S_X_rear:-X", "--gain", "3", "--out", str(tmp_path / "it")]) == 2  # fmt: skip
     assert "gain = 3.0: expected in (0, 1]" in capsys.readouterr().err
+    # --damping-from a file that is not an identified model
+    assert main(["rig", "simulate", *args, "--drive", str(tmp_path / "d.rsp"), "--out",
+                 str(tmp_path / "r.rsp"), "--damping-from", str(tmp_path / "d.rsp")]) == 2
+    assert "d.rsp: not an identified model" in capsys.readouterr().err
     # a sensor on a grid the deck lacks, an actuator given twice: named, exit 2
     sensors = tmp_path / "s.csv"
     sensors.write_text((FRAME / "rig_frame.sensors.csv").read_text() + "S_x,999999,0,0,0,3\n")

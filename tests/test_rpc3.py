@@ -34,6 +34,17 @@ def test_floats_round_trip_exactly_in_single_precision(tmp_path):
     assert back.header["DATA_TYPE"] == "FLOATING_POINT"
 
 
+def test_floats_beyond_single_precision_are_refused_not_written_as_inf(tmp_path):
+    data = sample()
+    big = TimeData(data.dt, data.values * 1e40, data.names, data.units)
+    with pytest.raises(TimeDataError, match=r"channel 'ch 0' reaches .* beyond the largest "
+                                            r"single-precision number"):  # fmt: skip
+        write_rpc3(tmp_path / "a.rsp", big)
+    assert not (tmp_path / "a.rsp").exists()
+    back = read_rpc3(write_rpc3(tmp_path / "b.rsp", big, data_type="SHORT_INTEGER"))
+    assert np.isfinite(back.values).all()  # short integers with a large SCALE hold it
+
+
 def test_short_integers_round_trip_within_half_a_step(tmp_path):
     data = sample(n=3001)  # prime to 1024: frames of one point, a padded last group
     path = write_rpc3(tmp_path / "a.tim", data, data_type="SHORT_INTEGER")

@@ -50,8 +50,18 @@ def write_model(path: str | os.PathLike[str], model: IdentifiedModel) -> Path:
 
 
 def read_model(path: str | os.PathLike[str]) -> IdentifiedModel:
-    """Read what :func:`write_model` writes; KeyError names missing keys."""
-    with np.load(path, allow_pickle=False) as z:
+    """Read what :func:`write_model` writes; KeyError names missing keys, ValueError a file
+    that is not a NumPy archive."""
+    try:
+        archive = np.load(path, allow_pickle=False)
+    except (ValueError, OSError) as e:
+        if isinstance(e, FileNotFoundError | IsADirectoryError | PermissionError):
+            raise
+        raise ValueError(f"{path}: not an identified model (femcal identify's model.npz, a "
+                         "NumPy archive)") from None  # fmt: skip
+    if not hasattr(archive, "files"):  # one array (.npy), not an archive
+        raise ValueError(f"{path}: not an identified model (femcal identify's model.npz)")
+    with archive as z:
         missing = [k for k in NPZ_KEYS if k not in z]
         if missing:
             raise KeyError(f"{path}: not an identified model (missing {', '.join(missing)})")

@@ -317,7 +317,7 @@ def write_rpc3(path: str | os.PathLike[str], data: TimeData, *,
     Raises
     ------
     TimeDataError
-        For an unknown data type, or non-finite samples.
+        For an unknown data type, non-finite samples, or floats beyond single precision.
     """
     if data_type not in DATA_TYPES:
         raise TimeDataError(f"data_type {data_type!r}: expected SHORT_INTEGER or FLOATING_POINT")
@@ -334,6 +334,13 @@ def write_rpc3(path: str | os.PathLike[str], data: TimeData, *,
         scales = np.where(peak > 0, peak / SHORT_MAX, 1.0)
         stored = np.rint(data.values / scales[:, None]).astype("<i2")
     else:
+        big = np.abs(data.values).max(axis=1) > np.finfo(np.float32).max
+        if big.any():
+            c = int(np.flatnonzero(big)[0])
+            raise TimeDataError(f"channel {data.names[c]!r} reaches "
+                                f"{np.abs(data.values[c]).max():.3g}, beyond the largest "
+                                f"single-precision number ({np.finfo(np.float32).max:.3g}) an "
+                                "RPC III FLOATING_POINT file holds")  # fmt: skip
         scales = np.ones(n_ch)
         stored = data.values.astype("<f4")
     padded = np.zeros((n_ch, n_groups * ppg), stored.dtype)
