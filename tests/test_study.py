@@ -117,6 +117,13 @@ def _with(section: str, **changes) -> dict:
     (_with("solve", band=[120, 5]), "solve.band: expected [F1, F2]"),
     (_with("pairing", reference=2), "pairing.reference: expected a point index 0 to 1"),
     (_with("pairing", min_mac=1.5), "pairing.min_mac: expected a MAC in [0, 1]"),
+    # a misspelt key would run the study on the default: refused with the nearest key
+    (_with("solve", bands=[5, 50]), "solve.bands: unknown key 'bands' (expected one of band, "
+                                    "modes, rigid_below); did you mean 'band'?"),
+    (_with("pairing", minmac=0.9), "pairing.minmac: unknown key 'minmac' (expected one of "
+                                   "min_mac, reference); did you mean 'min_mac'?"),
+    (_with("model", varient="rig"), "model.varient: unknown key 'varient'"),
+    (_with("variable", valuse=[1]), "variable.valuse: unknown key 'valuse'"),
 ])  # fmt: skip
 def test_config_errors_named(cfg, message):
     with pytest.raises(ConfigError) as e:

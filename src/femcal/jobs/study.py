@@ -77,6 +77,7 @@ from pathlib import Path
 import numpy as np
 
 from ..atomic import write_atomic, write_lines
+from ..calibrate.config import unknown_key_message
 from ..correlate.shapes import pair_modes
 from ..errors import ConfigError
 from ..model.analysis import EigenRequest
@@ -269,6 +270,21 @@ def _deck_check(deck: Path, fields: tuple, name: str, value: float) -> str:
     return ""
 
 
+#: The keys each section of a study configuration knows.
+SECTION_KEYS = {"model": {"deck", "generator", "variant"},
+                "variable": {"name", "unit", "values", "fields"},
+                "solve": {"band", "modes", "rigid_below"},
+                "pairing": {"min_mac", "reference"}}  # fmt: skip
+
+
+def _known_keys(table: dict, known: set[str], section: str, bad) -> None:
+    """A :class:`ConfigError` for a key the section does not know (a misspelt key would
+    otherwise run the study on the default), with the nearest known one."""
+    for key in table:
+        if key not in known:
+            raise bad(f"{section}.{key}", unknown_key_message(key, known))
+
+
 def study_config(data: dict, where: str = "study", folder: str | Path = ".") -> StudyConfig:
     """A :class:`StudyConfig` from parsed TOML; :class:`ConfigError` naming the key that is
     wrong (``where``: the file's name for the messages; ``folder``: where a ``deck`` path is
@@ -281,6 +297,7 @@ def study_config(data: dict, where: str = "study", folder: str | Path = ".") -> 
         t = data.get(name, {})
         if not isinstance(t, dict):
             raise bad(name, "expected a table")
+        _known_keys(t, SECTION_KEYS[name], name, bad)
         return t
 
     known = {"model", "variable", "solve", "pairing"}
@@ -316,6 +333,7 @@ def study_config(data: dict, where: str = "study", folder: str | Path = ".") -> 
     var = variables[0]
     if not isinstance(var, dict):
         raise bad("variable", "expected a [[variable]] table (name, values)")
+    _known_keys(var, SECTION_KEYS["variable"], "variable", bad)
     name = var.get("name")
     fields: tuple = ()
     if deck is not None:
