@@ -144,6 +144,9 @@ def test_limits_are_read_checked_and_kept(tmp_path):
     csv.write_text("label,grid,x,y,z,direction,stroke,velocity,acceleration\n"
                    "A,1,0,0,0,3,2.0,,1e5\nB,2,0,0,0,3,4.0,300,\n")  # fmt: skip
     limits = read_limits(csv, ["A", "B"])
+    bom = tmp_path / "bom.csv"  # as spreadsheets save it: a byte-order mark, spaces
+    bom.write_bytes(b"\xef\xbb\xbf" + csv.read_text().replace(",", ", ").encode())
+    assert np.array_equal(read_limits(bom, ["A", "B"]).values, limits.values)
     assert np.array_equal(limits.values, [[2.0, 4.0], [np.inf, 300.0], [1e5, np.inf]])
     t = np.arange(8192) * DT
     f0 = 4.0  # a whole number of periods: the record loops

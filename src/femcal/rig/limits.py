@@ -80,7 +80,7 @@ def read_limits(path: str | Path, labels: Sequence[str], *,
         number.
     """
     try:
-        with open(path, newline="", encoding="utf-8") as fh:
+        with open(path, newline="", encoding="utf-8-sig") as fh:  # a BOM is no column name
             reader = csv.DictReader(fh)
             fields = [c.strip() for c in reader.fieldnames or []]
             reader.fieldnames = fields
