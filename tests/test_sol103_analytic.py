@@ -192,6 +192,29 @@ def test_grid_point_weight_generator(write):
     assert np.allclose(ws.inertia_cg, expected)
 
 
+def test_weight_generator_reports_before_wtmass_and_about_the_origin_for_a_missing_grdpnt(
+        tmp_path, capsys):  # fmt: skip
+    """NASTRAN's generator prints the input's mass (two CONM2 of 100 with WTMASS 0.00259:
+    200, not 0.518), and for a GRDPNT grid the deck lacks it warns and takes the origin;
+    the solve still writes its JSON."""
+    import json
+
+    from femcal.cli import main
+
+    deck = tmp_path / "d.bdf"
+    deck.write_text("SOL 103\nCEND\nMETHOD = 1\nBEGIN BULK\nPARAM,WTMASS,0.00259\n"
+                    "PARAM,GRDPNT,99\nEIGRL,1,,,4\nGRID,1,,0.,0.,0.\nGRID,2,,100.,0.,0.\n"
+                    "CONM2,11,1,,100.\nCONM2,12,2,,100.\nCELAS1,21,1,1,1\nPELAS,1,1000.\n"
+                    "CROD,31,2,1,2\nPROD,2,5,1.\nMAT1,5,2.1+5,,.3\nENDDATA\n")  # fmt: skip
+    assert main(["solve", str(deck), "--json", str(tmp_path / "out.json")]) == 0
+    captured = capsys.readouterr()
+    assert "PARAM GRDPNT 99: no GRID 99 in the model" in captured.err
+    assert "REFERENCE POINT = (0, 0, 0)" in captured.out
+    weight = json.loads((tmp_path / "out.json").read_text())["weight"]
+    assert weight["mass"] == pytest.approx([200.0] * 3, rel=1e-12)
+    assert weight["reference"] == [0.0, 0.0, 0.0]
+
+
 def cquad8_plate(omit: bool, mpc: bool) -> str:
     """A simply supported 6 x 4 CQUAD8 plate, 4.0 thick (the Leissa plate above). The first
     element's midside node on the plate edge y = 0 is either omitted (omit) or kept and tied

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -9,6 +10,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..elements.line import skew
+from ..errors import FemcalWarning
 from ..model.model import Model
 
 
@@ -54,16 +56,22 @@ def rigid_body_vectors(model: Model, reference: np.ndarray) -> np.ndarray:
 
 
 def weight_summary(model: Model, M: sp.spmatrix, reference_grid: int = 0) -> WeightSummary:
-    """Mass, centre of gravity and inertia of the g-set mass matrix ``M``.
+    """Mass, centre of gravity and inertia of the g-set mass matrix ``M`` (in the input's
+    mass units: NASTRAN's generator reports before PARAM WTMASS, so pass M / WTMASS).
 
-    ``reference_grid``: GRID id of the reference point, 0 for the basic origin.
+    ``reference_grid``: GRID id of the reference point, 0 for the basic origin. A grid the
+    model lacks is warned about (FemcalWarning) and the basic origin taken, as NASTRAN
+    does.
     """
     ref = np.zeros(3)
     if reference_grid > 0:
         i = int(model.node_index(reference_grid)[0])
-        if i < 0:
-            raise ValueError(f"PARAM GRDPNT {reference_grid}: no such GRID")
-        ref = model.xyz[i].copy()
+        if i < 0 or not model.is_grid[i]:
+            warnings.warn(f"PARAM GRDPNT {reference_grid}: no GRID {reference_grid} in the "
+                          "model; the weight summary is taken about the basic origin, as "
+                          "NASTRAN does", FemcalWarning, stacklevel=2)  # fmt: skip
+        else:
+            ref = model.xyz[i].copy()
     D = rigid_body_vectors(model, ref)
     MO = D.T @ (M @ D)
     MO = 0.5 * (MO + MO.T)

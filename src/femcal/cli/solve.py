@@ -157,7 +157,9 @@ def _run(args: argparse.Namespace, *, root: bool) -> int:
         print(f"\nAUTOSPC fixed {len(modes.autospc)} DOF (grid:component): {shown}{more}")
     summary = modes_json(modes, model)
     if model.params.grdpnt is not None and mats is not None:
-        ws = weight_summary(model, mats.M, model.params.grdpnt)
+        # NASTRAN's generator reports in the input's mass units, before PARAM WTMASS
+        wtmass = model.params.wtmass if model.params.wtmass else 1.0
+        ws = weight_summary(model, mats.M / wtmass, model.params.grdpnt)
         print()
         print("\n".join(weight_table(ws)))
         summary["weight"] = {
