@@ -207,3 +207,12 @@ def test_timedata_info_reads_csv(tmp_path, capsys):
     path.write_text(path.read_text()[:-1])  # the last line cut
     assert main(["timedata", "info", str(path)]) == 2
     assert f"{path}:6: the last line does not end with a line break" in capsys.readouterr().err
+
+
+def test_a_name_given_to_two_channels_is_refused_when_asked_for(tmp_path):
+    """Two channels of one name: asking for it names both, instead of the first winning."""
+    data = TimeData(0.01, np.zeros((3, 8)), ("a", "b", "a"), ("mm",) * 3)
+    back = read_time_data(write_time_data(tmp_path / "t.npz", data))
+    assert back.channel("b") == 1
+    with pytest.raises(TimeDataError, match=r"2 channels are called 'a' \(channels 1, 3\)"):
+        back.channel("a")

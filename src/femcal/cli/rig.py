@@ -287,7 +287,10 @@ def drive_channels(data: TimeData, plant: RigPlant, where: Path) -> np.ndarray:
     for label in plant.inputs:
         for name in (label, f"{label}:displacement"):
             if name in data.names:
-                c = data.names.index(name)
+                try:
+                    c = data.channel(name)
+                except TimeDataError as e:
+                    raise TimeDataError(f"{where}: {e}") from None
                 break
         else:
             raise TimeDataError(f"{where}: no drive channel for actuator {label!r} (expected a "

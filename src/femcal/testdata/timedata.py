@@ -62,10 +62,15 @@ class TimeData:
         Raises
         ------
         TimeDataError
-            Naming the channels there are, when none is called so.
+            Naming the channels there are, when none is called so, or the channels that
+            are, when several are (which one is meant cannot be guessed).
         """
-        try:
-            return self.names.index(name)
-        except ValueError:
+        found = [k for k, n in enumerate(self.names) if n == name]
+        if not found:
             raise TimeDataError(f"no channel {name!r}; the channels are "
-                                f"{', '.join(map(repr, self.names))}") from None  # fmt: skip
+                                f"{', '.join(map(repr, self.names))}")  # fmt: skip
+        if len(found) > 1:
+            raise TimeDataError(f"{len(found)} channels are called {name!r} (channels "
+                                f"{', '.join(str(k + 1) for k in found)}); expected one "
+                                "channel of each name")  # fmt: skip
+        return found[0]
