@@ -172,3 +172,15 @@ def test_resampled_channels_give_the_same_frfs_below_the_new_nyquist(rig):
     assert np.median((np.abs(result.frf.H - exact) / np.abs(exact))[strong]) < 0.03
     with pytest.raises(TimeDataError, match="rate"):
         FRFSettings(rate_hz=-1.0)
+
+
+def test_two_inputs_with_one_average_are_refused_saying_why():
+    """One segment per period cannot tell two inputs apart (their cross-spectral matrix is
+    of rank one at every line): said, not 'no frequency line with excitation'."""
+    rng = np.random.default_rng(11)
+    values = rng.standard_normal((3, 4096))
+    data = TimeData(1 / 512, values, ("a", "b", "y"), ("N", "N", "mm/s^2"))
+    with pytest.raises(TimeDataError, match=r"2 inputs need at least 2 averaged segments to "
+                                            r"be told apart; 8 s segments"):  # fmt: skip
+        estimate_frfs(data, ["a", "b"], ["y"], FRFSettings(period_s=8.0, segment_s=8.0,
+                                                           overlap=0.0))  # fmt: skip

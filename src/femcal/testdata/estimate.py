@@ -170,7 +170,7 @@ def estimate_frfs(data: TimeData, inputs: Sequence[str], outputs: Sequence[str],
         For an unknown channel name (listing those there are), a channel given twice,
         inputs or outputs of mixed units, a period that is not a whole number of samples or
         leaves no whole cycle, a segment longer than the (averaged) record, a band beyond
-        the Nyquist frequency, or no line in the band.
+        the Nyquist frequency, fewer averaged segments than inputs, or no line in the band.
     """
     s = settings or FRFSettings()
     if not inputs or not outputs:
@@ -211,6 +211,14 @@ def estimate_frfs(data: TimeData, inputs: Sequence[str], outputs: Sequence[str],
                             f"({x.shape[1]} samples)")  # fmt: skip
     full = s.estimator.upper() == "H2" and len(ins) > 1
     spectra = signal.cross_spectra(x, y, dt, segment, s.overlap, full_outputs=full)
+    if len(ins) > 1 and spectra.segments < len(ins):
+        # with fewer averages than inputs the input cross-spectral matrix is singular at
+        # every line: no estimator can separate the inputs
+        raise TimeDataError(f"{len(ins)} inputs need at least {len(ins)} averaged segments to "
+                            f"be told apart; {s.segment_s:g} s segments of the "
+                            f"{'averaged cycle' if cycles > 1 else 'record'} "
+                            f"({x.shape[1] * dt:g} s) give {spectra.segments}: expected "
+                            "shorter segments (--segment) or a longer record")  # fmt: skip
     est = signal.frf_from_spectra(spectra, s.estimator)
     f = est.frequency_hz
     lo, hi = s.band if s.band is not None else (0.0, np.inf)
