@@ -161,6 +161,10 @@ def rod_matrices(
 
 # ------------------------------------------------------------------------------ bars / beams
 
+#: A zero I1, I2 or J is taken as this fraction of the section's largest (see
+#: :func:`beam_stiffness_local`).
+ZERO_STIFFNESS = 1e-9
+
 
 def beam_stiffness_local(
     L: np.ndarray,
@@ -188,16 +192,28 @@ def beam_stiffness_local(
     if section.ndim == 2:
         section = np.broadcast_to(section[:, None, :], (n, len(FLEX_X), 5))
     A, I1, I2, I12, J = (section[..., i] for i in range(5))
-    bad = np.flatnonzero(((A <= 0) | (J <= 0) | (I1 <= 0) | (I2 <= 0)).any(axis=1))
+    bad = np.flatnonzero((A <= 0).any(axis=1))
     if len(bad):
-        raise ValueError(f"bars/beams need A, I1, I2, J > 0 (positions {bad[:20].tolist()})")
+        raise ValueError(f"bars/beams need A > 0 (positions {bad[:20].tolist()})")
+    bad = np.flatnonzero(((J < 0) | (I1 < 0) | (I2 < 0)).any(axis=1))
+    if len(bad):
+        raise ValueError(f"bars/beams need I1, I2, J >= 0 (positions {bad[:20].tolist()})")
     bad = np.flatnonzero(~((E > 0) & (G > 0)))  # the section compliance divides by both
     if len(bad):
         raise ValueError("bars/beams need materials with E > 0 and G > 0 (positions "
                          f"{bad[:20].tolist()})")  # fmt: skip
+    bad = np.flatnonzero(((I12 != 0) & (I1 * I2 <= I12**2)).any(axis=1))
+    if len(bad):
+        raise ValueError(f"bars/beams with an I12 need I1*I2 > I12^2 (positions "
+                         f"{bad[:20].tolist()})")  # fmt: skip
+    # The QRG allows I1, I2 and J of 0 (a blank field): no stiffness in that plane or about
+    # the axis, which the deck holds by constraints where it matters. The compliance takes
+    # them as ZERO_STIFFNESS of the section's largest (the stiffness so made is that small,
+    # and the flexibility stays invertible).
+    scale = np.maximum.reduce([I1, I2, J, A * L[:, None] ** 2 / 12.0])
+    floor = ZERO_STIFFNESS * scale
+    I1, I2, J = (np.where(v > 0, v, floor) for v in (I1, I2, J))
     det = I1 * I2 - I12**2
-    if (det <= 0).any():
-        raise ValueError("bars/beams need I1*I2 > I12^2")
     # Compliance of the section, (n, q, 6, 6) on [N, Vy, Vz, T, My, Mz].
     Cs = np.zeros((*A.shape, 6, 6))
     Cs[..., 0, 0] = 1.0 / (E[:, None] * A)
