@@ -121,7 +121,8 @@ def _with(section: str, **changes) -> dict:
     (_with("solve", bands=[5, 50]), "solve.bands: unknown key 'bands' (expected one of band, "
                                     "modes, rigid_below); did you mean 'band'?"),
     (_with("pairing", minmac=0.9), "pairing.minmac: unknown key 'minmac' (expected one of "
-                                   "min_mac, reference); did you mean 'min_mac'?"),
+                                   "max_frequency_ratio, min_mac, reference); did you mean "
+                                   "'min_mac'?"),
     (_with("model", varient="rig"), "model.varient: unknown key 'varient'"),
     (_with("variable", valuse=[1]), "variable.valuse: unknown key 'valuse'"),
 ])  # fmt: skip
@@ -265,3 +266,33 @@ def test_a_stopped_study_resumes_from_its_kept_points(tmp_path):
 
     run_study(replace(cfg, n_modes=4), state=state, progress=messages.append)
     assert not any("solved earlier" in m for m in messages)
+
+
+def test_a_mode_moving_far_between_points_is_tracked_by_its_shape(tmp_path):
+    """A PBAR I2 sweep 25 -> 81 -> 400 moves the cantilever's bending modes in that plane by
+    1.8 and 2.2 times between points; their shapes do not change (MAC 1), so they are
+    tracked throughout (frequencies as sqrt(I2)) unless a max_frequency_ratio says
+    otherwise."""
+    from tests.test_pbar_blank import _cantilever
+
+    deck = tmp_path / "bar.bdf"
+    deck.write_text(_cantilever("PBAR,1,1,100.,800.,25.,1500."))
+    cfg = {"model": {"deck": "bar.bdf"},
+           "variable": [{"name": "i2", "unit": "mm^4", "fields": [["PBAR", 1, "I2"]],
+                         "values": [25.0, 81.0, 400.0]}],
+           "solve": {"modes": 4}, "pairing": {"min_mac": 0.9}}  # fmt: skip
+    res = run_study(study_config(cfg, "s.toml", folder=tmp_path))
+    # the first bending mode in the I2 plane: the track whose frequency moves most
+    moving = max(res.tracks, key=lambda t: t.frequencies[-1] / t.frequencies[0])
+    assert all(m >= 0 for m in moving.modes), moving
+    f = np.array(moving.frequencies)
+    assert f[1:] / f[0] == pytest.approx(np.sqrt([81 / 25, 400 / 25]), rel=0.01)
+    assert min(moving.mac[1:]) > 0.999
+    k = res.tracks.index(moving)
+    limited = run_study(study_config({**cfg, "pairing": {"min_mac": 0.9,
+                                                         "max_frequency_ratio": 1.5}},
+                                     "s.toml", folder=tmp_path))  # fmt: skip
+    assert limited.tracks[k].modes[1:] == [-1, -1]  # the guard, when asked for, holds
+    with pytest.raises(ConfigError, match=r"pairing\.max_frequency_ratio: expected a factor"):
+        study_config({**cfg, "pairing": {"max_frequency_ratio": 0.5}}, "s.toml",
+                     folder=tmp_path)  # fmt: skip

@@ -49,7 +49,8 @@ band's bottom.
 lowest N). Points are visited outwards from the reference, and each is paired to its
 neighbour nearer the reference (not to the reference itself), so that a shape which drifts
 slowly along the sweep is still followed (:func:`femcal.correlate.pair_modes`: greedy by falling
-MAC, each mode at most once, MAC >= ``min_mac``, frequencies within a factor 1.5). Neighbours
+MAC, each mode at most once, MAC >= ``min_mac``; by shape alone, or with frequencies within a
+factor ``max_frequency_ratio`` when the configuration gives one). Neighbours
 are solved to :data:`BAND_MARGIN` times the band's top so that a mode leaving the band is
 still found. A track lost at a point (no partner with MAC >= ``min_mac``) stays lost beyond
 it; modes of other points that pair to no tracked mode are counted, not tracked.
@@ -106,8 +107,6 @@ STATION_STEP = 100.0
 BAND_MARGIN = 1.2
 #: With ``modes = N``, the solve asks for N plus this many roots (the rigid-body ones).
 EXTRA_ROOTS = 12
-#: Frequencies of paired modes are within this factor.
-MAX_FREQUENCY_RATIO = 1.5
 
 
 # ----------------------------------------------------------------------------- generators
@@ -215,7 +214,9 @@ class StudyConfig:
     ``deck`` whose ``fields`` ((card, id, field name), each set to the variable's value) are
     the design variable; the variable ``variable`` (its ``unit``) and its ``values``;
     ``band`` (Hz) or ``n_modes``; ``min_mac`` and ``reference`` (0-based index into
-    ``values``); ``rigid_below`` (Hz)."""
+    ``values``); ``rigid_below`` (Hz); ``max_frequency_ratio``: paired modes' frequencies
+    within this factor (None: paired by shape alone, however far a mode moves between
+    points)."""
 
     generator: str
     variant: str
@@ -229,6 +230,7 @@ class StudyConfig:
     rigid_below: float = RIGID_BELOW
     deck: Path | None = None
     fields: tuple[tuple[str, int, str], ...] = ()
+    max_frequency_ratio: float | None = None
 
     @property
     def source(self) -> str:
@@ -274,7 +276,7 @@ def _deck_check(deck: Path, fields: tuple, name: str, value: float) -> str:
 SECTION_KEYS = {"model": {"deck", "generator", "variant"},
                 "variable": {"name", "unit", "values", "fields"},
                 "solve": {"band", "modes", "rigid_below"},
-                "pairing": {"min_mac", "reference"}}  # fmt: skip
+                "pairing": {"min_mac", "reference", "max_frequency_ratio"}}  # fmt: skip
 
 
 def _known_keys(table: dict, known: set[str], section: str, bad) -> None:
@@ -387,8 +389,14 @@ def study_config(data: dict, where: str = "study", folder: str | Path = ".") -> 
     if not (isinstance(ref, int) and not isinstance(ref, bool) and 0 <= ref < len(values)):
         raise bad("pairing.reference", f"expected a point index 0 to {len(values) - 1}, got "
                   f"{ref!r}")  # fmt: skip
+    ratio = pairing.get("max_frequency_ratio")
+    if ratio is not None and not (isinstance(ratio, int | float) and not isinstance(ratio, bool)
+                                  and math.isfinite(ratio) and ratio > 1):
+        raise bad("pairing.max_frequency_ratio", f"expected a factor > 1 (or no key: pair by "
+                  f"shape alone), got {ratio!r}")  # fmt: skip
     return StudyConfig(gen_name, variant, name, values, unit, band, n_modes, float(min_mac),
-                       ref, float(rigid_below), deck, fields)  # fmt: skip
+                       ref, float(rigid_below), deck, fields,
+                       None if ratio is None else float(ratio))  # fmt: skip
 
 
 def read_study_config(path: str | Path) -> StudyConfig:
@@ -516,7 +524,8 @@ def track_modes(cfg: StudyConfig, points: Sequence[Point]) -> tuple[list[Track],
     for k, nb in order:
         a, b = points[nb], points[k]
         pairs = pair_modes(a.shapes, a.frequencies, b.shapes, b.frequencies,
-                           min_mac=cfg.min_mac, max_frequency_ratio=MAX_FREQUENCY_RATIO)
+                           min_mac=cfg.min_mac,
+                           max_frequency_ratio=cfg.max_frequency_ratio or np.inf)
         partner = {p.test: p for p in pairs}
         for t in tracks:
             p = partner.get(t.modes[nb]) if t.modes[nb] >= 0 else None
