@@ -271,6 +271,15 @@ def test_temporary_files_of_killed_writers_are_removed_by_the_next_writer(tmp_pa
         [live.name, other_host.name, other_target.name, "other.txt"])
 
 
+def test_an_unwritable_output_is_named_not_its_temporary_file(tmp_path):
+    """The writer's temporary file is femcal's business: an error names the file asked for
+    (/proc takes no new files, even for root)."""
+    with pytest.raises(OSError) as e:
+        write_lines("/proc/femcal-out.json", ["x"])
+    assert e.value.filename == "/proc/femcal-out.json"
+    assert ".femcal-out.json." not in str(e.value)
+
+
 # ----------------------------------------------------------------- the command line
 
 

@@ -68,17 +68,27 @@ def write_atomic(path: str | os.PathLike[str], write: Callable[[str], None]) -> 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(path)
-    fd, tmp = tempfile.mkstemp(prefix=_temporary_prefix(path, os.getpid()), suffix=path.suffix,
-                               dir=path.parent)  # fmt: skip
-    os.close(fd)
+    tmp = ""
     try:
+        fd, tmp = tempfile.mkstemp(prefix=_temporary_prefix(path, os.getpid()),
+                                   suffix=path.suffix, dir=path.parent)  # fmt: skip
+        os.close(fd)
         write(tmp)
         mask = os.umask(0)
         os.umask(mask)
         os.chmod(tmp, 0o666 & ~mask)  # mkstemp makes it private
         os.replace(tmp, path)
+    except OSError as e:
+        if tmp:
+            Path(tmp).unlink(missing_ok=True)
+        named = Path(str(e.filename)).name if e.filename is not None else ""
+        if named.startswith(_temporary_prefix(path, os.getpid())):
+            # the temporary file is femcal's business: the error names the file asked for
+            raise type(e)(e.errno, e.strerror, str(path)) from None
+        raise
     except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+        if tmp:
+            Path(tmp).unlink(missing_ok=True)
         raise
     return path
 
