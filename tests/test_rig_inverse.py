@@ -208,3 +208,19 @@ def test_a_looped_record_joins_and_a_slice_does_not():
     for start, stop in ((0, 5000), (1234, 7000), (3000, 8000)):
         assert not ends_join(loop[:, start:stop])[0]
         assert not ends_join(loop[:1, start:stop])[0]
+
+
+def test_the_least_squares_drive_and_each_drive_s_own_noise_variance():
+    """The least-squares drive is pinv(G) W^1/2 T and the noise each drive carries the
+    diagonal of pinv(G) pinv(G)^H, G = W^1/2 H, drives seen very unequally or not at all."""
+    rng = np.random.default_rng(9)
+    for n_out in (4, 2):  # more channels than drives, and fewer
+        H, _ = _problem(rng, 3, n_out=n_out, n_in=3)
+        H[:, :, 0] *= 100.0
+        weight = rng.uniform(0.2, 9.0, n_out)
+        T = rng.standard_normal((n_out, 3)) + 1j * rng.standard_normal((n_out, 3))
+        ls, var = inverse.least_squares_drive(H, T, weight)
+        for f in range(3):
+            Gp = np.linalg.pinv(np.sqrt(weight)[:, None] * H[f])
+            assert ls[:, f] == pytest.approx(Gp @ (np.sqrt(weight) * T[:, f]), rel=1e-6)
+            assert var[:, f] == pytest.approx(np.real(np.diag(Gp @ Gp.conj().T)), rel=1e-6)

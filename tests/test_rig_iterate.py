@@ -14,7 +14,8 @@ from femcal.model.build import load_model
 from femcal.rig.iterate import IterationSettings, frf_on_lines, iterate_drive
 from femcal.rig.plant import build_plant, damping_from_modes
 from femcal.rig.simulate import simulate
-from femcal.testdata.formats import read_time_data, write_time_data
+from femcal.testdata.data import FRFData
+from femcal.testdata.formats import read_frf, read_time_data, write_frf, write_time_data
 from femcal.testdata.points import read_points
 from femcal.testdata.timedata import TimeData
 
@@ -262,7 +263,19 @@ def test_correct_steps_a_physical_rig_by_files(tmp_path, capsys):
                      *labels, "--outputs", *outs, "--segment", "4", "--out", frfs[-1]]) == 0
     step = ["rig", "correct", str(deck), *rig, "--target", str(tmp_path / "target.rsp"),
             "--control", *control, "--band", "1", "80", "--frf", *frfs]
-    assert main([*step, "--out", str(tmp_path / "d0.rsp")]) == 0
+    # the first step with its report (no response yet), and the same FRF recorded in g
+    assert main([*step, "--report", str(tmp_path / "rep0"), "--out",
+                 str(tmp_path / "d0.rsp")]) == 0  # fmt: skip
+    assert "No response measured yet" in (tmp_path / "rep0" / "report.html").read_text()
+    acc = read_frf(frfs[0])
+    in_g = tmp_path / "acc_g.npz"
+    write_frf(in_g, FRFData(acc.frequency_hz, acc.H / 9806.65, acc.outputs, acc.inputs,
+                            acc.quantity, acc.units.replace("mm/s^2/", "g/", 1)))  # fmt: skip
+    assert read_frf(in_g).units.startswith("g/")
+    assert main([*step[:-2], str(in_g), frfs[1], "--out", str(tmp_path / "d0g.rsp")]) == 0
+    np.testing.assert_allclose(read_time_data(tmp_path / "d0g.rsp").values,
+                               read_time_data(tmp_path / "d0.rsp").values, rtol=1e-5,
+                               atol=1e-6 * np.abs(read_time_data(tmp_path / "d0.rsp").values).max())
     errors, history = [], []
     for k in range(4):
         drive, response = tmp_path / f"d{k}.rsp", tmp_path / f"r{k}.rsp"
@@ -285,6 +298,9 @@ def test_correct_steps_a_physical_rig_by_files(tmp_path, capsys):
     for name in ("report.html", "drives_psd.png", "drives_time.png", "error_psd.png",
                  "target_response_psd.png"):  # fmt: skip
         assert (report / name).stat().st_size > 1000
+    # --out over a drive that was played is refused before anything is read or removed
+    assert main([*step, *history, "--out", str(tmp_path / "d0.rsp")]) == 2
+    assert "is also --drive" in capsys.readouterr().err and (tmp_path / "d0.rsp").is_file()
     assert main([*step, "--drive", str(tmp_path / "d0.rsp"), "--out",
                  str(tmp_path / "x.rsp")]) == 2  # fmt: skip
     assert "1 --drive and 0 --response: they go in pairs" in capsys.readouterr().err

@@ -616,6 +616,13 @@ def _correct(args: argparse.Namespace) -> int:
                          "go in pairs (each drive played and the response measured while it "
                          "played); give neither for the first drive")  # fmt: skip
     output_file(args.out, "--out", "time")
+    for option, paths in (("--target", [args.target]), ("--drive", args.drive),
+                          ("--response", args.response)):  # fmt: skip
+        for path in paths:
+            if args.out.exists() and path.exists() and args.out.samefile(path):
+                raise UsageError(f"--out {args.out} is also {option} {path}: expected a new "
+                                 "file for the next drive (what was played and measured is "
+                                 "needed for the steps after it)")  # fmt: skip
     target_data = read_time_data(args.target)
     model = _plant(args.deck, args, args.damping, t0)
     control = [model.outputs.index(c) if c in model.outputs else -1 for c in args.control]
@@ -768,7 +775,15 @@ def _frf_files(paths: list[Path], model: RigPlant, control: list[str], n: int, d
                                  f"are {', '.join(ins)}")  # fmt: skip
             cols.append(match[0])
         o = [c.label for c in data.outputs].index(name)
-        rows.append(frf_to_lines(data.frequency_hz, data.H[[o]][:, cols], n, dt, band)[0])
+        out_unit, _, in_unit = data.units.rpartition("/") if "/" in data.units else ("", "", "")
+        to = model.output_units[model.outputs.index(name)]
+        try:  # a blank unit is the model's
+            scale = (unit_factor(out_unit, to, f"--frf {path}: output {name!r}")
+                     / unit_factor(in_unit, model.input_units, f"--frf {path}: inputs"))
+        except ValueError as e:
+            raise UsageError(f"{e} (the FRF's units are {data.units!r})") from None
+        rows.append(scale * frf_to_lines(data.frequency_hz, data.H[[o]][:, cols], n, dt,
+                                         band)[0])  # fmt: skip
     return np.stack(rows)
 
 

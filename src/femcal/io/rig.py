@@ -184,7 +184,7 @@ def correction_dict(step: Correction, plant: RigPlant, settings: IterationSettin
             lim = facts.limits.limit[q, j]
             entry[f"limit_{name}"] = float(lim) if np.isfinite(lim) else None
         drive_rows.append(entry)
-    last = errors[-1].in_band if errors else np.zeros(len(control))
+    last = errors[-1].in_band if errors else np.full(len(control), np.nan)
     return {
         "target": target, "model": model, "plant": "the physical rig (by files)", "frf": frf,
         "settings": settings_dict(settings), "taper_s": p.taper_s, "next_drive": True,
@@ -281,7 +281,7 @@ def write_iteration_html(path: str | os.PathLike[str], report: dict,
     head = ["control channel", "weight"] + [f"{k}" for k in range(steps)] + ["outside band"]
     rows = [[c["channel"], f"{c.get('weight', 1.0):g}",
              *(_pct(e) for e in c["rms_error"]),
-             _pct(c["out_of_band_error"][-1]) if "out_of_band_error" in c else "-"]
+             _pct(c["out_of_band_error"][-1]) if c.get("out_of_band_error") else "-"]
             for c in report["control"]]  # fmt: skip
     unit = report["drives"][0]["unit"] if report["drives"] else ""
     drives = [[d["actuator"], *(f"{v:.4g}" for v in d["rms"])] for d in report["drives"]]

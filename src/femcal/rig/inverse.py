@@ -164,6 +164,28 @@ def _band_statistic(x: np.ndarray, f: np.ndarray,
             np.interp(f, centres, (hi - lo).astype(float)))  # fmt: skip
 
 
+def least_squares_drive(Hf: np.ndarray, T: np.ndarray,
+                        weight: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """(the least-squares drive (n_drives, n_lines), its variance per drive (n_drives,
+    n_lines) under the whitened noise): ``min |W^1/2 (T - H D)|`` by QR of ``[W^1/2 H; r I]``
+    with a ridge ``r`` of 1e-6 of the norm, and the diagonal of ``pinv(G) pinv(G)^H``, ``G =
+    W^1/2 H`` (zero along directions no channel sees, where the drive is left at zero)."""
+    _, n_out, n_in = Hf.shape
+    G = np.sqrt(weight)[None, :, None] * Hf
+    top = np.linalg.norm(G, axis=(1, 2))
+    ridge = 1e-6 * np.where(top > 0, top, 1.0)
+    M = np.concatenate([G, ridge[:, None, None] * np.eye(n_in)[None]], axis=1)
+    Q, R = np.linalg.qr(M)
+    Q1 = Q[:, :n_out]  # G = Q1 R
+    rhs = np.sqrt(weight)[None, :] * T.T  # (n_lines, n_out)
+    ls = np.linalg.solve(R, np.einsum("fmi,fm->fi", Q1.conj(), rhs)[..., None])[..., 0].T
+    # the least-squares drive's covariance under unit whitened noise, X X^H with
+    # X = R^-1 Q1^H (finite along directions no channel sees, where the drive is left at 0)
+    X = np.linalg.solve(R, Q1.conj().transpose(0, 2, 1))
+    var = np.sum(np.abs(X) ** 2, axis=2).T  # (n_in, n_lines)
+    return ls, var
+
+
 def drive_prior(Hf: np.ndarray, T: np.ndarray, weight: np.ndarray,
                 f: np.ndarray) -> np.ndarray:  # fmt: skip
     """The drive's power per line p (n_drives, n_lines) that the target shows through the
@@ -183,19 +205,7 @@ def drive_prior(Hf: np.ndarray, T: np.ndarray, weight: np.ndarray,
     that of the regularised least-squares drive, finite where fewer channels than drives
     leave directions unseen.
     """
-    _, n_out, n_in = Hf.shape
-    G = np.sqrt(weight)[None, :, None] * Hf
-    top = np.linalg.norm(G, axis=(1, 2))
-    ridge = 1e-6 * np.where(top > 0, top, 1.0)
-    M = np.concatenate([G, ridge[:, None, None] * np.eye(n_in)[None]], axis=1)
-    Q, R = np.linalg.qr(M)
-    Q1 = Q[:, :n_out]  # G = Q1 R
-    rhs = np.sqrt(weight)[None, :] * T.T  # (n_lines, n_out)
-    ls = np.linalg.solve(R, np.einsum("fmi,fm->fi", Q1.conj(), rhs)[..., None])[..., 0].T
-    # the least-squares drive's covariance under unit whitened noise, R^-1 Q1^H Q1 R^-H
-    # (finite along directions no channel sees, where the drive is left at zero)
-    X = np.linalg.solve(R.conj().transpose(0, 2, 1), Q1.conj().transpose(0, 2, 1))
-    var = np.sum(np.abs(X) ** 2, axis=2).T  # (n_in, n_lines)
+    ls, var = least_squares_drive(Hf, T, weight)
     power = np.abs(ls) ** 2
     signal, lines = _band_statistic(power, f, "median")
     signal = signal / np.log(2)
