@@ -147,6 +147,13 @@ def test_limits_are_read_checked_and_kept(tmp_path):
     bom = tmp_path / "bom.csv"  # as spreadsheets save it: a byte-order mark, spaces
     bom.write_bytes(b"\xef\xbb\xbf" + csv.read_text().replace(",", ", ").encode())
     assert np.array_equal(read_limits(bom, ["A", "B"]).values, limits.values)
+    caps = tmp_path / "caps.csv"  # headers in capitals, a blank row as Excel writes one
+    caps.write_text("Label,Stroke\nA,2\n,\nB,4\n")
+    assert np.array_equal(read_limits(caps, ["A", "B"]).values[0], [2.0, 4.0])
+    short = tmp_path / "short.csv"
+    short.write_text("label,grid,stroke\nA,1,2\nB,2\n")
+    with pytest.raises(ConfigError, match=r"short.csv:3: a short row"):
+        read_limits(short, ["A", "B"])
     assert np.array_equal(limits.values, [[2.0, 4.0], [np.inf, 300.0], [1e5, np.inf]])
     t = np.arange(8192) * DT
     f0 = 4.0  # a whole number of periods: the record loops

@@ -376,6 +376,11 @@ def test_a_drive_beyond_its_limits_lands_only_as_the_user_chose(tmp_path, capsys
     assert "scaled down by" in capsys.readouterr().err
     scaled = read_time_data(tmp_path / "scaled" / "drive.rsp").values
     assert np.abs(scaled[0]).max() <= 0.5 * (1 + 1e-6)
+    report = json.loads((tmp_path / "scaled" / "iteration.json").read_text())
+    peak = next(d for d in report["drives"] if d["actuator"] == "A_z1")["peak_stroke"]
+    assert peak == pytest.approx(np.abs(scaled[0]).max(), rel=1e-6)  # of the drive written
+    assert report["limits"]["scale"] < 1 and report["final_rms_error"]["worst"] > 0.3
+    assert "scaled by" in report["control"][0]["status"]
     assert main([*base, "--on-limit", "warn", "--out", str(tmp_path / "warned")]) == 0
     assert "exceeds the actuators' limits: A_z1: stroke" in capsys.readouterr().err
     assert np.abs(read_time_data(tmp_path / "warned" / "drive.rsp").values[0]).max() > 0.9

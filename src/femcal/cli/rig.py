@@ -17,6 +17,7 @@ import re
 import sys
 import time
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -59,7 +60,7 @@ from ..rig.limits import (
     scale_into_limits,
 )
 from ..rig.plant import RigPlant, build_plant, damping_from_modes
-from ..rig.quality import band_rms, channel_stats, relative_damage
+from ..rig.quality import band_errors, band_rms, channel_stats, relative_damage
 from ..rig.simulate import simulate
 from ..testdata.formats import read_frf, read_time_data, suffixes, write_time_data
 from ..testdata.points import read_points
@@ -337,7 +338,12 @@ def _iteration_settings(args: argparse.Namespace) -> IterationSettings:
 
 
 def _weights(args: argparse.Namespace) -> list[float]:
-    """One weight per control channel from ``--weight CHANNEL=W`` (1 where none is given)."""
+    """One weight per control channel from ``--weight CHANNEL=W`` (1 where none is given);
+    a control channel given twice is refused (it would weigh double)."""
+    twice = sorted({c for c in args.control if args.control.count(c) > 1})
+    if twice:
+        raise UsageError(f"--control {twice[0]} given twice; expected each control channel "
+                         "once (--weight CHANNEL=W weighs one)")  # fmt: skip
     given = _pairs(args.weight, "--weight")
     for name in given:
         if name not in args.control:
@@ -350,8 +356,9 @@ def _weights(args: argparse.Namespace) -> list[float]:
             w = float(text)
         except ValueError:
             w = float("nan")
-        if not (np.isfinite(w) and w > 0):
-            raise UsageError(f"--weight {name}={text}: expected a positive number")
+        if not (np.isfinite(w) and 1e-6 <= w <= 1e6):
+            raise UsageError(f"--weight {name}={text}: expected a number from 1e-6 to 1e6 "
+                             "(a channel's weight beside the others' 1)")  # fmt: skip
         out.append(w)
     return out
 
@@ -451,9 +458,11 @@ def _iterate(args: argparse.Namespace) -> int:
                            progress=lambda m: _say(t0, m))  # fmt: skip
     out = args.out
     drive, check, scale = _enforce(result.drive, dt, model, args, args.target)
-    del limits
     written = not (check.exceeded and args.on_limit == "refuse")
-    response = result.response * scale
+    if scale != 1.0:  # the report is of the drive written: its last step is the scaled one
+        result = _scaled(result, scale, dt, settings)
+        check = check_limits(drive, dt, limits)
+    response = result.response
     names = list(args.control)
     cunits = [model.output_units[c] for c in control]
     controlled = response[control]
@@ -483,6 +492,27 @@ def _iterate(args: argparse.Namespace) -> int:
     _say(t0, f"wrote {out}: drive.rsp, response.rsp, iteration.json, report.html, pictures")
     _print_iteration(result, names, model, check, damage, ref_error, settings.warp)
     return 0
+
+
+def _scaled(result, scale: float, dt: float, settings: IterationSettings):
+    """The iteration with its last step replaced by the drive scaled by ``scale`` (and the
+    response, the plant being linear), its errors and state recomputed."""
+    drive, response = result.drive * scale, result.response * scale
+    err = band_errors(result.target, response[list(result.control)], dt, settings.band)
+
+    def last(rows: np.ndarray, row: np.ndarray) -> np.ndarray:
+        out = rows.copy()
+        out[-1] = row
+        return out
+
+    status = tuple(f"scaled by {scale:.3g} as a whole to fit the limits (--on-limit scale): "
+                   f"{100 * e:.3g} % in band" for e in err.in_band)  # fmt: skip
+    return replace(result, drive=drive, response=response,
+                   rms_error=last(result.rms_error, err.in_band),
+                   out_of_band=last(result.out_of_band, err.out_of_band),
+                   drives=last(result.drives, np.sqrt(np.mean(drive**2, axis=1))),
+                   drive_psd=last(result.drive_psd, result.drive_psd[-1] * scale**2),
+                   status=status)  # fmt: skip
 
 
 def _iteration_pictures(out: Path, result, model: RigPlant, names: list[str],

@@ -302,6 +302,11 @@ def write_iteration_html(path: str | os.PathLike[str], report: dict,
                          f"(--on-limit {esc(limits['action'])}: {what}):</p><ul>"
                          + "".join(f"<li>{esc(m)}</li>" for m in limits["messages"])
                          + "</ul>")  # fmt: skip
+        elif limits.get("scale", 1.0) < 1.0:
+            parts.append(f"<p class=\"warn\"><b>The drive found exceeded the actuators' "
+                         f"limits</b> (--on-limit scale): it was scaled down by "
+                         f"{limits['scale']:.3g} as a whole, and the last step's errors and "
+                         "peaks are those of the drive written.</p>")
         elif any(d.get(f"limit_{q}") for d in report["drives"] for q in QUANTITIES):
             parts.append(f"<p>The drive stays within every limit given (at worst "
                          f"{100 * limits['worst_ratio']:.0f} % of one).</p>")

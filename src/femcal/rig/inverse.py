@@ -142,7 +142,10 @@ def bounded_floor(noise: NoiseFloor, Hf: np.ndarray, T: np.ndarray) -> NoiseFloo
             made = np.mean(gain[:, quiet] * drive[:, None], axis=0)
             var[quiet] = np.maximum(var[quiet], DEFAULT_FLOOR**2 * made)
         var = np.maximum(var, 1e-300)
-    return NoiseFloor(var, noise.fraction, noise.source, noise.measured)
+    with np.errstate(divide="ignore", invalid="ignore"):  # the fraction of what is used
+        fraction = np.where(var > noise.variance, noise.fraction * np.sqrt(
+            var / np.where(noise.variance > 0, noise.variance, 1.0)), noise.fraction)  # fmt: skip
+    return NoiseFloor(var, fraction, noise.source, noise.measured)
 
 
 def _band_statistic(x: np.ndarray, f: np.ndarray,

@@ -235,6 +235,10 @@ def prepare(H: np.ndarray, target: np.ndarray, dt: float, settings: IterationSet
         raise TimeDataError(f"channel weights {list(np.atleast_1d(w))}: expected one positive "
                             f"number per control channel ({len(target)})")  # fmt: skip
     f = np.fft.rfftfreq(n, dt)
+    if s.band[1] >= 0.5 / dt:
+        raise TimeDataError(f"the drive band {s.band[0]:g}-{s.band[1]:g} Hz reaches the "
+                            f"target's Nyquist frequency {0.5 / dt:g} Hz; expected a band "
+                            "below it")  # fmt: skip
     lines = (f >= s.band[0]) & (f <= s.band[1]) & (f > 0)
     if lines.sum() < 2:
         raise TimeDataError(f"the drive band {s.band[0]:g}-{s.band[1]:g} Hz holds "
@@ -350,7 +354,7 @@ def measured_frf(plant: RigPlant, control: Sequence[int], n: int, dt: float,
     n_in = plant.beta.shape[1]
     f_m = np.fft.rfftfreq(m, dt)
     S = np.zeros((n_in, len(f_m)), complex)
-    lines = (f_m >= band[0]) & (f_m <= band[1])
+    lines = (f_m >= band[0]) & (f_m <= band[1]) & (f_m > 0)
     S[:, lines] = (rng.standard_normal((n_in, int(lines.sum())))
                    + 1j * rng.standard_normal((n_in, int(lines.sum()))))  # fmt: skip
     noise = np.fft.irfft(S, m, axis=1)
@@ -552,7 +556,10 @@ def explain(result: Iteration, p: Prepared, held: np.ndarray) -> tuple[str, ...]
     last = errors[-1]
     E = p.T - _on_lines(result.response[list(result.control)], p)
     band_power = np.sum(np.abs(p.T) ** 2, axis=1)
-    floor = np.sqrt(p.noise.variance * len(p.frequency_hz) / np.maximum(band_power, 1e-300))
+    with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
+        floor = np.where(band_power > 0, np.sqrt(p.noise.variance * len(p.frequency_hz)
+                                                 / np.where(band_power > 0, band_power, 1.0)),
+                         np.nan)  # fmt: skip
     out = []
     for c in range(len(last)):
         e = last[c]

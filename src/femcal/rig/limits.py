@@ -82,7 +82,7 @@ def read_limits(path: str | Path, labels: Sequence[str], *,
     try:
         with open(path, newline="", encoding="utf-8-sig") as fh:  # a BOM is no column name
             reader = csv.DictReader(fh)
-            fields = [c.strip() for c in reader.fieldnames or []]
+            fields = [c.strip().lower() for c in reader.fieldnames or []]
             reader.fieldnames = fields
             cols = [q for q in QUANTITIES if q in fields]
             if "label" not in fields:
@@ -95,6 +95,12 @@ def read_limits(path: str | Path, labels: Sequence[str], *,
                 return ActuatorLimits.none(len(labels))
             rows: dict[str, tuple[int, dict[str, str]]] = {}
             for row in reader:
+                if not any((v or "").strip() for k, v in row.items() if k is not None):
+                    continue  # a blank row, as spreadsheets write them
+                if any(row.get(c) is None for c in cols):
+                    raise ConfigError(f"{path}:{reader.line_num}: a short row; expected a "
+                                      f"cell for each of label, {', '.join(cols)} (blank "
+                                      "for no limit)")  # fmt: skip
                 label = (row.get("label") or "").strip()
                 if label in rows:
                     raise ConfigError(f"{path}:{reader.line_num}: actuator {label!r} given "
