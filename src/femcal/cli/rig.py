@@ -4,8 +4,12 @@
   [--damping Z | --damping-from MODEL.npz] [--modes-to HZ] [--periodic]``: the frame on its
   actuators played with a drive file;
 - ``iterate DECK --actuators CSV --sensors CSV --target TARGET.rsp --control CHANNEL...
-  [--plant DECK] [--iterations N] [--gain G] --out DIR``: drives that reproduce a target, as
-  RPC Pro iterates them.
+  [--plant DECK] [inverse, weight and limit options] --out DIR``: drives that reproduce a
+  target, as RPC Pro iterates them, checked against the actuators' limits;
+- ``correct DECK ... --target TARGET.rsp --control CHANNEL... [--drive D --response R ...]
+  --out NEXT``: one step of that iteration for a physical rig, by files;
+- ``compare --model NAME=DECK ... --target TARGET.rsp --control CHANNEL... --out DIR``:
+  models on the virtual rig against one target.
 
 All time data are read and written by suffix (RPC III .rsp/.tim/.drv, CSV, NPZ).
 """
