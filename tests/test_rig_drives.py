@@ -225,3 +225,4 @@ def test_the_seven_post_warp_is_found_and_held_when_asked(rig):
     assert held > 0.05 and held > 5 * response_error(runs["free"].response[control],
                                                      target).max()
     assert runs["free"].redundant.shape == (7, 1) and runs["free"].redundant_unseen == ((),)
+    assert any("--warp minimal" in st for st in runs["minimal"].status), runs["minimal"].status

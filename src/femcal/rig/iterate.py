@@ -598,6 +598,9 @@ def explain(result: Iteration, p: Prepared, held: np.ndarray) -> tuple[str, ...]
                        f"where the gain was halved ({where(result.halved & ~held)}): the FRF "
                        "inverted is far from the plant's there; a measured FRF or more "
                        "iterations with the FRF update would help")  # fmt: skip
+        elif p.held is not None:
+            out.append(f"stalled at {100 * e:.3g} % in band: the warp is held at its least "
+                       "everywhere (--warp minimal) where the target asks for some of it")
         else:
             out.append(f"stalled at {100 * e:.3g} % in band: the FRF inverted differs from the "
                        "plant's across the band; a measured FRF or the FRF update would "
