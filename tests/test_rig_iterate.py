@@ -151,7 +151,10 @@ def test_rig_commands_name_what_is_wrong(tmp_path, capsys):
     assert "--control S_nope:+Z: not an output of the rig" in capsys.readouterr().err
     assert main(["rig", "iterate", *args, "--target", str(tmp_path / "d.rsp"), "--control",
                  "S_X_rear:-X", "--gain", "3", "--out", str(tmp_path / "it")]) == 2  # fmt: skip
-    assert "gain = 3.0: expected in (0, 1]" in capsys.readouterr().err
+    assert "--gain 3.0: expected in (0, 1]" in capsys.readouterr().err
+    assert main(["rig", "iterate", *args, "--target", str(tmp_path / "d.rsp"), "--control",
+                 "S_X_rear:-X", "--taper", "-1", "--out", str(tmp_path / "it")]) == 2  # fmt: skip
+    assert "--taper -1.0: expected 0 s (none) or more" in capsys.readouterr().err
     # --damping-from a file that is not an identified model
     assert main(["rig", "simulate", *args, "--drive", str(tmp_path / "d.rsp"), "--out",
                  str(tmp_path / "r.rsp"), "--damping-from", str(tmp_path / "d.rsp")]) == 2

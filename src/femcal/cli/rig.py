@@ -330,6 +330,12 @@ def _simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+#: The option that sets each of :class:`IterationSettings`' fields.
+_OPTIONS = {"iterations": "--iterations", "gain": "--gain", "band": "--band",
+            "noise_floor": "--noise-floor", "effort": "--effort", "roll_off_hz": "--roll-off",
+            "taper_s": "--taper", "warp": "--warp"}  # fmt: skip
+
+
 def _iteration_settings(args: argparse.Namespace) -> IterationSettings:
     try:
         return IterationSettings(iterations=getattr(args, "iterations", 0), gain=args.gain,
@@ -338,7 +344,12 @@ def _iteration_settings(args: argparse.Namespace) -> IterationSettings:
                                  update_frf=not args.no_frf_update,
                                  taper_s=args.taper, warp=args.warp)  # fmt: skip
     except ValueError as e:
-        raise UsageError(str(e).replace("drive iteration: ", "")) from None
+        text = str(e).replace("drive iteration: ", "")
+        for field, option in _OPTIONS.items():  # the option, not the setting's name
+            if text.startswith(f"{field} = "):
+                text = f"{option} {text[len(field) + 3:]}"
+                break
+        raise UsageError(text) from None
 
 
 def _weights(args: argparse.Namespace) -> list[float]:
