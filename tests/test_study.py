@@ -296,3 +296,33 @@ def test_a_mode_moving_far_between_points_is_tracked_by_its_shape(tmp_path):
     with pytest.raises(ConfigError, match=r"pairing\.max_frequency_ratio: expected a factor"):
         study_config({**cfg, "pairing": {"max_frequency_ratio": 0.5}}, "s.toml",
                      folder=tmp_path)  # fmt: skip
+
+
+@pytest.mark.parametrize(("solve", "message"), [
+    ({"band": [20000.0, 30000.0]}, r"solve\.band = \[20000, 30000\] Hz: the reference point "
+                                   r"\(i2 = 81 mm\^4\) has no elastic mode in the band \(it "
+                                   r"has none from 20000 to 36000 Hz\)"),
+    ({"band": [6.0, 7.0]}, r"solve\.band = \[6, 7\] Hz: the reference point \(i2 = 81 mm\^4\) "
+                           r"has no elastic mode in the band \(its lowest above 6 Hz is at "),
+    ({"modes": 2, "rigid_below": 1e6}, r"solve\.modes = 2: the reference point \(i2 = 81 "
+                                       r"mm\^4\) has no elastic mode above 1e\+06 Hz"),
+])  # fmt: skip
+def test_a_band_without_modes_is_refused_by_name(tmp_path, solve, message):
+    """A band (or a rigid-body limit) that leaves the reference point no mode to track is a
+    configuration error that says what the point has, not an empty study (or a crash)."""
+    from tests.test_pbar_blank import _cantilever
+
+    deck = tmp_path / "bar.bdf"
+    deck.write_text(_cantilever("PBAR,1,1,100.,800.,25.,1500."))
+    cfg = {"model": {"deck": "bar.bdf"},
+           "variable": [{"name": "i2", "unit": "mm^4", "fields": [["PBAR", 1, "I2"]],
+                         "values": [25.0, 81.0]}],
+           "solve": solve, "pairing": {"reference": 1}}  # fmt: skip
+    with pytest.raises(ConfigError, match=message):
+        run_study(study_config(cfg, "s.toml", folder=tmp_path))
+
+
+def test_a_band_below_the_rigid_body_limit_is_refused_when_read():
+    with pytest.raises(ConfigError, match=r"s\.toml: solve\.band: \[0\.5, 4\] Hz lies below "
+                                          r"rigid_below = 5 Hz"):
+        study_config(_with("solve", band=[0.5, 4.0]), "s.toml")

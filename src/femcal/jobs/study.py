@@ -381,6 +381,10 @@ def study_config(data: dict, where: str = "study", folder: str | Path = ".") -> 
     rigid_below = solve.get("rigid_below", RIGID_BELOW)
     if not (isinstance(rigid_below, int | float) and rigid_below >= 0):
         raise bad("solve.rigid_below", f"expected a frequency >= 0 Hz, got {rigid_below!r}")
+    if band is not None and band[1] <= rigid_below:
+        raise bad("solve.band", f"[{band[0]:g}, {band[1]:g}] Hz lies below rigid_below = "
+                  f"{rigid_below:g} Hz, where modes are taken as rigid-body modes and left "
+                  "out")  # fmt: skip
     pairing = table("pairing")
     min_mac = pairing.get("min_mac", 0.8)
     if not (isinstance(min_mac, int | float) and 0 <= min_mac <= 1):
@@ -467,7 +471,7 @@ def _translations(model: Model, modes, near: np.ndarray, keep: np.ndarray) -> np
     frames = model.cd_frames[near]  # (n, 3, 3): columns are the CD axes in basic
     dof = model.dof_start[near][:, None] + np.arange(3)
     u = modes.shapes[dof][:, :, keep]  # (n, 3, k) in CD frames
-    return np.einsum("nij,njk->nik", frames, u).reshape(-1, len(keep))
+    return np.einsum("nij,njk->nik", frames, u).reshape(3 * len(near), len(keep))
 
 
 def solve_point(cfg: StudyConfig, value: float) -> Point:
@@ -510,6 +514,29 @@ def _tracked(cfg: StudyConfig, ref: Point) -> np.ndarray:
     if cfg.n_modes is not None:
         return np.arange(min(cfg.n_modes, len(ref.frequencies)))
     return np.nonzero(ref.frequencies <= cfg.band[1])[0]
+
+
+def _check_reference_has_modes(cfg: StudyConfig, ref: Point) -> None:
+    """Refuse a study whose reference point has no elastic mode to track: a band that
+    holds none, or every mode below ``rigid_below``.
+
+    Raises
+    ------
+    ConfigError
+        Naming the band (or ``modes``), the reference point and what it does have.
+    """
+    if len(_tracked(cfg, ref)):
+        return
+    at = f"the reference point ({cfg.variable} = {ref.value:g} {cfg.unit})".replace(" )", ")")
+    lo = max(cfg.rigid_below, cfg.band[0] if cfg.band else 0.0)
+    if cfg.n_modes is not None:
+        raise ConfigError(f"solve.modes = {cfg.n_modes}: {at} has no elastic mode above "
+                          f"{lo:g} Hz (solve.rigid_below = {cfg.rigid_below:g} Hz)")
+    band = f"solve.band = [{cfg.band[0]:g}, {cfg.band[1]:g}] Hz"
+    above = (f"its lowest above {lo:g} Hz is at {ref.frequencies[0]:.4g} Hz"
+             if len(ref.frequencies) else
+             f"it has none from {lo:g} to {cfg.band[1] * BAND_MARGIN:g} Hz")
+    raise ConfigError(f"{band}: {at} has no elastic mode in the band ({above})")
 
 
 def track_modes(cfg: StudyConfig, points: Sequence[Point]) -> tuple[list[Track], list[int]]:
@@ -654,6 +681,7 @@ def run_study(cfg: StudyConfig, *, engine: Engine | None = None,
         for i in todo:
             keep(i, solve_point(cfg, cfg.values[i]))
     points = [solved[i] for i in range(len(cfg.values))]
+    _check_reference_has_modes(cfg, points[cfg.reference])
     tracks, untracked = track_modes(cfg, points)
     return StudyResult(cfg, points, tracks, untracked, time.perf_counter() - t0)
 
