@@ -856,22 +856,25 @@ def test_the_command_line_prints_one_line_for_inverted_bounds(tiny, tmp_path, ca
 
 
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
-def test_ctrl_c_ends_the_workers_and_leaves_no_partial_file(tiny, tmp_path):
+@pytest.mark.parametrize("engine", ["local", "dask"])
+def test_ctrl_c_ends_the_workers_and_leaves_no_partial_file(tiny, tmp_path, engine):
     """SIGINT to the command's process group (Ctrl-C in a terminal) while the starts run in
-    two worker processes: the command ends at once, without tracebacks from the workers and
-    without leaving them behind; every file in --out is whole, and the next run resumes from
-    the starts that finished."""
+    two worker processes (local, or a Dask LocalCluster's): the command ends at once, without
+    tracebacks from the workers and without leaving them behind; every file in --out is
+    whole, and the next run resumes from the starts that finished."""
+    if engine == "dask":
+        pytest.importorskip("distributed")
     cfg = _tiny_copy(tiny, tmp_path, TINY.replace("starts = 2", "starts = 120")
-                     .replace("workers = 1", "workers = 2"))  # fmt: skip
+                     .replace("workers = 1", f'workers = 2\nengine = "{engine}"'))  # fmt: skip
     out = tmp_path / "out"
     proc = subprocess.Popen([sys.executable, "-m", "femcal", "calibrate", str(cfg), "--out",
                              str(out), "--verbose"], stdout=subprocess.DEVNULL,
                             stderr=subprocess.PIPE, text=True, start_new_session=True)  # fmt: skip
     try:
         seen = []
-        for line in proc.stderr:  # the starts run in the workers once they report (--verbose)
-            seen.append(line)
-            if " iteration " in line:
+        for line in proc.stderr:  # the starts run in the workers once they report (--verbose:
+            seen.append(line)     # a local worker's iterations, a Dask worker's finished start)
+            if " iteration " in line or " done: deviation " in line:
                 break
         workers = children(proc.pid)
         os.killpg(proc.pid, signal.SIGINT)

@@ -250,6 +250,27 @@ class _Quiet:
         self._levels = {}
 
 
+@contextlib.contextmanager
+def _children_ignore_ctrl_c():
+    """SIGINT ignored in this process while the block runs, so that the processes it starts
+    (a LocalCluster's workers: spawned, and an ignored signal stays ignored across exec)
+    ignore it too. Ctrl-C in a terminal goes to the whole process group; the workers are
+    this process's to end (the CLI reports the interruption in one line), and a worker that
+    took the KeyboardInterrupt itself printed its traceback. Outside the main thread, where
+    signal handlers cannot be set, nothing changes."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 class DaskExecutor(Executor):
     """A :class:`concurrent.futures.Executor` on a Dask cluster: ``submit`` returns a
     ``concurrent.futures.Future`` (Dask's own ``ClientExecutor`` underneath); ``shutdown``
@@ -293,7 +314,8 @@ class DaskExecutor(Executor):
             # 10 ms, which costs a Python-heavy task (a Levenberg-Marquardt start) a fifth of
             # its time; no memory limit: femcal checks the memory its arrays need itself, and
             # the nanny would kill a worker at 95 % of an equal share of the machine's
-            with dask.config.set({"distributed.worker.profile.enabled": False}):
+            with dask.config.set({"distributed.worker.profile.enabled": False}), \
+                    _children_ignore_ctrl_c():  # fmt: skip
                 cluster = distributed.LocalCluster(
                     n_workers=workers, threads_per_worker=1, processes=True,
                     dashboard_address=None, silence_logs=logging.CRITICAL,
