@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import io
+import itertools
 import re
 import tomllib
 from pathlib import Path
@@ -154,7 +155,15 @@ def test_every_used_thickness_and_modulus_with_the_decks_value_and_bounds_around
 def test_the_proposal_is_ordered_by_how_much_the_bands_modes_move(frame):
     q = frame["proposal"].parameters
     s = [p.sensitivity for p in q]
-    assert s == sorted(s, reverse=True)
+    # falling, up to ties within SENSITIVITY_TIE of the largest (mirror-image parts: their
+    # sensitivities differ in the last digits by the order of the floating-point operations)
+    tie = init_job.SENSITIVITY_TIE * s[0]
+    assert all(a >= b - tie for a, b in itertools.pairwise(s)), s
+    kinds = list(init_job.RULES)
+    for a, b in itertools.pairwise(q):  # a tie is ordered by kind, then id
+        if abs(a.sensitivity - b.sensitivity) <= tie:
+            assert (kinds.index((a.card, a.field)), a.id) < (kinds.index((b.card, b.field)),
+                                                             b.id), (a.name, b.name)
     # a modulus moves a frequency by at most half its own change; the side rail moves them
     # most, the bellows and bolts least
     assert all(0 <= x <= 0.5 + 1e-6 for p, x in zip(q, s, strict=True) if p.field == "E")

@@ -537,6 +537,28 @@ def _candidates(model: Model) -> tuple[list[tuple[str, int, str, float]], list[s
     return out, skipped
 
 
+#: Sensitivities closer than this fraction of the largest are one tie: the same physics
+#: (two mirror-image parts) computed in another order of floating-point operations differs in
+#: the last digits, and which of the two comes first must not depend on the processor.
+SENSITIVITY_TIE = 1e-9
+
+
+def _by_sensitivity(proposed: list[ProposedParameter]) -> list[ProposedParameter]:
+    """``proposed`` by falling sensitivity; parameters whose sensitivities tie (within
+    :data:`SENSITIVITY_TIE` of the largest) by kind (the order of :data:`RULES`) and id."""
+    kinds = list(RULES)
+    ranked = sorted(proposed, key=lambda q: -q.sensitivity)
+    tie = SENSITIVITY_TIE * max((q.sensitivity for q in ranked), default=0.0)
+    groups: list[list[ProposedParameter]] = []
+    for q in ranked:
+        if groups and groups[-1][-1].sensitivity - q.sensitivity <= tie:
+            groups[-1].append(q)
+        else:
+            groups.append([q])
+    return [q for g in groups for q in sorted(g, key=lambda q: (kinds.index((q.card, q.field)),
+                                                                 q.id))]  # fmt: skip
+
+
 def propose(deck: str | os.PathLike[str], test: str | os.PathLike[str], *,
             sensors: str | os.PathLike[str] | None = None,
             inputs: str | os.PathLike[str] | None = None,
@@ -679,9 +701,7 @@ def propose(deck: str | os.PathLike[str], test: str | os.PathLike[str], *,
         proposed.append(ProposedParameter(par.name, par.card, par.id, par.field, par.nominal,
                                           lo_rel, hi_rel, text, label, at, uses, share, sens,
                                           u))  # fmt: skip
-    kinds = list(RULES)
-    proposed.sort(key=lambda q: (-round(q.sensitivity, 12), kinds.index((q.card, q.field)),
-                                 q.id))  # fmt: skip
+    proposed = _by_sensitivity(proposed)
     if not proposed:
         raise InitError(f"{deck}: no PSHELL T, MAT1 E, PBAR or PROD A, PBUSH or PELAS K that "
                         "an element uses; expected a deck with properties to calibrate")
