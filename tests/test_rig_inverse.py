@@ -13,7 +13,7 @@ from femcal.errors import ConfigError
 from femcal.rig import inverse
 from femcal.rig.iterate import ends_join
 from femcal.rig.limits import ActuatorLimits, check_limits, read_limits, scale_into_limits
-from femcal.rig.quality import band_errors, relative_damage
+from femcal.rig.quality import band_errors, channel_stats, relative_damage
 from femcal.rig.update import broyden_update
 
 DT = 1 / 512
@@ -205,6 +205,22 @@ def test_errors_are_split_at_the_band_and_damage_scales_with_the_range():
     assert np.allclose(relative_damage(target, target, 3.0), 1.0)
     with pytest.raises(ValueError, match="S-N slope"):
         relative_damage(target, target, 0.0)
+
+
+def test_channel_statistics_show_a_static_offset_the_band_does_not_reproduce():
+    """A target on a static offset (a preload) against a response about zero: the band's
+    error does not see it, the means do, and the RMS holds the mean (sqrt(mean^2 + var))."""
+    t = np.arange(4096) * DT
+    wave = np.sin(2 * np.pi * 8.0 * t)
+    target = np.vstack([5.0 + wave, wave])
+    st = channel_stats(target, np.vstack([wave, wave]))
+    assert np.allclose(band_errors(target, np.vstack([wave, wave]), DT, (1.0, 30.0)).in_band,
+                       0, atol=1e-12)  # fmt: skip
+    assert np.allclose(st.target_mean, [5.0, 0.0], atol=1e-12)
+    assert np.allclose(st.response_mean, 0.0, atol=1e-12)
+    assert np.allclose(st.target_rms, np.sqrt([25.0 + 0.5, 0.5]))
+    assert st.of("target", 0) == pytest.approx({"min": 4.0, "max": 6.0, "mean": 5.0,
+                                                "rms": np.sqrt(25.5)}, abs=1e-3)  # fmt: skip
 
 
 def test_a_looped_record_joins_and_a_slice_does_not():

@@ -155,6 +155,15 @@ def test_rig_commands_name_what_is_wrong(tmp_path, capsys):
     assert main(["rig", "iterate", *args, "--target", str(tmp_path / "d.rsp"), "--control",
                  "S_X_rear:-X", "--taper", "-1", "--out", str(tmp_path / "it")]) == 2  # fmt: skip
     assert "--taper -1.0: expected 0 s (none) or more" in capsys.readouterr().err
+    # the options that need no model are checked before the deck is read and solved
+    missing = [str(tmp_path / "no_deck.bdf"), *args[1:]]
+    for cmd, out in (("iterate", "it"), ("correct", "next.rsp")):
+        assert main(["rig", cmd, *missing, "--target", str(tmp_path / "d.rsp"), "--control",
+                     "S_X_rear:-X", "--sn-slope", "0", "--out", str(tmp_path / out)]) == 2
+        assert "--sn-slope 0: expected a positive S-N slope" in capsys.readouterr().err
+        assert main(["rig", cmd, *missing, "--target", str(tmp_path / "d.rsp"), "--control",
+                     "S_X_rear:-X", "--band", "1", "300", "--out", str(tmp_path / out)]) == 2
+        assert "--band 1 300: above the target's Nyquist frequency" in capsys.readouterr().err
     # --damping-from a file that is not an identified model
     assert main(["rig", "simulate", *args, "--drive", str(tmp_path / "d.rsp"), "--out",
                  str(tmp_path / "r.rsp"), "--damping-from", str(tmp_path / "d.rsp")]) == 2
@@ -276,6 +285,14 @@ def test_correct_steps_a_physical_rig_by_files(tmp_path, capsys):
                             acc.quantity, acc.units.replace("mm/s^2/", "g/", 1)))  # fmt: skip
     assert read_frf(in_g).units.startswith("g/")
     assert main([*step[:-2], str(in_g), frfs[1], "--out", str(tmp_path / "d0g.rsp")]) == 0
+    short = tmp_path / "acc_to_40.npz"  # an FRF that stops short of the drive band: named
+    low = acc.frequency_hz <= 40
+    write_frf(short, FRFData(acc.frequency_hz[low], acc.H[..., low], acc.outputs, acc.inputs,
+                             acc.quantity, acc.units))  # fmt: skip
+    capsys.readouterr()
+    assert main([*step[:-2], str(short), frfs[1], "--out", str(tmp_path / "x.rsp")]) == 2
+    assert f"--frf {short}: an FRF over 0.25-40 Hz for a drive band of 1-80 Hz" in \
+        capsys.readouterr().err
     np.testing.assert_allclose(read_time_data(tmp_path / "d0g.rsp").values,
                                read_time_data(tmp_path / "d0.rsp").values, rtol=1e-5,
                                atol=1e-6 * np.abs(read_time_data(tmp_path / "d0.rsp").values).max())

@@ -431,6 +431,9 @@ def _iterate(args: argparse.Namespace) -> int:
     settings = _iteration_settings(args)
     output_folder(args.out, "--out")
     target_data = read_time_data(args.target)
+    weights = _weights(args)
+    _check_slope(args)
+    _check_band(settings, target_data)  # before the modes are solved
     model = _plant(args.deck, args, args.damping, t0)
     plant = model
     if args.plant is not None or args.plant_damping is not None:
@@ -446,14 +449,9 @@ def _iterate(args: argparse.Namespace) -> int:
             raise UsageError(f"--control {name}: not an output of the rig; expected one of "
                              f"{', '.join(model.outputs)}")  # fmt: skip
         control.append(model.outputs.index(name))
-    weights = _weights(args)
-    _check_slope(args)
     limits = _limits(args, model)
     target = _channels(target_data, args.control, args.target, model)
     dt, n = target_data.dt, target.shape[1]
-    if settings.band[1] >= 0.5 / dt:
-        raise UsageError(f"--band {settings.band[0]:g} {settings.band[1]:g}: above the "
-                         f"target's Nyquist frequency {0.5 / dt:g} Hz")  # fmt: skip
     reference = None
     if args.reference_drive is not None:
         ref = read_time_data(args.reference_drive)
@@ -669,17 +667,18 @@ def _correct(args: argparse.Namespace) -> int:
                                  "file for the next drive (what was played and measured is "
                                  "needed for the steps after it)")  # fmt: skip
     target_data = read_time_data(args.target)
+    weights = _weights(args)  # the checks that need no model before its modes are solved
+    _check_slope(args)
+    if args.report is not None:
+        output_folder(args.report, "--report")
+    _check_band(settings, target_data)
     model = _plant(args.deck, args, args.damping, t0)
     control = [model.outputs.index(c) if c in model.outputs else -1 for c in args.control]
     if -1 in control:
         bad = args.control[control.index(-1)]
         raise UsageError(f"--control {bad}: not an output of the rig; expected one of "
                          f"{', '.join(model.outputs)}")  # fmt: skip
-    weights = _weights(args)
     _limits(args, model)
-    _check_slope(args)
-    if args.report is not None:
-        output_folder(args.report, "--report")
     target = _channels(target_data, args.control, args.target, model)
     dt, n = target_data.dt, target.shape[1]
     if args.frf is not None:
@@ -739,6 +738,12 @@ def _correct(args: argparse.Namespace) -> int:
         print(f"{a:<{aw}}  RMS {np.sqrt(np.mean(drive[j] ** 2)):.4g}, peak "
               f"{check.peak[0, j]:.4g}{limit} {model.input_units}")  # fmt: skip
     return 0
+
+
+def _check_band(settings: IterationSettings, target: TimeData) -> None:
+    if settings.band[1] >= 0.5 / target.dt:
+        raise UsageError(f"--band {settings.band[0]:g} {settings.band[1]:g}: above the "
+                         f"target's Nyquist frequency {0.5 / target.dt:g} Hz")  # fmt: skip
 
 
 def _check_slope(args: argparse.Namespace) -> None:
@@ -827,8 +832,11 @@ def _frf_files(paths: list[Path], model: RigPlant, control: list[str], n: int, d
                      / unit_factor(in_unit, model.input_units, f"--frf {path}: inputs"))
         except ValueError as e:
             raise UsageError(f"{e} (the FRF's units are {data.units!r})") from None
-        rows.append(scale * frf_to_lines(data.frequency_hz, data.H[[o]][:, cols], n, dt,
-                                         band)[0])  # fmt: skip
+        try:
+            lines = frf_to_lines(data.frequency_hz, data.H[[o]][:, cols], n, dt, band)[0]
+        except TimeDataError as e:
+            raise UsageError(f"--frf {path}: {e}") from None
+        rows.append(scale * lines)
     return np.stack(rows)
 
 

@@ -107,12 +107,8 @@ def iteration_dict(result: Iteration, plant: RigPlant, settings: IterationSettin
         if result.noise is not None:
             entry["noise_floor"] = float(result.noise.fraction[k])
         if facts is not None:
-            st = facts.stats
-            entry["target"] = {"min": float(st.target_min[k]), "max": float(st.target_max[k]),
-                               "rms": float(st.target_rms[k])}
-            entry["response"] = {"min": float(st.response_min[k]),
-                                 "max": float(st.response_max[k]),
-                                 "rms": float(st.response_rms[k])}
+            entry["target"] = facts.stats.of("target", k)
+            entry["response"] = facts.stats.of("response", k)
             entry["relative_damage"] = float(facts.damage[k])
         control.append(entry)
     drives = []
@@ -166,12 +162,8 @@ def correction_dict(step: Correction, plant: RigPlant, settings: IterationSettin
                  "weight": float(p.channel_weight[k]),
                  "noise_floor": float(p.noise.fraction[k])}  # fmt: skip
         if responses:
-            st = facts.stats
-            entry["target"] = {"min": float(st.target_min[k]), "max": float(st.target_max[k]),
-                               "rms": float(st.target_rms[k])}
-            entry["response"] = {"min": float(st.response_min[k]),
-                                 "max": float(st.response_max[k]),
-                                 "rms": float(st.response_rms[k])}
+            entry["target"] = facts.stats.of("target", k)
+            entry["response"] = facts.stats.of("response", k)
             entry["relative_damage"] = float(facts.damage[k])
         out.append(entry)
     played = [*drives, step.drive]
@@ -316,12 +308,14 @@ def write_iteration_html(path: str | os.PathLike[str], report: dict,
                      "target's whole RMS) after the last</h2>" + html_table(rows, head))
     if report["control"] and "target" in report["control"][0]:
         stat_rows = [[c["channel"], *(f"{c[w][k]:.4g}" for w in ("target", "response")
-                                       for k in ("min", "max", "rms")),
+                                       for k in ("min", "max", "mean", "rms")),
                       _num(c["relative_damage"], ".3g")] for c in report["control"]]  # fmt: skip
-        parts.append(f"<h2>Control channels: extremes, RMS and relative damage (S-N slope "
-                     f"{report.get('sn_slope', 0):g})</h2>" + html_table(stat_rows, [
-                         "channel", "target min", "target max", "target RMS", "response min",
-                         "response max", "response RMS", "damage response / target"]))
+        parts.append(f"<h2>Control channels: extremes, mean, RMS (mean included) and "
+                     f"relative damage (S-N slope {report.get('sn_slope', 0):g})</h2>"
+                     + html_table(stat_rows, [
+                         "channel", "target min", "target max", "target mean", "target RMS",
+                         "response min", "response max", "response mean", "response RMS",
+                         "damage response / target"]))
     n_drive_steps = len(report["drives"][0]["rms"]) if report["drives"] else 0
     drive_head = [f"{k}" for k in range(n_drive_steps)]
     if report.get("next_drive"):

@@ -88,23 +88,33 @@ def band_errors(target: np.ndarray, response: np.ndarray, dt: float,
 
 @dataclass(frozen=True)
 class ChannelStats:
-    """Minimum, maximum and RMS per channel (n,) of the target and of the response."""
+    """Minimum, maximum, mean and RMS per channel (n,) of the target and of the response.
+
+    The RMS is the whole signal's, its mean included (as a rig's statistics show it); the
+    drive band starts above 0 Hz, so a target's static offset (a preload, an LVDT's mid
+    stroke) is not reproduced, and the means side by side show it."""
 
     target_min: np.ndarray
     target_max: np.ndarray
+    target_mean: np.ndarray
     target_rms: np.ndarray
     response_min: np.ndarray
     response_max: np.ndarray
+    response_mean: np.ndarray
     response_rms: np.ndarray
+
+    def of(self, which: str, k: int) -> dict[str, float]:
+        """Channel ``k``'s figures of ``which`` ("target" or "response") by name."""
+        return {q: float(getattr(self, f"{which}_{q}")[k]) for q in ("min", "max", "mean",
+                                                                      "rms")}  # fmt: skip
 
 
 def channel_stats(target: np.ndarray, response: np.ndarray) -> ChannelStats:
-    """The minimum, maximum and RMS of each channel of ``target`` and ``response``."""
-    def rms(x: np.ndarray) -> np.ndarray:
-        return np.sqrt(np.mean(x**2, axis=1))
+    """The minimum, maximum, mean and RMS of each channel of ``target`` and ``response``."""
+    def figures(x: np.ndarray) -> tuple[np.ndarray, ...]:
+        return x.min(axis=1), x.max(axis=1), x.mean(axis=1), np.sqrt(np.mean(x**2, axis=1))
 
-    return ChannelStats(target.min(axis=1), target.max(axis=1), rms(target),
-                        response.min(axis=1), response.max(axis=1), rms(response))  # fmt: skip
+    return ChannelStats(*figures(target), *figures(response))
 
 
 def miner_sum(signal: np.ndarray, slope: float) -> float:
