@@ -26,8 +26,10 @@ def setup(tmp_path_factory):
 @pytest.mark.parametrize("residual, frf_modes", [(False, 5), (True, 6), (False, None)])
 def test_exact_centre_jacobian_equals_central_differences_of_the_full_model(setup, residual,
                                                                           frf_modes):
-    """The full model (the surrogate at its own centre) differenced at +-h, +-2h in every
-    parameter (fourth order): the exact Jacobian matches to the differences' accuracy; the surrogate's own
+    """The full model (the surrogate at its own centre) differenced at +-h in every
+    parameter: the exact Jacobian matches to the differences' accuracy (their truncation,
+    about 1e-7 of the derivative at h = 1e-5, measured: 1e-5 at h = 1e-4, as h squared; their
+    round-off, about 1e-16 / h of the FRF, far below); the surrogate's own
     Jacobian (eigenvector derivatives truncated to its basis) is further off. Also with all
     the basis's modes in the FRFs (the series for the top modes stops at its cap)."""
     model, params = setup
@@ -47,12 +49,12 @@ def test_exact_centre_jacobian_equals_central_differences_of_the_full_model(setu
     assert (sur.exact.R is not None) == residual
     if frf_modes is not None:
         assert sur.exact.tail == 0.0 and 1 <= sur.exact.terms <= 12
-    h = 1e-4
+    h = 1e-5
     err_exact, err_sur = [], []
     for i in range(n):
         e = np.zeros(n)
         e[i] = h
-        fd = (8 * (full(c + e) - full(c - e)) - (full(c + 2 * e) - full(c - 2 * e))) / (12 * h)
+        fd = (full(c + e) - full(c - e)) / (2 * h)
         scale = np.abs(fd).max()
         err_exact.append(np.abs(dH[i] - fd).max() / scale)
         err_sur.append(np.abs(dH_s[i] - fd).max() / scale)

@@ -897,6 +897,8 @@ def test_ctrl_c_ends_the_workers_and_leaves_no_partial_file(tiny, tmp_path, engi
     for f in files:
         if f.suffix == ".json":
             json.loads(f.read_text())  # whole
+    if engine == "dask":  # the resume reads the same files whichever engine wrote them
+        return
     lines: list[str] = []
     run(read_config(cfg), out, progress=lines.append)
     assert sum("finished earlier" in line for line in lines) >= len(saved)
