@@ -28,16 +28,24 @@ def _calibrate(tiny, folder, engine: Engine | None):  # noqa: F811
     return run(cfg, folder / "out", engine=engine)
 
 
+#: Two runs of the same arithmetic with one BLAS thread each, in two processes: the same
+#: numbers in practice, but which SIMD path numpy and BLAS take for a small array can depend on
+#: its memory alignment, so they are compared to a few rounding errors of the converged
+#: parameters and costs, not bit for bit.
+SAME_RUN = 1e-12
+
+
 def _same(a, b) -> None:
-    """Two calibrations that agree bit for bit: every start and the result."""
+    """Two calibrations that agree to rounding: every start and the result."""
     assert len(a.cycles) == len(b.cycles)
     for ca, cb in zip(a.cycles, b.cycles, strict=True):
         assert [s.start for s in ca.starts] == [s.start for s in cb.starts]
         for sa, sb in zip(ca.starts, cb.starts, strict=True):
-            np.testing.assert_array_equal(sa.p, sb.p)
-            assert sa.iterations == sb.iterations and sa.cost == sb.cost
-    np.testing.assert_array_equal(a.p_final, b.p_final)
-    assert a.deviation_after == b.deviation_after
+            np.testing.assert_allclose(sa.p, sb.p, rtol=SAME_RUN, atol=SAME_RUN)
+            assert sa.iterations == sb.iterations
+            assert sa.cost == pytest.approx(sb.cost, rel=SAME_RUN)
+    np.testing.assert_allclose(a.p_final, b.p_final, rtol=SAME_RUN, atol=SAME_RUN)
+    assert a.deviation_after == pytest.approx(b.deviation_after, rel=SAME_RUN)
 
 
 @pytest.fixture(scope="module")

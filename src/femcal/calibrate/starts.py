@@ -104,7 +104,7 @@ def run_starts(problem: Problem, starts: list[np.ndarray], *, session: Session |
     arrives (its iterations are not reported from there). The results do not depend on
     where the starts ran: each runs with one BLAS thread wherever it runs (its matrices are
     small, and threads only contend for the cores), so the same start gives the same
-    numbers bit for bit in this process, a local worker or a Dask worker.
+    numbers, to rounding, in this process, a local worker or a Dask worker.
 
     Raises
     ------

@@ -5,7 +5,7 @@ The tasks are the calibration's Levenberg-Marquardt starts (every search of ever
 the surrogates of several test configurations, and the points of a design study. Each is a
 pure function of its arguments, so where it runs does not change its result: a Dask worker
 runs it with one BLAS thread, as a local worker process does, and gives the same numbers
-bit for bit.
+to rounding (on one machine, in practice bit for bit).
 
 Dask is used through its :class:`concurrent.futures.Executor` (``Client.get_executor``), so
 the code that submits the tasks is the same for both engines. What Dask adds:
