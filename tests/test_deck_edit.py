@@ -154,8 +154,8 @@ def test_calibrated_hammer_frame_differs_only_in_its_calibrated_fields(tmp_path)
                 for col, v in table.items():
                     np.testing.assert_array_equal(getattr(back, group)[card][col], v)
     k_back, k_expect = assemble(back), assemble(expect)
-    for a, b in ((k_back.K, k_expect.K), (k_back.M, k_expect.M)):  # to rounding: BLAS's sums
-        np.testing.assert_allclose(a.diagonal(), b.diagonal(), rtol=1e-13)
+    for got, want in ((k_back.K, k_expect.K), (k_back.M, k_expect.M)):  # to rounding
+        np.testing.assert_allclose(got.diagonal(), want.diagonal(), rtol=1e-13)
     assert not np.array_equal(k_back.K.diagonal(), assemble(model).K.diagonal())
     # the changed cards alone: the header, then per card its comment and its line
     lines = changes.read_text(encoding="latin-1").splitlines()
