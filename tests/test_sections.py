@@ -391,7 +391,8 @@ def test_existing_types_unchanged(kind):
 
 def test_pbarl_l_bar_model_equals_pbar_with_its_properties(write):
     # A cantilever of CBARs with a PBARL L section has the modes of the same cantilever with
-    # a PBAR holding that section's A, I1, I2, J, K1, K2 and I12.
+    # a PBAR holding that section's A, I1, I2, J, K1, K2 and I12 (K1 and K2 ignored by both,
+    # as the Guide says of a bar with an I12).
     dims = [30.0, 50.0, 4.0, 3.0]
     A, I1, I2, I12, J = section_properties("L", dims)[0].tolist()
     K1, K2 = shear_factors("L", dims)[0].tolist()

@@ -220,10 +220,12 @@ def _mpc_equations(model: Model, eq: _Equations) -> None:
     for e in model.constraints.equations:
         grid = model.is_grid[e.nodes]
         comps = e.components
-        bad = (grid & (comps < 1)) | (~grid & (comps > 0))
+        # QRG MPC: Cj one of 1-6 at a grid point; blank, 0 or 1 at a scalar point
+        bad = (grid & (comps < 1)) | (~grid & (comps > 1))
         if bad.any():
-            eq.errors.append(f"MPC set {e.set_id}: GRID {model.node_ids[e.nodes[bad]].tolist()} "
-                             "need a component 1-6 (SPOINTs take 0 or blank)")  # fmt: skip
+            eq.errors.append(f"MPC set {e.set_id}: GRID/SPOINT "
+                             f"{model.node_ids[e.nodes[bad]].tolist()} need a component 1-6 "
+                             "at a GRID, and 0, 1 or blank at an SPOINT")  # fmt: skip
             continue
         dofs = model.dofs(e.nodes, comps)
         a = e.coefficients

@@ -43,11 +43,12 @@ def _orientation(ctx: Context, block: ElementBlock) -> tuple[np.ndarray, np.ndar
     x = np.column_stack([d["x1"], d["x2"], d["x3"]])
     g0 = d["g0"].copy()
     offt = np.array([s or "" for s in d.get("offt", np.full(len(block), "", object))], object)
-    missing = np.isnan(x).all(axis=1) & ((g0 == INT_BLANK) | (g0 == 0))
+    missing = _no_orientation(block)
     if missing.any():
+        default = {"CBAR": ", and no BAROR gives one", "CBEAM": ", and no BEAMOR gives one"}
         raise ModelError(
             f"{block.type} {block.ids[missing][:20].tolist()} have neither an orientation "
-            "vector nor G0, and no BAROR/BEAMOR gives one",
+            f"vector nor G0{default.get(block.type, '')}",
             block.ids[missing][:20],
         )
     offt = np.where(offt == "", "GGG", offt)
@@ -62,6 +63,13 @@ def _orientation(ctx: Context, block: ElementBlock) -> tuple[np.ndarray, np.ndar
     if in_cd.any():  # components in the displacement frame of GA
         v[in_cd] = np.einsum("nij,nj->ni", m.cd_frames[ga[in_cd]], v[in_cd])
     return v, offt
+
+
+def _no_orientation(block: ElementBlock) -> np.ndarray:
+    """(n,) True where an element gives neither X1-X3 nor G0."""
+    d = block.data
+    x = np.column_stack([d["x1"], d["x2"], d["x3"]])
+    return np.isnan(x).all(axis=1) & ((d["g0"] == INT_BLANK) | (d["g0"] == 0))
 
 
 def _offsets(ctx: Context, block: ElementBlock, offt: np.ndarray, v: np.ndarray):
@@ -154,6 +162,23 @@ def bushes(ctx: Context, block: ElementBlock, asm: Assembler) -> float:
         if (coincident | grounded[other]).any():
             bad = block.ids[other][coincident | grounded[other]][:20]
             raise ModelError(f"CBUSH {bad.tolist()}: coincident or grounded bushes need a CID", bad)
+        # QRG CBUSH remark 5: without GO, X1-X3 and CID the element x axis is GA-GB, valid
+        # when the PBUSH gives only K1 and K4 (the y and z axes then carry no stiffness)
+        axial = _no_orientation(sub)
+        if axial.any():
+            across = k[other][axial][:, [1, 2, 4, 5]]
+            if across.any():
+                bad = sub.ids[axial][across.any(axis=1)][:20]
+                raise ModelError(f"CBUSH {bad.tolist()}: neither GO, X1-X3 nor CID, with a "
+                                 "PBUSH K2, K3, K5 or K6: expected an orientation or a CID "
+                                 "(without them only K1 and K4 are allowed)", bad)  # fmt: skip
+            axis = xyz[other][axial, 1] - xyz[other][axial, 0]
+            # any vector off the axis (only the x axis carries stiffness), given as X1-X3 are:
+            # in the displacement frame of GA
+            trial = np.eye(3)[np.argmin(np.abs(axis), axis=1)]
+            frames = m.cd_frames[sub.nodes[axial, 0]]
+            trial = np.einsum("nji,nj->ni", frames, trial)
+            sub.data["x1"][axial], sub.data["x2"][axial], sub.data["x3"][axial] = trial.T
         v, _ = _orientation(ctx, sub)
         R[other], _ = line_frame(xyz[other, 0], xyz[other, 1], v)
     s = np.where(np.isnan(d["s"]), 0.5, d["s"])

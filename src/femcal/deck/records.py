@@ -165,7 +165,9 @@ class Spc1Card:
     def parse(cls, f: list[str], errors: ErrorList) -> Spc1Card:
         c = Cursor(f, errors)
         sid = c.int(0, required=True)
-        comp = c.comp(1, required=True)
+        # QRG SPC1: C 1-6 for grid points, 0, 1 or blank for scalar points (the model
+        # refuses a 0 or blank C at a grid)
+        comp = c.comp(1, 0)
         ranges = []
         body = f[2:]
         if len([x for x in body if x]) == 3 and body[1:2] == ["THRU"] and all(
@@ -253,6 +255,9 @@ class Rbe2Card:
         eid = c.int(0, required=True)
         gn = c.int(1, required=True)
         cm = c.comp(2, required=True)
+        if cm == 0:  # QRG RBE2: CM integers 1 through 6
+            errors.append((2, c.text(2), "component numbers of digits 1-6 (the dependent "
+                           "DOF)"))  # fmt: skip
         k, gm = c.ids_from(3)
         alpha = tref = 0.0
         if k < c.n:
@@ -388,7 +393,12 @@ class MpcCard:
                 comp = c.comp(start + 1, default=0)
                 if comp > 6:
                     errors.append((start + 1, c.text(start + 1), "a single component 0-6"))
-                a = c.real(start + 2, required=True)
+                # QRG MPC: Aj real, default 0.0, except A1 must be nonzero
+                first = not terms
+                a = c.real(start + 2, REAL_BLANK if first else 0.0, required=first)
+                if first and a == 0.0:
+                    errors.append((start + 2, c.text(start + 2), "a coefficient A1 other than "
+                                   "0 (the dependent DOF's)"))  # fmt: skip
                 terms.append((g, comp, a))
         if not terms:
             errors.append((1, c.text(1), "at least one term G C A"))
@@ -472,8 +482,10 @@ class PcompCard:
                 errors.append(
                     (k0 + 1, c.text(k0 + 1), "a thickness (blank only after a ply that has one)")
                 )
-            elif not t > 0:
-                errors.append((k0 + 1, c.text(k0 + 1), "a ply thickness > 0"))
+            elif not t >= 0:  # QRG PCOMP: Ti real (0: a ply of no stiffness or mass)
+                errors.append((k0 + 1, c.text(k0 + 1), "a ply thickness >= 0 (the Guide allows "
+                               "any real, but femcal does not solve the negative stiffness and "
+                               "mass of a negative one)"))
             theta = c.real(k0 + 2, 0.0)
             sout = c.word(k0 + 3, "NO")
             if sout not in ("YES", "NO"):
@@ -601,7 +613,7 @@ class PbeamlCard:
             so = c.word(k, "YES")
             if so not in ("YES", "NO"):
                 errors.append((k, so, "YES or NO"))
-            x = c.real(k + 1, required=True)
+            x = c.real(k + 1, 1.0)  # QRG PBEAML: X(j)/XB default 1.0
             sdims = tuple(c.real(k + 2 + i, dims[i]) for i in range(ndim))
             snsm = c.real(k + 2 + ndim, 0.0)
             stations.append(BeamlStation(so, x, sdims, snsm))
@@ -849,12 +861,12 @@ class EigrlCard:
         norm = c.word(7, "MASS")
         if norm not in ("MASS", "MAX"):
             errors.append((7, norm, "MASS or MAX"))
+        # QRG EIGRL: ND > 0 or blank; V1 < V2, either may be negative (remark 5: a negative
+        # V1 searches the negative roots too)
         if nd != INT_BLANK and nd < 1:
             errors.append((3, f[3], "an integer > 0 (the number of roots) or blank"))
         if not (math.isnan(v1) or math.isnan(v2)) and v1 >= v2:
             errors.append((2, f[2], f"a frequency above V1 = {f[1].strip()}"))
-        if not (math.isnan(v2) or v2 >= 0):
-            errors.append((2, f[2], "a frequency >= 0"))
         opts = tuple(s for s in f[8:] if s)
         return cls(sid, v1, v2, nd, msglvl, maxset, shfscl, norm, opts)
 

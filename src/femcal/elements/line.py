@@ -161,8 +161,8 @@ def rod_matrices(
 
 # ------------------------------------------------------------------------------ bars / beams
 
-#: A zero I1, I2 or J is taken as this fraction of the section's largest (see
-#: :func:`beam_stiffness_local`).
+#: A zero A, I1, I2 or J (or a zero E or G) is taken as this fraction of the section's
+#: (material's) largest (see :func:`beam_stiffness_local`).
 ZERO_STIFFNESS = 1e-9
 
 
@@ -187,32 +187,46 @@ def beam_stiffness_local(
     Returns
     -------
     (n, 12, 12) in the element frame.
+
+    Raises
+    ------
+    ValueError
+        For a negative A, I1, I2, J, E or G, or an I12 with I1 * I2 <= I12^2 (positions
+        listed).
     """
     n = len(L)
     if section.ndim == 2:
         section = np.broadcast_to(section[:, None, :], (n, len(FLEX_X), 5))
     A, I1, I2, I12, J = (section[..., i] for i in range(5))
-    bad = np.flatnonzero((A <= 0).any(axis=1))
+    # QRG PBAR: A, I1, I2, J default 0.0 (I1*I2 > I12^2 where I12 is given); QRG MAT1: E,
+    # G >= 0. A negative one would be a negative stiffness, which femcal does not solve.
+    bad = np.flatnonzero(((A < 0) | (J < 0) | (I1 < 0) | (I2 < 0)).any(axis=1))
     if len(bad):
-        raise ValueError(f"bars/beams need A > 0 (positions {bad[:20].tolist()})")
-    bad = np.flatnonzero(((J < 0) | (I1 < 0) | (I2 < 0)).any(axis=1))
+        raise ValueError(f"bars/beams need A, I1, I2, J >= 0 (positions {bad[:20].tolist()})")
+    bad = np.flatnonzero((E < 0) | (G < 0))
     if len(bad):
-        raise ValueError(f"bars/beams need I1, I2, J >= 0 (positions {bad[:20].tolist()})")
-    bad = np.flatnonzero(~((E > 0) & (G > 0)))  # the section compliance divides by both
-    if len(bad):
-        raise ValueError("bars/beams need materials with E > 0 and G > 0 (positions "
+        raise ValueError("bars/beams need materials with E >= 0 and G >= 0 (positions "
                          f"{bad[:20].tolist()})")  # fmt: skip
     bad = np.flatnonzero(((I12 != 0) & (I1 * I2 <= I12**2)).any(axis=1))
     if len(bad):
         raise ValueError(f"bars/beams with an I12 need I1*I2 > I12^2 (positions "
                          f"{bad[:20].tolist()})")  # fmt: skip
-    # The QRG allows I1, I2 and J of 0 (a blank field): no stiffness in that plane or about
-    # the axis, which the deck holds by constraints where it matters. The compliance takes
-    # them as ZERO_STIFFNESS of the section's largest (the stiffness so made is that small,
-    # and the flexibility stays invertible).
+    # A zero A, I1, I2 or J (a blank field) is no stiffness in that direction, and so is a
+    # zero E or G (QRG MAT1: a blank G with NU blank is 0.0): NASTRAN's bar then has none
+    # there, and the deck holds those motions by constraints where it matters. The
+    # compliance takes each as ZERO_STIFFNESS of the largest of its kind (the stiffness so
+    # made is that small, and the flexibility stays invertible); a shear factor with a zero
+    # A or G so gives no transverse stiffness, as NASTRAN's K1*A*G of 0 does. An element
+    # with no modulus or no section at all has no stiffness.
     scale = np.maximum.reduce([I1, I2, J, A * L[:, None] ** 2 / 12.0])
+    modulus = np.maximum(E, G)
+    dead = (modulus <= 0) | (scale <= 0).any(axis=1)
+    scale = np.where(dead[:, None], 1.0, scale)
+    modulus = np.where(dead, 1.0, modulus)
     floor = ZERO_STIFFNESS * scale
     I1, I2, J = (np.where(v > 0, v, floor) for v in (I1, I2, J))
+    A = np.where(A > 0, A, 12.0 * floor / L[:, None] ** 2)
+    E, G = (np.where(v > 0, v, ZERO_STIFFNESS * modulus) for v in (E, G))
     det = I1 * I2 - I12**2
     # Compliance of the section, (n, q, 6, 6) on [N, Vy, Vz, T, My, Mz].
     Cs = np.zeros((*A.shape, 6, 6))
@@ -243,7 +257,9 @@ def beam_stiffness_local(
     H[:, :, 0:6] = -np.eye(6)
     H[:, 1, 5] = -L  # v_B - (v_A + L rz_A)
     H[:, 2, 4] = L  # w_B - (w_A - L ry_A)
-    return np.einsum("nki,nkl,nlj->nij", H, Kbb, H)
+    K = np.einsum("nki,nkl,nlj->nij", H, Kbb, H)
+    K[dead] = 0.0
+    return K
 
 
 def _along(values: np.ndarray, n: int) -> np.ndarray:
@@ -384,7 +400,8 @@ def _release_pins(k: np.ndarray, pa: np.ndarray | None, pb: np.ndarray | None) -
         rel = [int(c) - 1 for c in str(fa)] if fa > 0 else []
         rel += [6 + int(c) - 1 for c in str(fb)] if fb > 0 else []
         keep = [i for i in range(12) if i not in rel]
-        sel = np.flatnonzero((pa == fa) & (pb == fb))
+        # an element without stiffness (see beam_stiffness_local) has nothing to release
+        sel = np.flatnonzero((pa == fa) & (pb == fb) & np.abs(k).any(axis=(1, 2)))
         kk = k[sel]
         krr = kk[:, keep][:, :, keep]
         krp = kk[:, keep][:, :, rel]

@@ -18,7 +18,7 @@ from ..deck.spec import Table
 from ..errors import ModelError
 from ..markers import INT_BLANK
 from .build_analysis import eigen_of, params_of, unsupported_of
-from .build_checks import check_values
+from .build_checks import check_solid_poisson, check_values
 from .build_constraints import constraints_of
 from .coords import BASIC, CoordSystem, axes_from_points, displacement_frames, to_basic
 from .element_types import ELEMENT_PROPERTIES
@@ -171,8 +171,10 @@ def build_model(deck: Deck) -> Model:
         sel = np.nonzero(is_grid & (cd_all == c))[0]
         if c not in coords:
             rows = np.nonzero(cd == c)[0][:20]
+            # QRG GRID: CD >= -1; -1 makes a fluid grid point, which femcal does not model
+            fluid = " (CD -1, a fluid grid point, is not supported by femcal)" if c == -1 else ""
             p.add(
-                f"GRID CD {c} is not a defined coordinate system",
+                f"GRID CD {c} is not a defined coordinate system{fluid}",
                 gid[rows].tolist(),
                 [(grids.file[i], grids.line[i]) for i in rows[:5]],
             )
@@ -192,6 +194,7 @@ def build_model(deck: Deck) -> Model:
     _check_property_refs(deck, p, elements, properties)
     used = {int(x) for b in elements.values() if ELEMENT_PROPERTIES[b.type] for x in b.pids}
     _check_material_refs(deck, p, properties, materials, elements, used)
+    check_solid_poisson(deck, p.add, used)
     _check_constraint_refs(deck, p, model_stub)
     p.raise_if_any()
     return dataclasses.replace(
@@ -641,8 +644,32 @@ def _check_constraint_refs(deck: Deck, p: _Problems, model: Model) -> None:
         check("MPC", f"set {r.sid}", [t[0] for t in r.terms], (f, ln))
     for r, f, ln in _iter_records(deck, "SPC1"):
         check("SPC1", f"set {r.sid}", list(r.ids), (f, ln))
+        # QRG SPC1: C of digits 1-6 for grid points; 0, 1 or blank only for scalar points
+        if r.components == 0:
+            rows = [model.node_index(list(r.ids)) if r.ids else np.zeros(0, np.int64)]
+            for a, b in r.ranges:
+                lo = int(np.searchsorted(model.node_ids, a))
+                hi = int(np.searchsorted(model.node_ids, b, side="right"))
+                rows.append(np.arange(lo, hi))
+            at = np.concatenate(rows)
+            at = at[at >= 0]
+            grids = model.node_ids[at[model.is_grid[at]]].tolist()
+            if grids:
+                p.add(f"SPC1 set {r.sid} field C = 0 (or blank) at GRID {grids[:20]}: expected "
+                      "component numbers 1-6 (0 or blank only at scalar points)", [r.sid],
+                      [(f, ln)])  # fmt: skip
     for r, f, ln in _iter_records(deck, "ASET1"):
         check("ASET1", "", list(r.ids), (f, ln))
+    t = deck.tables.get("SPC")
+    if t is not None:  # QRG SPC: C of digits 1-6 for grid points; 0 or 1 for scalar points
+        c = t.columns
+        rows = model.node_index(c["g"])
+        bad = (rows >= 0) & (c["c"] == 0)
+        bad[bad] = model.is_grid[rows[bad]]
+        for i in np.flatnonzero(bad)[:20]:
+            p.add(f"SPC set {c['sid'][i]} field C = 0 at GRID {c['g'][i]}: expected component "
+                  "numbers 1-6 (0 only at scalar points)", [int(c["sid"][i])],
+                  [(t.file[i], t.line[i])])  # fmt: skip
     for card, cols in (
         ("RBAR", ("ga", "gb")),
         ("SPC", ("g",)),

@@ -89,7 +89,8 @@ def eigen_of(deck: Deck) -> EigenSetup:
     if t is not None:
         c = t.columns
         for i in range(len(t)):
-            nd = int(c["nd"][i]) if c["nd"][i] != INT_BLANK else None
+            # QRG EIGR: ND of 0 (GIV, MGIV, HOU, MHOU) asks for the roots between F1 and F2
+            nd = int(c["nd"][i]) if c["nd"][i] not in (INT_BLANK, 0) else None
             f2 = _hz(c["f2"][i])
             if nd is None and f2 is None:
                 nd = 10**9  # all roots (Givens/Householder)

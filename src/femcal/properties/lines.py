@@ -49,7 +49,8 @@ def rod_sections(model: Model, block: ElementBlock) -> RodSections:
     od, wall, nsm = t["od"][rows], t["t"][rows], t["nsm"][rows]
     od2 = t["od2"][rows]
     od = np.where(np.isnan(od2), od, 0.5 * (od + od2))
-    wall = np.where(np.isnan(wall), od / 2.0, wall)
+    # QRG PTUBE: T blank is OD/2; remark 1, a T of zero is a solid circular rod
+    wall = np.where(np.isnan(wall) | (wall == 0), od / 2.0, wall)
     di = od - 2.0 * wall
     return RodSections(t["mid"][rows], np.pi * (od**2 - di**2) / 4.0,
                        np.pi * (od**4 - di**4) / 32.0, nsm)  # fmt: skip
@@ -103,6 +104,10 @@ def bar_sections(model: Model, block: ElementBlock) -> BarSections:
             mids[i], nsm[i] = p.mid, p.nsm
             done[i] = True
     _all_done(done, block, "PBAR or PBARL")
+    # QRG PBAR remarks: K1 and K2 are ignored if I12 is not 0 (the bar then has no transverse
+    # shear flexibility); a PBARL is the PBAR of its section, an L's I12 included
+    coupled = section[:, 3] != 0
+    k1[coupled], k2[coupled] = np.nan, np.nan
     return BarSections(section, k1, k2, mids, nsm)
 
 

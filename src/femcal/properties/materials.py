@@ -159,6 +159,9 @@ class MaterialTables:
             t = self.tables.get(card)
             if card == "MAT1":
                 E, G, nu = _mat1_row(t, row)
+                if nu == 0.5:  # the Guide allows it; the Lame constant below is infinite
+                    raise ModelError(f"{who}: MAT1 {mid} has NU = 0.5 (incompressible); "
+                                     "femcal's solid elements need NU below 0.5", [mid])
                 C[i] = isotropic_3d(E, nu, G)
                 iso[i] = True
             elif card == "MAT9":

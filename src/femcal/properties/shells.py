@@ -137,6 +137,10 @@ def _pshell(t, rows, sel, mats, theta, element_t, tflag, eids, etype,
         m = mats.plane(mid3[has3], f"{etype} PSHELL MID3")
         ts = t["tst"][rows][has3]
         S[sel[has3]] = (ts * thick[has3])[:, None, None] * rotate_shear(m.Gt, th[has3])
+        # QRG MAT8 remark 2: G1Z and G2Z zero or blank is no transverse shear flexibility
+        ids = [int(x) for x in np.unique(mid3[has3]) if mats.where(int(x))[0] == "MAT8"]
+        mat8 = np.isin(mid3[has3], ids)
+        has3[has3] = ~(mat8 & ~m.Gt.any(axis=(1, 2)))
     rigid[sel] = ~has3
     nsm[sel] = t["nsm"][rows]
 

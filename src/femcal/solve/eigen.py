@@ -78,6 +78,12 @@ def _to_lambda(f_hz: float) -> float:
     return (2.0 * np.pi * f_hz) ** 2
 
 
+def _bound_lambda(f_hz: float) -> float:
+    """The eigenvalue bound of a V1 or V2, with its sign: QRG EIGRL remark 5, a negative V1
+    (or V2) bounds the negative roots (the sign would be lost in the square)."""
+    return float(np.sign(f_hz)) * _to_lambda(f_hz)
+
+
 def check_finite(K: sp.spmatrix, M: sp.spmatrix) -> None:
     """Raise :class:`SolverError` when K or M holds an infinite or NaN entry: values of the
     deck each within range whose products overflow (a modulus near 1e308 times a thickness)."""
@@ -214,8 +220,11 @@ def shift_and_range(
         raise SolverError(f"the stiffness-to-mass ratios K_ii / M_ii (median "
                           f"{problem_scale(K, M):g}) are beyond double precision: expected "
                           "densities and masses in the deck's units")  # fmt: skip
-    lam_lo = -np.inf if request.v1 is None else _to_lambda(request.v1) * (1 - 1e-9)
-    lam_hi = np.inf if request.v2 is None else _to_lambda(request.v2) * (1 + 1e-9)
+    # widened by 1e-9 of their size: a root on a bound is kept
+    lam_lo = -np.inf if request.v1 is None else _bound_lambda(request.v1)
+    lam_lo -= 1e-9 * abs(lam_lo)
+    lam_hi = np.inf if request.v2 is None else _bound_lambda(request.v2)
+    lam_hi += 1e-9 * abs(lam_hi)
     if request.nd is None and request.v2 is None:
         raise SolverError("EIGRL needs ND or V2 (how many roots, or up to which frequency)")
     return request, sigma, lam_lo, lam_hi
