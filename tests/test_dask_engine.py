@@ -118,6 +118,7 @@ band = [10.0, 200.0]
 """ + CONFIG.split("[test]\nfrf = \"test.npz\"\n")[1]
 
 
+@pytest.mark.slow  # two whole calibrations; the fast tier runs starts and failures on Dask
 def test_the_surrogates_of_two_configurations_build_on_the_cluster(tiny, tmp_path):  # noqa: F811
     """Two configurations (the plate's test over two bands): their surrogates are built on
     the cluster side by side, with the result of building them one after another here, to

@@ -146,19 +146,20 @@ def test_bundled_config_and_cli_errors(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("kind", ["local", "dask"])
-def test_points_solved_side_by_side_give_the_same_study(study, kind):
-    """The two points on two workers (local processes, or a Dask LocalCluster): the same
-    modes and tracks as one after another here, to the rounding of the eigensolver's BLAS
-    (one thread per worker)."""
+def test_points_solved_side_by_side_give_the_same_study(tmp_path, kind):
+    """Three points of a deck study on two workers (local processes, or a Dask
+    LocalCluster): the same modes and tracks as one after another here, to the rounding of
+    the eigensolver's BLAS (one thread per worker)."""
     if kind == "dask":
         pytest.importorskip("distributed", reason="the Dask engine needs distributed")
     from femcal.parallel.cluster import Engine
 
-    serial, _ = study
+    cfg = study_config(_deck_study(tmp_path, values=[210000.0, 150000.0, 105000.0]), "s.toml",
+                       tmp_path)  # fmt: skip
+    serial = run_study(cfg)
     messages = []
-    res = run_study(study_config(BASE), engine=Engine(kind, workers=2),
-                    progress=messages.append)  # fmt: skip
-    assert sorted(m.done for m in messages) == [1, 2]
+    res = run_study(cfg, engine=Engine(kind, workers=2), progress=messages.append)
+    assert sorted(m.done for m in messages) == [1, 2, 3]
     for a, b in zip(res.points, serial.points, strict=True):
         assert a.value == b.value
         np.testing.assert_allclose(a.frequencies, b.frequencies, rtol=1e-9)

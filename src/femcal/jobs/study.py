@@ -356,11 +356,6 @@ def study_config(data: dict, where: str = "study", folder: str | Path = ".") -> 
     if not all(isinstance(v, int | float) and not isinstance(v, bool) for v in values):
         raise bad("variable.values", f"expected numbers, got {values!r}")
     values = tuple(float(v) for v in values)
-    for v in values:
-        why = (_deck_check(deck, fields, name, v) if deck is not None
-               else gen.check(variant, name, v))  # fmt: skip
-        if why:
-            raise bad("variable.values", f"{name} = {v:g}: {why}")
     if len(set(values)) != len(values):
         raise bad("variable.values", "a value is repeated")
     solve = table("solve")
@@ -398,6 +393,11 @@ def study_config(data: dict, where: str = "study", folder: str | Path = ".") -> 
                                   and math.isfinite(ratio) and ratio > 1):
         raise bad("pairing.max_frequency_ratio", f"expected a factor > 1 (or no key: pair by "
                   f"shape alone), got {ratio!r}")  # fmt: skip
+    for v in values:  # last: each value's model is built to check it
+        why = (_deck_check(deck, fields, name, v) if deck is not None
+               else gen.check(variant, name, v))  # fmt: skip
+        if why:
+            raise bad("variable.values", f"{name} = {v:g}: {why}")
     return StudyConfig(gen_name, variant, name, values, unit, band, n_modes, float(min_mac),
                        ref, float(rigid_below), deck, fields,
                        None if ratio is None else float(ratio))  # fmt: skip
