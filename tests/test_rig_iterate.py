@@ -84,15 +84,7 @@ def test_the_small_rig_iterated_against_another_plant_finds_the_known_drive(tmp_
     plant = tmp_path / "plant.bdf"
     plant.write_text(Path(args[0]).read_text().replace("PBAR,1,1,400.,20000.",
                                                        "PBAR,1,1,400.,20600."))  # fmt: skip
-    rng = np.random.default_rng(11)
-    n = round(16 / DT)
-    f = np.fft.rfftfreq(n, DT)
-    band = (f >= 1) & (f <= 60)
-    S = np.zeros((6, len(f)), complex)
-    S[:, band] = np.exp(2j * np.pi * rng.uniform(size=(6, band.sum())))
-    known = np.fft.irfft(S, n, axis=1)
-    labels = tuple(lab for lab, _, _ in ACTUATORS)
-    write_time_data(tmp_path / "known.rsp", TimeData(DT, known, labels, ("mm",) * 6))
+    known, band = _known_drive(tmp_path / "known.rsp", 11, 60.0)
     assert main(["rig", "simulate", str(plant), *args[1:], "--modes-to", "300", "--drive",
                  str(tmp_path / "known.rsp"), "--periodic", "--out",
                  str(tmp_path / "target.rsp")]) == 0  # fmt: skip
@@ -185,6 +177,21 @@ def _small_rig_files(tmp_path) -> list[str]:
             str(tmp_path / "s.csv")]  # fmt: skip
 
 
+def _known_drive(path, seed: int, top_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """A 16 s multisine drive of the small rig's six actuators over 1 Hz to ``top_hz`` (unit
+    amplitude per line, random phases), written to ``path``: the drive and its band's lines."""
+    rng = np.random.default_rng(seed)
+    n = round(16 / DT)
+    f = np.fft.rfftfreq(n, DT)
+    band = (f >= 1) & (f <= top_hz)
+    S = np.zeros((6, len(f)), complex)
+    S[:, band] = np.exp(2j * np.pi * rng.uniform(size=(6, band.sum())))
+    known = np.fft.irfft(S, n, axis=1)
+    labels = tuple(lab for lab, _, _ in ACTUATORS)
+    write_time_data(path, TimeData(DT, known, labels, ("mm",) * 6))
+    return known, band
+
+
 def test_rig_commands_name_what_is_wrong(tmp_path, capsys):
     drive = TimeData(DT, np.zeros((2, 64)), ("A_z1", "nope"), ("mm", "mm"))
     write_time_data(tmp_path / "d.rsp", drive)
@@ -235,21 +242,10 @@ def test_rig_commands_name_what_is_wrong(tmp_path, capsys):
 def test_compare_ranks_the_model_that_is_the_physical_rig_first(tmp_path, capsys):
     """Two models of the small rig against a target measured on one of them: that one needs
     the reference drive and predicts the uncontrolled channels; the other does not."""
-    deck = small_rig_deck(tmp_path / "rig.bdf")
+    deck = Path(_small_rig_files(tmp_path)[0])
     stiff = tmp_path / "stiff.bdf"
     stiff.write_text(deck.read_text().replace("PBAR,1,1,400.,20000.", "PBAR,1,1,400.,26000."))
-    for path, rows in ((tmp_path / "a.csv", ACTUATORS), (tmp_path / "s.csv", SENSORS)):
-        path.write_text("label,grid,x,y,z,direction\n"
-                        + "".join(f"{lab},{g},0,0,0,{c}\n" for lab, g, c in rows))  # fmt: skip
-    rng = np.random.default_rng(2)
-    n = round(16 / DT)
-    f = np.fft.rfftfreq(n, DT)
-    band = (f >= 1) & (f <= 80)
-    S = np.zeros((6, len(f)), complex)
-    S[:, band] = np.exp(2j * np.pi * rng.uniform(size=(6, band.sum())))
-    known = np.fft.irfft(S, n, axis=1)
-    labels = tuple(lab for lab, _, _ in ACTUATORS)
-    write_time_data(tmp_path / "known.rsp", TimeData(DT, known, labels, ("mm",) * 6))
+    _known_drive(tmp_path / "known.rsp", 2, 80.0)
     rig = ["--actuators", str(tmp_path / "a.csv"), "--sensors", str(tmp_path / "s.csv"),
            "--modes-to", "300"]  # fmt: skip
     assert main(["rig", "simulate", str(stiff), *rig, "--drive", str(tmp_path / "known.rsp"),
