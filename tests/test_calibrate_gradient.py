@@ -23,10 +23,12 @@ def setup(tmp_path_factory):
     return write_plate(tmp_path_factory.mktemp("grad"))
 
 
-# with the residual flexibility's static block: in the slow tier (the fast tier checks that
-# surrogate's Jacobian at its centre in test_calibrate_surrogate)
+# with the residual flexibility's static block, and with every mode in the FRFs: in the slow
+# tier (the fast tier checks the residual surrogate's Jacobian at its centre in
+# test_calibrate_surrogate)
 @pytest.mark.parametrize("residual, frf_modes", [
-    (False, 5), pytest.param(True, 6, marks=pytest.mark.slow), (False, None)])
+    (False, 5), pytest.param(True, 6, marks=pytest.mark.slow),
+    pytest.param(False, None, marks=pytest.mark.slow)])
 def test_exact_centre_jacobian_equals_central_differences_of_the_full_model(setup, residual,
                                                                           frf_modes):
     """The full model (the surrogate at its own centre) differenced at +-h in every

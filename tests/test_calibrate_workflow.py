@@ -864,7 +864,7 @@ def test_ctrl_c_ends_the_workers_and_leaves_no_partial_file(tiny, tmp_path, engi
     whole, and the next run resumes from the starts that finished."""
     if engine == "dask":
         pytest.importorskip("distributed")
-    cfg = _tiny_copy(tiny, tmp_path, TINY.replace("starts = 2", "starts = 120")
+    cfg = _tiny_copy(tiny, tmp_path, TINY.replace("starts = 2", "starts = 40")
                      .replace("workers = 1", f'workers = 2\nengine = "{engine}"'))  # fmt: skip
     out = tmp_path / "out"
     proc = subprocess.Popen([sys.executable, "-m", "femcal", "calibrate", str(cfg), "--out",
