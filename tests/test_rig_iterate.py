@@ -558,3 +558,21 @@ def test_plant_damping_alone_makes_the_plant_the_model_with_that_damping(tmp_pat
     # target back, played on the plant of 5 % that --plant-damping makes it misses near the
     # resonances
     assert first[0] < 0.01 and first[1] > 0.1, first
+
+
+def test_a_control_channel_held_at_zero_draws_its_pictures_without_warnings(tmp_path, capsys):
+    """rig iterate with one control channel's target all zero: the run ends, that channel is
+    said to be held at zero, and no plotting warning (a log scale of zeros) reaches the user."""
+    args = [*_small_rig_files(tmp_path), "--modes-to", "300"]
+    t = np.arange(4096) * DT
+    target = np.vstack([1e4 * np.sin(2 * np.pi * 16.0 * t), np.zeros_like(t)])
+    write_time_data(tmp_path / "target.rsp", TimeData(DT, target, ("S3:+Z", "S8:+Y"),
+                                                      ("mm/s^2",) * 2))  # fmt: skip
+    capsys.readouterr()
+    assert main(["rig", "iterate", *args, "--target", str(tmp_path / "target.rsp"),
+                 "--control", "S3:+Z", "S8:+Y", "--band", "1", "80", "--iterations", "1",
+                 "--out", str(tmp_path / "it")]) == 0  # fmt: skip
+    captured = capsys.readouterr()
+    assert "S8:+Y: held at zero" in captured.out
+    assert "warning:" not in captured.err, captured.err
+    assert (tmp_path / "it" / "error_psd.png").stat().st_size > 1000
