@@ -125,17 +125,18 @@ _MAT8 = "PSHELL,1,8,2.,8,,8"
 accept("MAT8 E1 1e-3", plate(_MAT8, mat=f"{ALU}\nMAT8,8,1.-3,1.+4,.3,5.+3,0.,0.,1.6-9"))
 refuse("MAT8 E1 0", plate(_MAT8, mat=f"{ALU}\nMAT8,8,0.,1.+4,.3,5.+3,0.,0.,1.6-9"),
        "MAT8,8,0.,1.+4,.3,5.+3,0.,0.,1.6-9", "MAT8 8 field E1 = 0: expected a real other than 0")
-# PSHELL: T real (femcal: >= 0); 12I/T**3 > 0.0; TS/T > 0.0
+# PSHELL: T real (femcal: >= 0); 12I/T**3 > 0.0, TS/T > 0.0 where MID2, MID3 use them
 accept("PSHELL T 1e-3", plate("PSHELL,1,1,1.-3,1,,1"))
 refuse("PSHELL T -2", plate("PSHELL,1,1,-2.,1,,1"), "PSHELL,1,1,-2.,1,,1",
        "PSHELL 1 field T = -2: expected a real >= 0 (a thickness; the Guide allows any real, "
        "but femcal does not solve")
 accept("PSHELL 12I/T**3 1e-6", plate("PSHELL,1,1,2.,1,1.-6,1"))
 refuse("PSHELL 12I/T**3 0", plate("PSHELL,1,1,2.,1,0.,1"), "PSHELL,1,1,2.,1,0.,1",
-       "PSHELL 1 field 12I/T**3 = 0: expected a real > 0")
+       "PSHELL 1 field 12I/T**3 = 0: expected a real > 0 (MID2 is given)")
+accept("PSHELL 12I/T**3 0 without MID2", plate("PSHELL,1,1,2.,,0.,,0."), solve=False)
 accept("PSHELL TS/T 1e-6", plate("PSHELL,1,1,2.,1,,1,1.-6"))
 refuse("PSHELL TS/T 0", plate("PSHELL,1,1,2.,1,,1,0."), "PSHELL,1,1,2.,1,,1,0.",
-       "PSHELL 1 field TS/T = 0: expected a real > 0")
+       "PSHELL 1 field TS/T = 0: expected a real > 0 (MID3 is given)")
 # CQUAD4: Ti >= 0.0 or blank, not all zero; TFLAG 0, 1 or blank; MCID >= 0
 accept("CQUAD4 T1 0", plate(quad="CQUAD4,1,1,1,2,3,4\n,,,0.,2.,2.,2."))
 refuse("CQUAD4 T1 -1", plate(quad="CQUAD4,1,1,1,2,3,4\n,,,-1.,2.,2.,2."), "CQUAD4,1,1,1,2,3,4",

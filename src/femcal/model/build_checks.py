@@ -82,11 +82,9 @@ RANGE_CHECKS: tuple[RangeCheck, ...] = (
     RangeCheck("MAT8", "e2", lambda v: _blank(v) | (v != 0), "a real other than 0"),
     RangeCheck("MAT8", "rho", _at_least(0.0), _DENSITY),
     RangeCheck("MAT9", "rho", _at_least(0.0), _DENSITY),
-    # QRG PSHELL: T real or blank; 12I/T**3 > 0.0 (default 1.0); TS/T > 0.0 (default .833333)
+    # QRG PSHELL: T real or blank (12I/T**3 and TS/T: in _check_field_pairs)
     RangeCheck("PSHELL", "t", _at_least(0.0), f"{_NON_NEGATIVE} (a thickness; "
                f"{_NEGATIVE.format('stiffness and mass')})"),
-    RangeCheck("PSHELL", "bk", _above(0.0), "a real > 0", "12I/T**3"),
-    RangeCheck("PSHELL", "tst", _above(0.0), "a real > 0", "TS/T"),
     # QRG PSHEAR: T other than 0.0; F1, F2 >= 0.0 (default 0.0)
     RangeCheck("PSHEAR", "t", _above(0.0), "a real > 0 (a thickness; the Guide refuses 0, and "
                "femcal does not solve the negative stiffness and mass of a negative one)"),
@@ -153,6 +151,16 @@ def _check_field_pairs(deck: Deck, add, limit: int) -> None:
         f1, f2 = t.columns["f1"], t.columns["f2"]
         bad = ~np.isnan(f1) & ~np.isnan(f2) & (f1 >= f2)
         _report("EIGR", t, "f2", bad, "F2 above F1", add, limit)
+    t = deck.tables.get("PSHELL")
+    if t is not None:
+        # QRG PSHELL: 12I/T**3 > 0.0 (default 1.0), TS/T > 0.0 (default .833333); checked
+        # where the material they scale is given (MID2, MID3): a value in a field the shell
+        # does not use changes nothing, and a membrane-only deck may hold a 0 there
+        c = t.columns
+        for col, mid, name in (("bk", "mid2", "12I/T**3"), ("tst", "mid3", "TS/T")):
+            used = (c[mid] != INT_BLANK) & (c[mid] > 0)
+            _report("PSHELL", t, col, used & ~(c[col] > 0), f"a real > 0 (MID{mid[-1]} is "
+                    "given)", add, limit, name)  # fmt: skip
     t = deck.tables.get("PBAR")
     if t is not None:  # QRG PBAR: I1*I2 > I12**2, where I12 is given
         c = t.columns
