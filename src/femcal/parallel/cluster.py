@@ -256,8 +256,10 @@ def _children_ignore_ctrl_c():
     (a LocalCluster's workers: spawned, and an ignored signal stays ignored across exec)
     ignore it too. Ctrl-C in a terminal goes to the whole process group; the workers are
     this process's to end (the CLI reports the interruption in one line), and a worker that
-    took the KeyboardInterrupt itself printed its traceback. Outside the main thread, where
-    signal handlers cannot be set, nothing changes."""
+    took the KeyboardInterrupt itself printed its traceback. A Ctrl-C during the cluster's
+    start-up (a few seconds) is therefore not seen; a worker the nanny restarts later takes
+    the signal as Python does by default. Outside the main thread, where signal handlers
+    cannot be set, nothing changes."""
     import signal
     import threading
 
