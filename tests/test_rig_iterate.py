@@ -13,7 +13,7 @@ import pytest
 from femcal.cli import main
 from femcal.model.build import load_model
 from femcal.rig.iterate import IterationSettings, frf_on_lines, iterate_drive
-from femcal.rig.plant import build_plant, damping_from_modes
+from femcal.rig.plant import build_plant, damping_from_modes, rig_channel_names
 from femcal.rig.simulate import simulate
 from femcal.testdata.data import FRFData
 from femcal.testdata.formats import read_frf, read_time_data, write_frf, write_time_data
@@ -160,6 +160,8 @@ def test_iteration_refuses_bad_targets_and_settings(tmp_path):
 def test_identified_damping_goes_to_the_nearest_modes(tmp_path):
     plant = build_plant(load_model(small_rig_deck(tmp_path / "rig.bdf")), ACTUATORS, SENSORS,
                         modes_to=150.0)  # fmt: skip
+    # the channels named from the rows alone are the plant's (the CLI checks --control so)
+    assert rig_channel_names(ACTUATORS, SENSORS) == plant.outputs
     f = plant.omega / (2 * np.pi)  # 45.1, 55.9, 101.8 Hz
     zeta, taken = damping_from_modes(plant, [f[0] * 1.02, f[2] * 0.9, 300.0],
                                      [0.011, 0.03, 0.05], 0.02)  # fmt: skip
@@ -220,6 +222,18 @@ def test_rig_commands_name_what_is_wrong(tmp_path, capsys):
         assert main(["rig", cmd, *missing, "--target", str(tmp_path / "d.rsp"), "--control",
                      "S11:-X", "--band", "1", "300", "--out", str(tmp_path / out)]) == 2
         assert "--band 1 300: above the target's Nyquist frequency" in capsys.readouterr().err
+    # a control channel that is not an output: refused from the files alone, before the deck
+    # is read, with the nearest names
+    for cmd, head in (("iterate", ["rig", "iterate", *missing]),
+                      ("correct", ["rig", "correct", *missing]),
+                      ("compare", ["rig", "compare", "--model", f"m={missing[0]}",
+                                   *missing[1:]])):  # fmt: skip
+        assert main([*head, "--target", str(tmp_path / "d.rsp"), "--control", "S3:+Y",
+                     "--out", str(tmp_path / f"{cmd}.rsp")]) == 2, cmd  # fmt: skip
+        err = capsys.readouterr().err
+        assert "--control S3:+Y: not an output of the rig; did you mean " in err, err
+        assert "S3:+Z" in err.split("did you mean ")[1].split("?")[0]
+        assert "no_deck.bdf" not in err
     # --damping-from a file that is not an identified model
     assert main(["rig", "simulate", *args, "--drive", str(tmp_path / "d.rsp"), "--out",
                  str(tmp_path / "r.rsp"), "--damping-from", str(tmp_path / "d.rsp")]) == 2

@@ -97,14 +97,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     traceback with ``FEMCAL_TRACEBACK=1``), Ctrl-C and SIGTERM as an interruption."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    name = f"femcal {args.command}"
+    # the whole command, its action too (``femcal rig iterate``, ``femcal timedata frf``)
+    name = " ".join(["femcal", args.command, *([args.action] if getattr(args, "action", None)
+                                               else [])])  # fmt: skip
     previous = signal.getsignal(signal.SIGTERM)
     try:
         signal.signal(signal.SIGTERM, _on_sigterm)
     except ValueError:  # not the main thread: leave SIGTERM alone
         previous = None
     try:
-        with _one_line_warnings(args.command):
+        with _one_line_warnings(name.removeprefix("femcal ")):
             return int(_COMMANDS[args.command].run(args) or 0)
     except FemcalError as e:
         print(f"{name}: {e}", file=sys.stderr)

@@ -63,7 +63,7 @@ from ..rig.limits import (
     read_limits,
     scale_into_limits,
 )
-from ..rig.plant import RigPlant, build_plant, damping_from_modes
+from ..rig.plant import RigPlant, build_plant, damping_from_modes, rig_channel_names
 from ..rig.quality import band_errors, band_rms, channel_stats, relative_damage
 from ..rig.simulate import simulate
 from ..testdata.formats import read_frf, read_time_data, suffixes, write_time_data
@@ -434,6 +434,7 @@ def _iterate(args: argparse.Namespace) -> int:
     weights = _weights(args)
     _check_slope(args)
     _check_band(settings, target_data)  # before the modes are solved
+    _check_control(args)
     model = _plant(args.deck, args, args.damping, t0)
     plant = model
     if args.plant is not None or args.plant_damping is not None:
@@ -672,6 +673,7 @@ def _correct(args: argparse.Namespace) -> int:
     if args.report is not None:
         output_folder(args.report, "--report")
     _check_band(settings, target_data)
+    _check_control(args)
     model = _plant(args.deck, args, args.damping, t0)
     control = [model.outputs.index(c) if c in model.outputs else -1 for c in args.control]
     if -1 in control:
@@ -738,6 +740,20 @@ def _correct(args: argparse.Namespace) -> int:
         print(f"{a:<{aw}}  RMS {np.sqrt(np.mean(drive[j] ** 2)):.4g}, peak "
               f"{check.peak[0, j]:.4g}{limit} {model.input_units}")  # fmt: skip
     return 0
+
+
+def _check_control(args: argparse.Namespace) -> None:
+    """Each --control channel among the rig's outputs, named from the actuators and sensors
+    files before any solve; a wrong one with the nearest names."""
+    import difflib
+
+    names = rig_channel_names(read_points(args.actuators), read_points(args.sensors))
+    for name in args.control:
+        if name not in names:
+            near = difflib.get_close_matches(name, names, n=3, cutoff=0.5)
+            hint = f"did you mean {' or '.join(near)}? " if near else ""
+            raise UsageError(f"--control {name}: not an output of the rig; {hint}(its outputs: "
+                             f"{', '.join(names)})")  # fmt: skip
 
 
 def _check_band(settings: IterationSettings, target: TimeData) -> None:
@@ -869,6 +885,8 @@ def _compare(args: argparse.Namespace) -> int:
         raise UsageError("--values needs --params (the parameters file of the calibration)")
     output_folder(args.out, "--out")
     target = read_time_data(args.target)
+    weights = _weights(args)
+    _check_control(args)
     reference = None
     if args.reference_drive is not None:
         ref = read_time_data(args.reference_drive)
@@ -889,7 +907,7 @@ def _compare(args: argparse.Namespace) -> int:
     if args.reference_drive is not None:
         reference = drive_channels(ref, models[0][1], args.reference_drive)
     runs = compare_models(models, target, args.control, settings, reference_drive=reference,
-                          weights=_weights(args),
+                          weights=weights,
                           progress=lambda m: _say(t0, m))  # fmt: skip
     report = comparison_dict(runs, settings, target=str(args.target), control=args.control)
     figures = _compare_pictures(args.out, runs, target, args.control, reference, settings)

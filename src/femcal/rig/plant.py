@@ -243,6 +243,17 @@ def _drive_matrices(model: Model, actuators: Sequence[Actuator], K: sp.csr_matri
     return B, F, k
 
 
+def rig_channel_names(actuators: Sequence[tuple[str, int, int]],
+                      sensors: Sequence[tuple[str, int, int]]) -> tuple[str, ...]:
+    """The rig's output channels, named from its actuators and sensors rows alone (no solve):
+    each actuator's ``LABEL:displacement``, then each one's ``LABEL:force``, then each
+    sensor's ``LABEL:+Z`` (its signed direction), in the rows' order, as
+    :func:`build_plant`'s plant names them."""
+    labels = [label for label, _, _ in actuators]
+    return tuple([f"{lab}:displacement" for lab in labels] + [f"{lab}:force" for lab in labels]
+                 + [f"{lab}:{point_label(g, c).split(':')[1]}" for lab, g, c in sensors])
+
+
 def build_plant(model: Model, actuators: Sequence[tuple[str, int, int]],
                 sensors: Sequence[tuple[str, int, int]], *, modes_to: float,
                 damping: float | np.ndarray = 0.02, length_unit: str = "mm",
@@ -299,7 +310,6 @@ def build_plant(model: Model, actuators: Sequence[tuple[str, int, int]],
                          "expected the oil columns to restrain every rigid-body motion")
     acts = find_actuators(model, actuators, K, red.spc)
     B, F, k = _drive_matrices(model, acts, K)
-    sensor_names = [f"{lab}:{point_label(g, c).split(':')[1]}" for lab, g, c in sensors]
     C = channel_matrix(model, [Channel.parse(point_label(g, c)) for _, g, c in sensors])
     say(f"static response to {len(acts)} drives")
     T = red.T
@@ -319,12 +329,11 @@ def build_plant(model: Model, actuators: Sequence[tuple[str, int, int]],
     Ya = np.vstack([np.zeros((2 * n_in, n_m)), np.asarray(C @ shapes)])
     D0 = np.vstack([np.eye(n_in), F @ R + np.diag(k), np.zeros((n_s, n_in))])
     D2 = np.vstack([np.zeros((n_in, n_in)), -F @ inertia, np.asarray(C @ R)])
-    labels = [a.label for a in acts]
-    names = ([f"{lab}:displacement" for lab in labels] + [f"{lab}:force" for lab in labels]
-             + sensor_names)  # fmt: skip
+    labels = [a.label for a in acts]  # in the rows' order
+    names = rig_channel_names(actuators, sensors)
     units = [length_unit] * n_in + [force_unit] * n_in + [f"{length_unit}/s^2"] * n_s
     zeta = np.broadcast_to(np.asarray(damping, float), omega.shape).copy()
-    return RigPlant(omega, zeta, beta, Yd, Ya, D0, D2, tuple(labels), tuple(names),
+    return RigPlant(omega, zeta, beta, Yd, Ya, D0, D2, tuple(labels), names,
                     length_unit, tuple(units), tuple(acts))  # fmt: skip
 
 
