@@ -27,6 +27,7 @@ from . import (
     synth_rig,
     timedata,
 )
+from .examples import annotate
 
 _COMMANDS = {
     "info": info,
@@ -54,6 +55,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for _name, module in _COMMANDS.items():
         module.add_parser(sub)
+    annotate(parser)
     return parser
 
 

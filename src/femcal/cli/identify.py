@@ -48,9 +48,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        "N hammer points, or transposed, N x 1: the same poles, the shapes at "
                        "the N points); the smaller side is the reference. Channels are "
                        "GRID:DIR (12:+Z, 4:-X) or free labels; a universal file names them by "
-                       "its response and reference nodes.",
-                       epilog="example: femcal identify test.uff --band 10 120 --out identify/"
-                       "   (see docs/identification.md)")  # fmt: skip
+                       "its response and reference nodes (docs/identification.md).")  # fmt: skip
     p.add_argument("frf", type=Path, help="FRF file")
     p.add_argument("--band", type=float, nargs=2, required=True, metavar=("F1", "F2"),
                    help="frequency band in Hz")  # fmt: skip
