@@ -471,3 +471,33 @@ def test_bulk_cards_and_executive_statements_in_case_control_are_errors(write):
            "bulk data card belongs after BEGIN BULK)" in str(e.value)
     assert f"{path}:5: CASE CONTROL command: found 'SOL'; expected a case control command " \
            "(executive control belongs before CEND)" in str(e.value)
+
+
+@pytest.mark.parametrize(("name", "kind"), [
+    ("hammer_test.uff", "a universal file (FRFs or shapes: femcal identify or correlate"),
+    ("hammer_test.mat", "a MATLAB file (FRFs: femcal identify reads it)"),
+    ("rig_test.rsp", "an RPC III time history (femcal timedata reads it)"),
+    ("rig_test.drv", "an RPC III drive file"),
+    ("hammer_calibration.toml", "a configuration (femcal calibrate or study reads it)"),
+])  # fmt: skip
+def test_a_file_that_is_not_a_deck_is_one_line_naming_what_it_is(name, kind, capsys):
+    """The shipped test files given where a deck is expected: one line that says what the
+    file is and which command reads it (was tens of thousands of card errors and binary)."""
+    path = ROOT / "models" / "truck_frame" / name
+    for command in (["info"], ["solve"]):
+        assert main([*command, str(path)]) == 2
+        err = [x for x in capsys.readouterr().err.splitlines() if not x.startswith("[")]
+        assert len(err) == 1, err  # (solve's progress lines aside)
+        assert err[0].startswith(f"femcal {command[0]}: {path}: deck; expected a NASTRAN "
+                                 f"deck (text cards), not {kind}"), err  # fmt: skip
+
+
+def test_binary_data_is_named_and_a_stray_control_byte_is_reported_at_its_card(write):
+    rng = np.random.default_rng(1)
+    blob = write(bytes(rng.integers(0, 256, 4096, dtype=np.uint8)).decode("latin-1"), "x.bdf")
+    with pytest.raises(DeckError, match=r"x\.bdf: deck; expected a NASTRAN deck \(text cards\), "
+                       r"not a text file: it holds binary data$"):  # fmt: skip
+        read_deck(blob)
+    stray = write(HEAD_BAR + "GRID,9,,0.,\x01,0.\nENDDATA\n", "stray.bdf")
+    with pytest.raises(DeckError, match=r"stray\.bdf:\d+: GRID"):
+        read_deck(stray)

@@ -101,6 +101,9 @@ class DeckError(FemcalError):
         self.issues = list(issues)
         self.truncated = truncated
         lines = [str(i) for i in self.issues]
+        if len(self.issues) == 1 and not truncated and self.issues[0].line == 0:
+            super().__init__(lines[0])  # the whole file: one line says it
+            return
         head = f"{len(self.issues) + truncated} error(s) in deck"
         if truncated:
             lines.append(f"... and {truncated} more")

@@ -99,6 +99,46 @@ def _not_readable(path: Path, max_bytes: int) -> str:
     if st.st_size > max_bytes:
         return (f"a deck of at most {max_bytes} bytes with its INCLUDEs "
                 f"(this file has {st.st_size})")  # fmt: skip
+    kind = _other_kind(path)
+    if kind:
+        return f"a NASTRAN deck (text cards), not {kind}"
+    return ""
+
+
+#: Files femcal reads elsewhere, by suffix: what they are and which command reads them
+#: (named when the content shows a file is not a deck; a .toml is never one).
+OTHER_KINDS = {
+    ".uff": "a universal file (FRFs or shapes: femcal identify or correlate reads it)",
+    ".unv": "a universal file (FRFs or shapes: femcal identify or correlate reads it)",
+    ".mat": "a MATLAB file (FRFs: femcal identify reads it)",
+    ".npz": "a NumPy archive (FRFs, time data, modes or an identified model)",
+    ".rsp": "an RPC III time history (femcal timedata reads it)",
+    ".tim": "an RPC III time history (femcal timedata reads it)",
+    ".drv": "an RPC III drive file (femcal timedata and femcal rig read it)",
+    ".toml": "a configuration (femcal calibrate or study reads it)",
+}
+
+
+#: Bytes no text deck holds (ASCII controls but tab, line feed, form feed, carriage return).
+_CONTROL_BYTES = bytes([*range(0, 9), 11, *range(14, 32), 127])
+
+
+def _other_kind(path: Path) -> str:
+    """What ``path`` is when it is plainly not a NASTRAN deck ("" when it may be one): binary
+    data (control bytes other than whitespace, at least 8 and 1 % of its first 64 kB; a
+    stray one in a text deck is reported at its card), a universal file's dataset delimiter
+    ("-1" alone on its first line), or a configuration; named by its suffix where femcal
+    reads that kind."""
+    suffix = path.suffix.lower()
+    if suffix == ".toml":
+        return OTHER_KINDS[suffix]
+    with path.open("rb") as f:
+        head = f.read(65536)
+    control = len(head) - len(head.translate(None, _CONTROL_BYTES))
+    if control >= max(8, len(head) // 100):
+        return OTHER_KINDS.get(suffix, "a text file: it holds binary data")
+    if head.lstrip(b"\r\n").split(b"\n", 1)[0].strip() == b"-1":
+        return OTHER_KINDS[".uff"]
     return ""
 
 
