@@ -125,8 +125,8 @@ _CONTROL_BYTES = bytes([*range(0, 9), 11, *range(14, 32), 127])
 
 def _other_kind(path: Path) -> str:
     """What ``path`` is when it is plainly not a NASTRAN deck ("" when it may be one): binary
-    data (control bytes other than whitespace, at least 8 and 1 % of its first 64 kB; a
-    stray one in a text deck is reported at its card), a universal file's dataset delimiter
+    data (control bytes other than whitespace, 5 % of its first 64 kB, of at least 4 kB;
+    stray ones in a text deck are reported at their cards), a universal file's dataset delimiter
     ("-1" alone on its first line), or a configuration; named by its suffix where femcal
     reads that kind."""
     suffix = path.suffix.lower()
@@ -135,7 +135,7 @@ def _other_kind(path: Path) -> str:
     with path.open("rb") as f:
         head = f.read(65536)
     control = len(head) - len(head.translate(None, _CONTROL_BYTES))
-    if control >= max(8, len(head) // 100):
+    if len(head) >= 4096 and control >= len(head) // 20:
         return OTHER_KINDS.get(suffix, "a text file: it holds binary data")
     if head.lstrip(b"\r\n").split(b"\n", 1)[0].strip() == b"-1":
         return OTHER_KINDS[".uff"]
