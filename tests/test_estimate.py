@@ -184,3 +184,32 @@ def test_two_inputs_with_one_average_are_refused_saying_why():
                                             r"be told apart; 8 s segments"):  # fmt: skip
         estimate_frfs(data, ["a", "b"], ["y"], FRFSettings(period_s=8.0, segment_s=8.0,
                                                            overlap=0.0))  # fmt: skip
+
+
+def test_every_channel_is_drawn_and_a_long_record_over_a_window_that_shows_it(tmp_path):
+    """21 channels over 60 s: the time histories go on over two pictures (12 and 9 panels),
+    the PSD holds every channel, and the default window is 5 s around the largest peak."""
+    from femcal.viz import timedata as pictures
+
+    rng = np.random.default_rng(3)
+    dt = 1 / 256
+    n = round(60 / dt)
+    x = rng.standard_normal((21, n))
+    x[4, 9000] = 40.0  # the record's largest peak (relative to its channel's RMS), at 35.2 s
+    names = tuple(f"ch{k:02d}" for k in range(21))
+    data = TimeData(dt, x, names, ("mm",) * 7 + ("N",) * 7 + ("mm/s^2",) * 7)
+    start, m = pictures.time_window(data, range(21))
+    assert m == round(5.0 / dt) + 1 and start <= 9000 < start + m
+    assert abs((start + m // 2) - 9000) <= 1
+    assert pictures.time_window(data, range(21), seconds=2.0) == (0, round(2.0 / dt) + 1)
+    short = TimeData(dt, x[:, :512], names, data.units)
+    assert pictures.time_window(short, range(21)) == (0, 512)
+    paths = pictures.time_histories(tmp_path / "time.png", data)
+    assert [p.name for p in paths] == ["time.png", "time_2.png"]
+    assert all(p.stat().st_size > 10_000 for p in paths)
+    fig = pictures.power_spectra(tmp_path / "psd.png", np.arange(1, 65.0), np.ones((21, 64)),
+                                 names, data.units)  # fmt: skip
+    curves = [line.get_label() for ax in fig.axes for line in ax.get_lines()]
+    assert sorted(curves) == sorted(names)  # every channel, 7 to a unit's panel
+    assert [ax.get_ylabel() for ax in fig.axes] == ["PSD (mm²/Hz)", "PSD (N²/Hz)",
+                                                    "PSD ((mm/s^2)²/Hz)"]  # fmt: skip

@@ -38,9 +38,10 @@ DESCRIPTIONS: dict[str, str] = {
     "(sensors, inputs, parameters), and with --pictures its views.",
     "timedata info": "Summarise a time-history file (RPC III, CSV or NPZ): its step, length "
     "and, per channel, name, unit, minimum, maximum, mean and RMS.",
-    "timedata plot": "Pictures of a time-history file: the channels over time (the first "
-    "--seconds, by default all), their PSDs and, with --inputs and --outputs, coherence and "
-    "FRFs. --channels chooses the channels drawn (by default the first 12).",
+    "timedata plot": "Pictures of a time-history file: every channel over time (12 to a "
+    "picture; a long record over 5 s around its largest peak, or the first --seconds), "
+    "every channel's PSD grouped by unit and, with --inputs and --outputs, coherence and "
+    "FRFs. --channels chooses the channels drawn.",
 }
 
 #: Examples per command (its words after ``femcal``), each one command line.

@@ -78,7 +78,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     plot.add_argument("--channels", nargs="+", metavar="NAME",
                       help="channels to draw (default: the first 12)")
     plot.add_argument("--seconds", type=float, metavar="S",
-                      help="time histories over the first S seconds (default: all)")
+                      help="time histories over the first S seconds (default: a record up "
+                      "to 5 s whole, a longer one over 5 s around its largest peak)")
     _channel_options(plot, required=False)
     _estimate_options(plot)
     plot.add_argument("--out", type=Path, required=True, metavar="DIR", help="folder to write")
@@ -223,16 +224,21 @@ def _plot(args: argparse.Namespace) -> int:
     if args.seconds is not None and not (np.isfinite(args.seconds) and args.seconds > 0):
         raise UsageError(f"--seconds {args.seconds:g}: expected a positive duration")
     args.out.mkdir(parents=True, exist_ok=True)
-    shown = chans if chans is not None else list(range(min(data.n_channels,
-                                                           pictures.MAX_CURVES)))
-    paths = [args.out / "time.png", args.out / "psd.png"]
-    pictures.time_histories(paths[0], data, shown, seconds=args.seconds,
-                            title=f"{args.file.name}: time histories")  # fmt: skip
+    shown = chans if chans is not None else list(range(data.n_channels))
+    paths = pictures.time_histories(args.out / "time.png", data, shown, seconds=args.seconds,
+                                    title=f"{args.file.name}: time histories")  # fmt: skip
+    start, n = pictures.time_window(data, shown, args.seconds)
+    if n < data.n_samples:
+        _say(t0, f"time histories over {start * data.dt:.4g}-{(start + n - 1) * data.dt:.4g} s "
+                 f"of {data.n_samples * data.dt:.4g} s" + ("" if args.seconds else
+                 " (around the largest peak; --seconds S for the first S seconds)"))
+    psd_path = args.out / "psd.png"
+    paths.append(psd_path)
     segment = min(round(settings.segment_s / data.dt), data.n_samples)
     x = data.values[shown]
     spectra = cross_spectra(x, x[:1], data.dt, segment, settings.overlap)
     psd = np.einsum("fii->if", spectra.Gxx).real
-    pictures.power_spectra(paths[1], spectra.frequency_hz, psd,
+    pictures.power_spectra(psd_path, spectra.frequency_hz, psd,
                            [data.names[c] for c in shown], [data.units[c] for c in shown],
                            band=settings.band,
                            title=f"{args.file.name}: power spectral densities")  # fmt: skip

@@ -1,12 +1,13 @@
 """Pictures of rig time histories and what is estimated from them (matplotlib, Agg):
 time histories, power spectral densities, the singular values of the input spectral matrix,
-coherences and FRF magnitude and phase. Each function writes one PNG atomically and
-returns the figure."""
+coherences and FRF magnitude and phase. Each function writes its PNGs atomically (the time
+histories as many as their channels need)."""
 
 from __future__ import annotations
 
 import os
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 
@@ -14,8 +15,9 @@ from ..testdata.signal import FRFEstimate, Spectra, input_singular_values
 from ..testdata.timedata import TimeData
 from .figures import pyplot, save_figure
 
-#: Most panels or curves one picture holds; more are left out (the caller is told by the
-#: title).
+#: Most panels one time-history picture holds (more go on in further pictures) and most
+#: curves one PSD panel holds (more go on in further panels); the coherence and FRF pictures
+#: draw the first this many outputs.
 MAX_CURVES = 12
 
 
@@ -35,43 +37,83 @@ def _frequency_axis(ax, ylabel: str, band: tuple[float, float] | None, f_top: fl
         ax.set_xlim(0, min(f_top, 2 * band[1]))
 
 
+#: A record longer than this (s) is drawn over a window of this length by default.
+DEFAULT_WINDOW_S = 5.0
+
+
+def time_window(data: TimeData, channels: Sequence[int],
+                seconds: float | None = None) -> tuple[int, int]:  # fmt: skip
+    """(first sample, samples) of the window a time-history picture shows: the first
+    ``seconds`` when given; the whole record when it is no longer than
+    :data:`DEFAULT_WINDOW_S`; else :data:`DEFAULT_WINDOW_S` centred on the record's largest
+    peak (the channels each scaled by their RMS about the mean), so that a long record shows
+    its signal rather than a block of ink."""
+    if seconds is not None:
+        return 0, min(data.n_samples, round(seconds / data.dt) + 1)
+    n = min(data.n_samples, round(DEFAULT_WINDOW_S / data.dt) + 1)
+    if n >= data.n_samples:
+        return 0, data.n_samples
+    x = data.values[list(channels)]
+    x = x - x.mean(axis=1, keepdims=True)
+    rms = np.sqrt(np.mean(x**2, axis=1, keepdims=True))
+    peak = int(np.argmax(np.max(np.abs(x) / np.where(rms > 0, rms, 1.0), axis=0)))
+    start = min(max(peak - n // 2, 0), data.n_samples - n)
+    return start, n
+
+
 def time_histories(path: str | os.PathLike[str], data: TimeData,
                    channels: Sequence[int] | None = None, *, seconds: float | None = None,
-                   title: str = ""):  # fmt: skip
-    """One panel per channel (at most :data:`MAX_CURVES`) of its samples against time, over
-    the first ``seconds`` (all when None)."""
+                   title: str = "") -> list[Path]:  # fmt: skip
+    """One panel per channel of its samples against time over :func:`time_window`'s window,
+    :data:`MAX_CURVES` panels to a picture: ``path``, then ``NAME_2.png`` and on for the
+    channels beyond. Returns the pictures' paths."""
     plt = pyplot()
-    chans = list(range(data.n_channels) if channels is None else channels)[:MAX_CURVES]
-    n = data.n_samples if seconds is None else min(data.n_samples, round(seconds / data.dt) + 1)
-    t = data.time[:n]
-    fig, axes = plt.subplots(len(chans), 1, figsize=(9.0, 1.5 + 1.4 * len(chans)),
-                             sharex=True, squeeze=False)  # fmt: skip
-    for ax, c in zip(axes[:, 0], chans, strict=True):
-        ax.plot(t, data.values[c, :n], color="k", lw=0.6)
-        ax.set_ylabel(data.units[c] or "-")
-        ax.set_title(data.names[c], fontsize=9, loc="left")
-        ax.grid(True, alpha=0.3)
-    axes[-1, 0].set_xlabel("time (s)")
-    fig.suptitle(title or "Time histories")
-    return save_figure(fig, path)
+    chans = list(range(data.n_channels) if channels is None else channels)
+    start, n = time_window(data, chans, seconds)
+    t = data.time[start:start + n]
+    whole = data.n_samples * data.dt
+    span = (f"{t[0]:.4g}-{t[-1]:.4g} s of {whole:.4g} s" if n < data.n_samples
+            else f"{whole:.4g} s")  # fmt: skip
+    base = Path(path)
+    paths = []
+    pages = [chans[k:k + MAX_CURVES] for k in range(0, len(chans), MAX_CURVES)]
+    for page, some in enumerate(pages, start=1):
+        fig, axes = plt.subplots(len(some), 1, figsize=(9.0, 1.5 + 1.4 * len(some)),
+                                 sharex=True, squeeze=False)  # fmt: skip
+        for ax, c in zip(axes[:, 0], some, strict=True):
+            ax.plot(t, data.values[c, start:start + n], color="k", lw=0.6)
+            ax.set_ylabel(data.units[c] or "-")
+            ax.set_title(data.names[c], fontsize=9, loc="left")
+            ax.grid(True, alpha=0.3)
+        axes[-1, 0].set_xlabel("time (s)")
+        more = f" ({page} of {len(pages)})" if len(pages) > 1 else ""
+        fig.suptitle(f"{title or 'Time histories'}{more}: {span}")
+        target = base if page == 1 else base.with_name(f"{base.stem}_{page}{base.suffix}")
+        save_figure(fig, target)
+        paths.append(target)
+    return paths
 
 
 def power_spectra(path: str | os.PathLike[str], frequency_hz: np.ndarray, psd: np.ndarray,
                   names: Sequence[str], units: Sequence[str], *, band: tuple[float, float] |
                   None = None, title: str = ""):  # fmt: skip
-    """Power spectral densities (n, n_f) of channels on a log scale, grouped by unit (one
-    panel per unit), with the analysis band shaded."""
+    """Power spectral densities (n, n_f) of every channel on a log scale, grouped by unit
+    (a panel per unit, of at most :data:`MAX_CURVES` curves), with the analysis band
+    shaded."""
     plt = pyplot()
-    groups: dict[str, list[int]] = {}
-    for k, u in enumerate(units[:MAX_CURVES]):
-        groups.setdefault(u, []).append(k)
+    by_unit: dict[str, list[int]] = {}
+    for k, u in enumerate(units):
+        by_unit.setdefault(u, []).append(k)
+    groups = [(u, ks[i:i + MAX_CURVES]) for u, ks in by_unit.items()
+              for i in range(0, len(ks), MAX_CURVES)]  # fmt: skip
     fig, axes = plt.subplots(len(groups), 1, figsize=(9.0, 1.5 + 2.6 * len(groups)),
                              sharex=True, squeeze=False)  # fmt: skip
     keep = frequency_hz > 0
-    for ax, (unit, ks) in zip(axes[:, 0], groups.items(), strict=True):
+    for ax, (unit, ks) in zip(axes[:, 0], groups, strict=True):
         for k in ks:
             ax.semilogy(frequency_hz[keep], psd[k, keep], lw=0.8, label=names[k])
-        ax.set_ylabel(f"PSD ({unit}²/Hz)" if unit else "PSD (1/Hz)")
+        squared = f"({unit})²" if "/" in unit else f"{unit}²"  # (mm/s^2)²/Hz, not mm/s^2²/Hz
+        ax.set_ylabel(f"PSD ({squared}/Hz)" if unit else "PSD (1/Hz)")
         ax.legend(fontsize=7, ncol=2)
         ax.grid(True, which="both", alpha=0.3)
         if band is not None:
