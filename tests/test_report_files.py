@@ -355,3 +355,21 @@ def test_the_page_opens_in_a_browser_with_every_picture_and_no_console_error(rep
     console = re.findall(r":CONSOLE[^\]]*\]\s*(.*)", err + err2)
     assert console == []
     assert shot.read_bytes()[:8] == PNG and shot.stat().st_size > 20_000
+
+
+def test_the_runs_table_sets_like_beside_like(report):
+    """Each start's objective (deviation + prior) at its first and last point side by side,
+    the second never above the first, and the data's part apart (541 beside 1281.86 read as
+    a start that got worse: two different quantities)."""
+    from femcal.io.calibration import report_dict
+
+    _d, result, page = report
+    text = page.read_text()
+    for head in ("deviation + prior: first point", "deviation + prior: last point",
+                 "deviation (data) at the last point"):  # fmt: skip
+        assert f"<th>{head}</th>" in text
+    for s in report_dict(result)["starts"]:
+        assert s["history"][-1] <= s["history"][0]
+        table = text.split("deviation + prior: first point")[1]
+        row = re.search(rf"<tr><td>{s['start'] + 1}</td><td>([^<]*)</td><td>([^<]*)</td>", table)
+        assert row is not None and float(row[2]) == pytest.approx(s["history"][-1], rel=1e-5)

@@ -676,8 +676,10 @@ def write_html(path: Path, report: dict, figures: list[ReportFigure],
             _f(c.get("moved_informed", c.get("moved")), ".2e"),
             _f(c.get("search_best_deviation"), ".6g") if c.get("searched") else ""]
            for c in report["cycles"]]  # fmt: skip
-    starts = [[s["start"] + 1, f"{s['history'][0]:.6g}", f"{s['deviation']:.6g}",
-               s["iterations"], f"{s['seconds']:.1f}", s["message"]]
+    # like beside like: the objective (deviation + prior) at each start's first and last
+    # point, then the data's part of it at the last
+    starts = [[s["start"] + 1, f"{s['history'][0]:.6g}", f"{s['history'][-1]:.6g}",
+               f"{s['deviation']:.6g}", s["iterations"], f"{s['seconds']:.1f}", s["message"]]
               for s in report["starts"]]  # fmt: skip
     dev = report["deviation"]
     confs = report["configurations"]
@@ -731,8 +733,11 @@ on the current surrogate ({report.get('restarts', 0)} times here); a lower minim
 the next candidate.</p>{_table(cyc, ["cycle", "step", "full-model deviation at the candidate",
  "actual / predicted fall", "trust radius", "largest change (informed parameters)",
  "search again: best deviation (surrogate)"])}
-{_table(starts, ["start", "deviation + prior at start", "deviation", "iterations", "seconds",
- "stop"])}
+<p>Each start of cycle 1 on the surrogate: the objective it minimises (the deviation plus the
+prior's term) where it started and where it stopped, and the deviation alone (the data's part)
+there.</p>
+{_table(starts, ["start", "deviation + prior: first point", "deviation + prior: last point",
+ "deviation (data) at the last point", "iterations", "seconds", "stop"])}
 </body></html>
 """
     return write_atomic(path, lambda tmp: Path(tmp).write_text(page))
