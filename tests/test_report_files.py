@@ -373,3 +373,25 @@ def test_the_runs_table_sets_like_beside_like(report):
         table = text.split("deviation + prior: first point")[1]
         row = re.search(rf"<tr><td>{s['start'] + 1}</td><td>([^<]*)</td><td>([^<]*)</td>", table)
         assert row is not None and float(row[2]) == pytest.approx(s["history"][-1], rel=1e-5)
+
+
+def test_the_paired_shapes_name_their_three_farthest_components(report, tmp_path,
+                                                                  monkeypatch):  # fmt: skip
+    """The caption promises the three components farthest from the diagonal named by their
+    sensor: each panel carries three names, however well the shapes agree."""
+    from matplotlib.text import Annotation
+
+    from femcal.viz import calibration as pictures
+
+    _d, result, _page = report
+    case = result.cases[0]
+    seen = []
+    monkeypatch.setattr(pictures, "save_figure", lambda fig, path, dpi=100: seen.append(fig))
+    assert pictures.vector_plot(tmp_path / "v.png", case) is not None
+    panels = [ax for ax in seen[0].axes if ax.get_visible()]
+    assert len(panels) == len([m for m in case.modes if m.fe_after is not None])
+    names = set(case.channel_names.values()) | {c.label for c in case.outputs}
+    for ax in panels:
+        notes = [c for c in ax.get_children() if isinstance(c, Annotation)]
+        assert len(notes) == min(3, len(case.outputs)), ax.get_title()
+        assert all(n.get_text() in names for n in notes)

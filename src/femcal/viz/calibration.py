@@ -193,14 +193,13 @@ def vector_plot(path: Path, outcome: CaseResult) -> Path | None:
     for k, (ax, pr) in enumerate(zip(axes.flat[: len(pairs)], pairs, strict=True)):
         a = fe[:, k]
         t_r = in_scale_of(outcome.test_shapes[:, pr.test_mode - 1], a)
-        lim = shape_scatter(ax, a, t_r)
+        shape_scatter(ax, a, t_r)
         ax.set_title(f"test {pr.test_hz:.1f} Hz / FE {pr.fe_after_hz:.1f} Hz\n"
                      f"MAC {pr.mac_after:.3f}", fontsize=8)  # fmt: skip
-        for o in np.argsort(np.abs(t_r - a))[::-1][:3]:  # the worst components by name
-            if abs(t_r[o] - a[o]) > 0.05 * lim:
-                ch = outcome.outputs[o]
-                ax.annotate(outcome.channel_names.get(ch.label, ch.label), (a[o], t_r[o]),
-                            fontsize=6, xytext=(3, 3), textcoords="offset points")  # fmt: skip
+        for o in np.argsort(np.abs(t_r - a))[::-1][:3]:  # the three farthest, by name
+            ch = outcome.outputs[o]
+            ax.annotate(outcome.channel_names.get(ch.label, ch.label), (a[o], t_r[o]),
+                        fontsize=6, xytext=(3, 3), textcoords="offset points")  # fmt: skip
         ax.set_xlabel(f"FE shape after calibration\n({unit})", fontsize=8)
         ax.set_ylabel(f"test shape x MSF\n({unit})", fontsize=8)
     return _save(fig, path)
