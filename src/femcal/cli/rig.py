@@ -17,6 +17,7 @@ All time data are read and written by suffix (RPC III .rsp/.tim/.drv, CSV, NPZ).
 from __future__ import annotations
 
 import argparse
+import difflib
 import re
 import sys
 import time
@@ -440,16 +441,8 @@ def _iterate(args: argparse.Namespace) -> int:
     if args.plant is not None or args.plant_damping is not None:
         deck = args.plant if args.plant is not None else args.deck
         damping = args.plant_damping if args.plant_damping is not None else args.damping
-        plant = _plant(deck, args, damping, t0)
-        if plant.outputs != model.outputs or plant.inputs != model.inputs:
-            raise UsageError(f"--plant {deck}: its actuators and outputs differ from the "
-                             "model's")  # fmt: skip
-    control = []
-    for name in args.control:
-        if name not in model.outputs:
-            raise UsageError(f"--control {name}: not an output of the rig; expected one of "
-                             f"{', '.join(model.outputs)}")  # fmt: skip
-        control.append(model.outputs.index(name))
+        plant = _plant(deck, args, damping, t0)  # the same files: the same channels
+    control = [model.outputs.index(c) for c in args.control]  # checked by _check_control
     limits = _limits(args, model)
     target = _channels(target_data, args.control, args.target, model)
     dt, n = target_data.dt, target.shape[1]
@@ -675,11 +668,7 @@ def _correct(args: argparse.Namespace) -> int:
     _check_band(settings, target_data)
     _check_control(args)
     model = _plant(args.deck, args, args.damping, t0)
-    control = [model.outputs.index(c) if c in model.outputs else -1 for c in args.control]
-    if -1 in control:
-        bad = args.control[control.index(-1)]
-        raise UsageError(f"--control {bad}: not an output of the rig; expected one of "
-                         f"{', '.join(model.outputs)}")  # fmt: skip
+    control = [model.outputs.index(c) for c in args.control]  # checked by _check_control
     _limits(args, model)
     target = _channels(target_data, args.control, args.target, model)
     dt, n = target_data.dt, target.shape[1]
@@ -744,9 +733,8 @@ def _correct(args: argparse.Namespace) -> int:
 
 def _check_control(args: argparse.Namespace) -> None:
     """Each --control channel among the rig's outputs, named from the actuators and sensors
-    files before any solve; a wrong one with the nearest names."""
-    import difflib
-
+    files before any solve (:func:`rig_channel_names`, the plant's own naming); a wrong one
+    with the nearest names."""
     names = rig_channel_names(read_points(args.actuators), read_points(args.sensors))
     for name in args.control:
         if name not in names:

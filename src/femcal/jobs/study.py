@@ -527,7 +527,8 @@ def _check_reference_has_modes(cfg: StudyConfig, ref: Point) -> None:
     """
     if len(_tracked(cfg, ref)):
         return
-    at = f"the reference point ({cfg.variable} = {ref.value:g} {cfg.unit})".replace(" )", ")")
+    unit = f" {cfg.unit}" if cfg.unit else ""
+    at = f"the reference point ({cfg.variable} = {ref.value:g}{unit})"
     lo = max(cfg.rigid_below, cfg.band[0] if cfg.band else 0.0)
     if cfg.n_modes is not None:
         raise ConfigError(f"solve.modes = {cfg.n_modes}: {at} has no elastic mode above "

@@ -31,6 +31,8 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import signal
+import threading
 import warnings
 from collections.abc import Callable
 from concurrent.futures import CancelledError, Executor, Future
@@ -260,9 +262,6 @@ def _children_ignore_ctrl_c():
     start-up (a few seconds) is therefore not seen; a worker the nanny restarts later takes
     the signal as Python does by default. Outside the main thread, where signal handlers
     cannot be set, nothing changes."""
-    import signal
-    import threading
-
     if threading.current_thread() is not threading.main_thread():
         yield
         return
