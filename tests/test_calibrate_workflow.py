@@ -129,7 +129,13 @@ def test_report_pictures_and_page(study):
     d, _, outcome, _ = study
     page = write_report(outcome, d / "out")
     text = page.read_text()
-    assert "Parameters" in text and "posterior" in text and "Summary" in text
+    assert "Parameters" in text and "posterior" in text
+    # the verdict first, the evidence next, the provenance last
+    order = [text.index(f"id='{x}'") for x in ("verdict", "parameters", "runs", "provenance")]
+    assert order == sorted(order)
+    assert re.search(r"<h2[^>]*>.*?</h2>", text).group(0) == "<h2>Verdict</h2>"
+    assert "misfit, root mean square (log10)" in text
+    assert ("worst frequency error" in text) == bool(outcome.cases[0].modes)
     for name in ("frf.png", "parameters.png", "history.png"):
         assert (d / "out" / "pictures" / name).stat().st_size > 1000
 

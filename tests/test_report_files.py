@@ -175,7 +175,8 @@ def test_several_configurations_each_get_their_inputs_and_figures(report, tmp_pa
                                           "Deviation history"]  # fmt: skip
     assert len(_images(text)) == len(titles)
     raw = (tmp_path / "out" / "report.pdf").read_bytes()
-    assert len(re.findall(rb"/Type\s*/Page\b", raw)) == 3 + len(titles)
+    # the verdict, the parameters, each configuration, the runs, the figures, the provenance
+    assert len(re.findall(rb"/Type\s*/Page\b", raw)) >= 6 + len(titles)
     pdf = _pdf_text(raw)
     assert f"Paired modes: configuration {conf.name}" in pdf
     assert "Paired modes: configuration again" in pdf
@@ -198,7 +199,7 @@ def _pdf_text(raw: bytes) -> str:
             stream = zlib.decompressobj().decompress(view[m.end():])
         except zlib.error:
             continue
-        if not stream.isascii():  # a picture's pixels
+        if re.search(rb"[\x00-\x08]", stream[:4096]) or b"T" not in stream:  # pixels
             continue
         for block in re.findall(rb"\[(.*?)\]\s*TJ|\((.*?)\)\s*Tj", stream, re.S):
             parts = re.findall(rb"\(((?:\\.|[^\\)])*)\)", block[0]) if block[0] else [block[1]]
@@ -214,8 +215,10 @@ def test_the_pdf_holds_the_same_on_a4_pages(report):
     assert raw.startswith(b"%PDF") and raw.rstrip().endswith(b"%%EOF")
     figures = len(re.findall(r"<figure id='figure-", page.read_text()))
     pages = re.findall(rb"/Type\s*/Page\b", raw)
-    # title, the parameter table (9 rows), the paired modes, one page per figure
-    assert len(pages) == 3 + figures
+    # the verdict, the parameters (9 rows), the test, the runs, one page per figure, the
+    # provenance (no held-out validation here)
+    assert result.holdout is None
+    assert len(pages) >= 5 + figures
     boxes = set(re.findall(rb"/MediaBox\s*\[\s*0 0 ([\d.]+) ([\d.]+)\s*\]", raw))
     assert {(round(float(w)), round(float(h))) for w, h in boxes} == {(595, 842)}  # A4
     info = raw.decode("latin-1")
@@ -231,6 +234,28 @@ def test_the_pdf_holds_the_same_on_a4_pages(report):
     assert hashlib.sha256((d / "main.bdf").read_bytes()).hexdigest()[:20] in text
     assert result.deviation_after and "Deviation" in text  # the summary lines
     assert not list((d / "out").glob(".report.pdf.*"))  # written atomically
+
+
+def test_the_pdf_holds_every_section_of_the_page(report):
+    """Every section and table title of report.html is in report.pdf, the verdict first and
+    the provenance last in both."""
+    import html
+
+    d, _, page = report
+    text = page.read_text()
+    titles = [html.unescape(re.sub(r"<[^>]+>", "", t))
+              for t in re.findall(r"<h[23][^>]*>(.*?)</h[23]>", text, re.S)]  # fmt: skip
+    assert titles[0] == "Verdict" and "Provenance" in titles and "Runs" in titles
+    assert "Suspect channels" in titles or "No channel stands out" in text
+    pdf = _pdf_text((d / "out" / "report.pdf").read_bytes())
+    flat = re.sub(r"\s+", " ", pdf)
+    missing = [t for t in titles if re.sub(r"\s+", " ", t) not in flat]
+    assert not missing, missing
+    assert flat.index("Verdict") < flat.index("Parameters") < flat.index("Runs") \
+        < flat.index("Provenance")  # fmt: skip
+    # the page's header cells are whole words in the PDF: no header broken mid-word
+    for word in ("name", "description", "nominal", "calibrated", "status"):
+        assert re.search(rf"(?m)^{word}$", pdf), word
 
 
 def test_long_tables_split_and_no_text_leaves_the_page(report, tmp_path, monkeypatch):
@@ -266,7 +291,7 @@ def test_long_tables_split_and_no_text_leaves_the_page(report, tmp_path, monkeyp
     monkeypatch.setattr(report_pdf._Document, "close_page", check)
     out = report_pdf.write_report_pdf(tmp_path / "r.pdf", rep, head,
                                       [(1, "History " * 30, png, "A caption. " * 200)])
-    assert out.pages.count("parameters") >= 3 and out.pages[-1] == "figure 1"
+    assert out.pages.count("parameters") >= 3 and out.pages[-2:] == ("figure 1", "provenance")
     raw = out.path.read_bytes()
     assert len(re.findall(rb"/Type\s*/Page\b", raw)) == len(out.pages)
     m = report_pdf.MARGIN - 0.5

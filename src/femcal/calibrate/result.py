@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..correlate.channels import SuspectChannel
 from ..identify.workflow import IdentifiedModel
 from ..model.model import Model
 from ..solve.normal_modes import Modes
@@ -220,6 +221,8 @@ class CaseResult:
     modes : the test modes with their pairings.
     model_form : where the calibrated model still misses the test, and what it may lack.
     channel_names : channel label -> the sensor's or input's own name (may be empty).
+    suspects : the outputs whose misfit stands out before or after calibration, with their
+        likely reasons (:mod:`femcal.correlate.channels`).
     """
 
     name: str
@@ -249,6 +252,7 @@ class CaseResult:
     modes: tuple[ModePairing, ...]
     model_form: ModelForm | None = None
     channel_names: dict[str, str] = field(default_factory=dict)
+    suspects: tuple[SuspectChannel, ...] = ()
 
     def channel_name(self, channel: Channel) -> str:
         """The channel's sensor name and label (``L03 +Z (455:+Z)``), or its label."""

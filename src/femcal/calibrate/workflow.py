@@ -60,6 +60,7 @@ import numpy as np
 
 from ..atomic import write_atomic
 from ..correlate import mac, pair_modes, pseudo_orthogonality, serep_mass
+from ..correlate.channels import suspect_channels
 from ..identify import IdentifiedModel
 from ..model.model import Model
 from ..parallel.cluster import Engine, Session, result_of
@@ -616,7 +617,12 @@ def _case_result(case: Case, sur0: Surrogate, sur: Surrogate, modes0, modes_afte
         mac_before=mac(case.test_shapes, fe_before), mac_after=mac(case.test_shapes, fe_after),
         modes=_pairings(case.test_hz, case.test_shapes, fe_before, fe_after, modes0,
                         modes_after, case.setup.band, len(case.outputs)),
-        model_form=form, channel_names=dict(case.setup.channel_names))  # fmt: skip
+        model_form=form, channel_names=dict(case.setup.channel_names),
+        suspects=suspect_channels(case.outputs, case.inputs, case.freq, case.H_test, H_after,
+                                  H_before=H_before, phase=metric == "complex-log",
+                                  model=case.model, modes=modes_after, zeta=case.zeta0,
+                                  quantity=case.quantity,
+                                  names=dict(case.setup.channel_names)))  # fmt: skip
 
 
 def _pairings(test_hz: np.ndarray, test_shapes: np.ndarray, fe_before: np.ndarray,

@@ -23,9 +23,10 @@ from ..calibrate.augment import AddedElement
 from ..calibrate.config import Config, Configuration
 from ..calibrate.modelform import NOISE_FACTOR
 from ..calibrate.parameters import Parameter
-from ..calibrate.result import CalibrationResult, CaseResult, Cycle
+from ..calibrate.result import CalibrationResult, CaseResult, Cycle, ModePairing
+from ..correlate.channels import STANDOUT_FACTOR, SuspectChannel
 from .html import (
-    HEADER_STYLE,
+    PAGE_STYLE,
     embedded_figure,
     file_facts,
     html_header,
@@ -81,15 +82,69 @@ def misfit_sigma(case: CaseResult) -> float:
     return float(np.sqrt(case.deviation_after / case.likelihood.m))
 
 
+def _worst(modes: list[ModePairing], key: str) -> tuple[float, int] | None:
+    """(the largest |frequency error| in %, its test mode) of ``key`` (before or after)."""
+    errs = [(abs(v), m.test_mode) for m in modes
+            if (v := getattr(m, f"frequency_error_{key}_pct")) is not None]  # fmt: skip
+    return max(errs) if errs else None
+
+
+def _lowest(modes: list[ModePairing], key: str) -> tuple[float, int] | None:
+    """(the lowest MAC, its test mode) of ``key`` (before or after)."""
+    macs = [(v, m.test_mode) for m in modes if (v := getattr(m, f"mac_{key}")) is not None]
+    return min(macs) if macs else None
+
+
+def verdict_lines(result: CalibrationResult) -> list[str]:
+    """What an engineer decides from, first on the page and the console: per configuration
+    the worst frequency error and the lowest MAC of the paired modes before and after, the
+    misfit before and after; the parameters that moved most; the suspect channels."""
+    several = len(result.cases) > 1
+    lines = []
+    for case in result.cases:
+        at = f"{case.name}: " if several else ""
+        modes = list(case.modes)
+        wb, wa = _worst(modes, "before"), _worst(modes, "after")
+        lb, la = _lowest(modes, "before"), _lowest(modes, "after")
+        paired = sum(m.fe_after is not None for m in modes)
+        if wb and wa and lb and la:
+            lines.append(f"{at}Frequencies: the worst error {wb[0]:.2f} % before (test mode "
+                         f"{wb[1]}), {wa[0]:.2f} % after (test mode {wa[1]}); MAC: the lowest "
+                         f"{lb[0]:.3f} before, {la[0]:.3f} after; {paired} of {len(modes)} "
+                         "test modes paired.")  # fmt: skip
+        elif not modes:
+            lines.append(f"{at}No identified test modes: the FRFs alone were compared.")
+        m = _misfit(case)
+        lines.append(f"{at}Misfit (log10 of the FRF; 0.1 is a factor 1.26): root mean square "
+                     f"{m['rms_before']:.3g} before, {m['rms_after']:.3g} after"
+                     + (f"; typical (robust) {m['typical_before']:.3g} before, "
+                        f"{m['typical_after']:.3g} after" if m["typical_after"] is not None
+                        else "")
+                     + (f"; the test's noise {m['noise']:.2g}." if m["noise"] else "."))
+    moved = sorted((r for r in result.parameters if not r.held), key=lambda r: -abs(r.p))[:3]
+    if moved:
+        lines.append("Moved most: " + ", ".join(
+            f"{r.parameter.name} {100 * r.p:+.2f} % (posterior std {100 * r.posterior_std_p:.2g}"
+            f" %, {'identifiable' if r.identifiable else 'weakly informed'})"
+            for r in moved) + ".")  # fmt: skip
+    for case in result.cases:
+        at = f"{case.name}: " if several else ""
+        lines += [f"{at}Suspect channel (misfit over {STANDOUT_FACTOR:g} times the median "
+                  f"channel's): {x.describe()}" for x in case.suspects]
+    return lines
+
+
 def summary_lines(result: CalibrationResult) -> list[str]:
-    """The trust summary that leads the report and ends the console output: whether the
-    search settled, what was calibrated, held, identifiable or left on a bound, and whether
-    the misfit points at something the model lacks."""
+    """The trust summary that leads the report and ends the console output: the verdict
+    (:func:`verdict_lines`), whether the search settled, what was calibrated, held,
+    identifiable or left on a bound, and whether the misfit points at something the model
+    lacks."""
     rs = result.parameters
     held = [r.parameter.name for r in rs if r.held]
     ident = [r.parameter.name for r in rs if r.identifiable]
     bound = [r.parameter.name for r in rs if r.at_bound]
-    lines = [("The search settled: the identifiable parameters stopped moving." if result.settled
+    lines = verdict_lines(result)
+    lines += [("The search settled: the identifiable parameters stopped moving." if result.settled
               else "The search did not settle: the identifiable parameters were still moving "
               "when the cycles ran out."),
              f"{len(rs) - len(held)} of {len(rs)} parameters calibrated, {len(held)} held at "
@@ -141,7 +196,8 @@ def summary_lines(result: CalibrationResult) -> list[str]:
                          "held-out data worse than the nominal one (deviation "
                          f"{ho.deviation_calibrated:.5g} against {ho.deviation_nominal:.5g}): "
                          "the calibrated values fit this test rather than the structure.")
-    lines.append(f"Deviation {result.deviation_before:.6g} before, {result.deviation_after:.6g} "
+    lines.append(f"Deviation (the sum of the squared log10 residuals, no unit; 0 is a perfect "
+                 f"fit) {result.deviation_before:.6g} before, {result.deviation_after:.6g} "
                  "after.")  # fmt: skip
     if result.augmented is not None:
         lines += augmented_lines(result)
@@ -242,6 +298,28 @@ def _holdout(result: CalibrationResult) -> dict | None:
                              if not h}} for f in ho.folds]}  # fmt: skip
 
 
+def _misfit(case: CaseResult) -> dict:
+    """The configuration's misfit in log10 of the FRF, by one definition each: the root mean
+    square of the residuals (what the deviation sums), and the typical residual (the robust
+    standard deviation, which a few bad channels or antiresonances do not move)."""
+    m = case.likelihood.m
+    form = case.model_form
+    return {"rms_before": float(np.sqrt(case.deviation_before / m)),
+            "rms_after": misfit_sigma(case),
+            "typical_before": form.typical_before if form else None,
+            "typical_after": form.typical_after if form else None,
+            "noise": form.noise_sigma if form else None}  # fmt: skip
+
+
+def _suspect(s: SuspectChannel) -> dict:
+    """A suspect channel as the report lists it."""
+    return {"channel": s.label, "name": s.name, "misfit_before": _finite(s.misfit_before),
+            "misfit_after": s.misfit_after, "median_before": _finite(s.median_before),
+            "median_after": s.median_after, "level": s.level, "reasons": list(s.reasons),
+            "notes": list(s.notes), "worse_after": s.worse_after,
+            "text": s.describe(), "brief": s.brief()}  # fmt: skip
+
+
 def _configuration(conf: Configuration, case: CaseResult, cfg: Config) -> dict:
     """One configuration's part of the report."""
     lk = case.likelihood
@@ -258,6 +336,8 @@ def _configuration(conf: Configuration, case: CaseResult, cfg: Config) -> dict:
                        "effective_observations": lk.n_eff, "estimated": lk.estimated,
                        "misfit_sigma_after": misfit_sigma(case),
                        "noise_sigma": case.model_form.noise_sigma if case.model_form else None},
+        "misfit": _misfit(case),
+        "suspects": [_suspect(x) for x in case.suspects],
         "model_form": _model_form(case),
         "frf_modes": case.frf_modes, "model_dof": case.model.n_dof,
         "calibrated_deck": calibrated_deck_name(conf, cfg),
@@ -287,8 +367,10 @@ def report_dict(result: CalibrationResult) -> dict:
                         "error_over_std": r.error_over_std})  # fmt: skip
         params.append(row)
     post = result.posterior
+    summary = summary_lines(result)
     return {
-        "summary": summary_lines(result), "metric": cfg.metric, "loss": cfg.loss,
+        "summary": summary, "trust": summary[len(verdict_lines(result)):],
+        "metric": cfg.metric, "loss": cfg.loss,
         "huber_c": cfg.huber_c if cfg.loss == "huber" else None,
         "configurations": [_configuration(conf, case, cfg) for conf, case
                            in zip(cfg.configurations, result.cases, strict=True)],
@@ -531,53 +613,72 @@ def report_inputs(result: CalibrationResult) -> list[dict]:
     return out
 
 
-def _model_form_html(form: dict | None) -> str:
-    """The model-form part of a configuration's section: what the misfit says, by band, the
-    worst sensors, the missing-element candidates."""
-    if form is None:
-        return ""
-    says = "".join(f"<li>{html.escape(x)}</li>" for x in form["suggestions"])
+def model_form_tables(form: dict) -> list[tuple[str, list[str], list[list[str]]]]:
+    """The model-form tables, each (what it shows, header, rows): the residual by band, the
+    channels that fit worst, the missing-element candidates (if any)."""
     bands = [[f"{b['band_hz'][0]:.1f}-{b['band_hz'][1]:.1f}", _f(b["typical_before"], ".3g"),
               _f(b["typical_after"], ".3g"), _f(b["rms_after"], ".3g")]
              for b in form["bands"]]  # fmt: skip
     worst = sorted(form["outputs"], key=lambda o: -o["typical_after"])[:8]
     outs = [[o["name"] or o["channel"], o["channel"], f"{o['typical_before']:.3g}",
              f"{o['typical_after']:.3g}", f"{o['rms_after']:.3g}"] for o in worst]  # fmt: skip
-    cands = [[c["kind"], c["grid"], c["component"] or "1-3",
+    cands = [[c["kind"], str(c["grid"]), str(c["component"] or "1-3"),
               ", ".join(f"{x:.6g}" for x in c["xyz"]), f"{c['value']:.3g}",
               f"{100 * c['fall']:.1f}"] for c in form["candidates"]]  # fmt: skip
-    missing = "" if not cands else (
-        "<p>Missing elements the misfit asks for most (first order, on Huber-weighted "
-        "residuals; sizes in the model's units):</p>"
-        + _table(cands, ["element", "grid", "component", "x, y, z", "size",
-                         "misfit removed %"]))  # fmt: skip
-    return f"""<h3>Model form</h3><ul>{says}</ul>
-<p>The residual (log10) by band: its typical size (robust standard deviation) before and
-after calibration, what the warning sets against the test's noise
-({_f(form["noise_sigma"], ".2g")}), and its RMS after (dominated by the antiresonances):</p>
-{_table(bands, ["band Hz", "typical before", "typical after", "RMS after"])}
-<p>The channels that fit worst after calibration (by the typical residual):</p>
-{_table(outs, ["sensor", "channel", "typical before", "typical after", "RMS after"])}
-{missing}"""
+    out = [("The residual (log10) by band: its typical size (robust standard deviation) before "
+            "and after calibration, what the warning sets against the test's noise "
+            f"({_f(form['noise_sigma'], '.2g')}), and its root mean square after (dominated by "
+            "the antiresonances):", ["band Hz", "typical before", "typical after", "RMS after"],
+            bands),
+           ("The channels that fit worst after calibration (by the typical residual):",
+            ["sensor", "channel", "typical before", "typical after", "RMS after"], outs)]
+    if cands:
+        out.append(("Missing elements the misfit asks for most (first order, on Huber-weighted "
+                    "residuals; sizes in the model's units):",
+                    ["element", "grid", "component", "x, y, z", "size", "misfit removed %"],
+                    cands))  # fmt: skip
+    return out
+
+
+def _model_form_html(form: dict | None) -> str:
+    """The model-form part of a configuration's section: what the misfit says, by band, the
+    worst sensors, the missing-element candidates."""
+    if form is None:
+        return ""
+    says = "".join(f"<li>{html.escape(x)}</li>" for x in form["suggestions"])
+    return f"<h3>Model form</h3><ul>{says}</ul>" + "".join(
+        f"<p>{html.escape(text)}</p>{_table(rows, head)}"
+        for text, head, rows in model_form_tables(form))
+
+
+#: The held-out validation table's header.
+HOLDOUT_HEAD = ["held out", "residuals", "deviation, nominal",
+                "deviation, calibrated without it", ""]  # fmt: skip
+
+
+def holdout_parts(ho: dict) -> tuple[str, list[list[str]]]:
+    """The held-out validation's text and table rows."""
+    what = {"inputs": "each input's FRFs", "sensors": "each group of sensor positions",
+            "configurations": "each configuration"}[ho["kind"]]  # fmt: skip
+    rows = [[f["name"], str(f["residuals"]), f"{f['deviation_nominal']:.6g}",
+             f"{f['deviation_calibrated']:.6g}", "better" if f["better"] else "WORSE"]
+            for f in ho["folds"]]  # fmt: skip
+    verdict = ("better" if ho["better"] else
+               "WORSE: the calibrated values fit this test rather than the structure")
+    return (f"The calibration was repeated without {what} in turn (likelihood, held parameters "
+            "and search as for the whole test), and the full model at those parameters "
+            "predicts the held-out residuals; the nominal model's deviation on them is the "
+            f"reference. In all: {ho['deviation_calibrated']:.6g} calibrated against "
+            f"{ho['deviation_nominal']:.6g} nominal ({verdict}).", rows)  # fmt: skip
 
 
 def _holdout_html(ho: dict | None) -> str:
     """The hold-out validation's section."""
     if ho is None:
         return ""
-    what = {"inputs": "each input's FRFs", "sensors": "each group of sensor positions",
-            "configurations": "each configuration"}[ho["kind"]]  # fmt: skip
-    rows = [[f["name"], f["residuals"], f"{f['deviation_nominal']:.6g}",
-             f"{f['deviation_calibrated']:.6g}", "better" if f["better"] else "WORSE"]
-            for f in ho["folds"]]  # fmt: skip
-    return f"""<h2>Validation on held-out data</h2>
-<p>The calibration was repeated without {what} in turn (likelihood, held parameters and search
-as for the whole test), and the full model at those parameters predicts the held-out residuals;
-the nominal model's deviation on them is the reference. In all: {ho['deviation_calibrated']:.6g}
-calibrated against {ho['deviation_nominal']:.6g} nominal ({'better' if ho['better'] else
-'WORSE: the calibrated values fit this test rather than the structure'}).</p>
-{_table(rows, ["held out", "residuals", "deviation, nominal", "deviation, calibrated without it",
- ""])}"""
+    text, rows = holdout_parts(ho)
+    return (f"<h2 id='holdout'>Validation on held-out data</h2><p>{html.escape(text)}</p>"
+            + _table(rows, HOLDOUT_HEAD))
 
 
 def _augmented_html(report: dict) -> str:
@@ -608,6 +709,76 @@ calibration {a['deviation_after']:.6g} against {report['deviation']['after']:.6g
 {_table(rows, ["parameter", "calibrated without it", "calibrated with it"])}"""
 
 
+def test_text(c: dict) -> str:
+    """A configuration's test, as the page and the PDF say it."""
+    return (f"Deck {c['deck']}; test {c['test']}; band {c['band_hz'][0]:g}-"
+            f"{c['band_hz'][1]:g} Hz at {c['n_frequencies']} frequencies; damping equalised "
+            f"to zeta0 = {c['zeta0']:.4f}; {len(c['outputs'])} outputs x {len(c['inputs'])} "
+            f"inputs; channels left out: {', '.join(c['excluded_channels']) or 'none'}. "
+            f"Calibrated deck: {c['calibrated_deck']} (beside this report).")  # fmt: skip
+
+
+def misfit_text(c: dict) -> str:
+    """A configuration's misfit, each quantity once and defined where it is given."""
+    m, lk = c["misfit"], c["likelihood"]
+    typical = ("" if m["typical_after"] is None else
+               f"; typical (the robust standard deviation, 1.4826 times the median "
+               f"residual's size, which a few bad channels or antiresonances do not move) "
+               f"{m['typical_before']:.3g} before, {m['typical_after']:.3g} after")  # fmt: skip
+    noise = ("" if m["noise"] is None else
+             f"; the test's noise (the measured FRFs' scatter about the identified model) "
+             f"{m['noise']:.2g}")  # fmt: skip
+    weigh = (" (estimated: the root mean square of the residuals at the nominal model as the "
+             "loss counts them)" if lk["estimated"] else " (the given noise level)")
+    return (f"Misfit, in log10 of the FRF (0.1 is a factor 1.26, 1 a factor 10): root mean "
+            f"square {m['rms_before']:.3g} before, {m['rms_after']:.3g} after calibration"
+            f"{typical}{noise}. The deviation, the sum of the {lk['residuals']} squared "
+            f"residuals (no unit): {c['deviation']['before']:.6g} before, "
+            f"{c['deviation']['after']:.6g} after. The likelihood weighs each residual with "
+            f"sigma = {lk['sigma']:.3g}{weigh} and counts the residuals as "
+            f"{lk['effective_observations']:.0f} independent observations.")  # fmt: skip
+
+
+def suspects_text(c: dict) -> str:
+    """What the suspect-channel table shows, or that no channel stands out."""
+    sus = c.get("suspects") or []
+    if not sus:
+        return (f"No channel stands out (none has a misfit over {STANDOUT_FACTOR:g} times the "
+                "median channel's).")  # fmt: skip
+    return (f"Channels whose misfit (root mean square, log10) is over {STANDOUT_FACTOR:g} "
+            f"times the median channel's ({_f(sus[0]['median_before'], '.3g')} before, "
+            f"{sus[0]['median_after']:.3g} after calibration), with the likely reason: each "
+            "alternative (the test's level as a constant factor, the opposite sign, another "
+            "axis, a nearby grid) is tried on the calibrated model and given where it removes "
+            "at least half of the misfit. A wrong channel pulls the parameters: check it, or "
+            "leave it out and calibrate again.")  # fmt: skip
+
+
+#: The suspect-channel table's header.
+SUSPECT_HEAD = ["sensor", "channel", "misfit before", "misfit after", "test / model level",
+                "likely reason", "also"]  # fmt: skip
+
+
+def suspect_rows(c: dict) -> list[list[str]]:
+    """The suspect-channel table's rows."""
+    return [[x["name"] or "-", x["channel"], _f(x["misfit_before"], ".3g"),
+             f"{x['misfit_after']:.3g}", f"{x['level']:.3g}",
+             "; ".join(x["reasons"]) or "no simple mistake explains it",
+             "; ".join(x["notes"])] for x in c.get("suspects") or []]  # fmt: skip
+
+
+def _misfit_html(c: dict) -> str:
+    return f"<p>{html.escape(misfit_text(c))}</p>{_suspects_html(c)}"
+
+
+def _suspects_html(c: dict) -> str:
+    """The configuration's suspect channels, or that none stands out."""
+    if not c.get("suspects"):
+        return f"<p>{html.escape(suspects_text(c))}</p>"
+    return (f"<h3 id='suspects-{html.escape(c['name'])}'>Suspect channels</h3>"
+            f"<p>{html.escape(suspects_text(c))}</p>{_table(suspect_rows(c), SUSPECT_HEAD)}")
+
+
 def _configuration_html(c: dict, figures: list[ReportFigure], several: bool) -> str:
     """One configuration's section: its test, deviation, modes and figures (the renderings
     of the calibrated paired modes last)."""
@@ -615,23 +786,13 @@ def _configuration_html(c: dict, figures: list[ReportFigure], several: bool) -> 
               _f(m["frequency_error_before_pct"], "+.2f"),
               _f(m["frequency_error_after_pct"], "+.2f"), _f(m["mac_before"], ".4f"),
               _f(m["mac_after"], ".4f")] for m in c["modes"]]  # fmt: skip
-    lk = c["likelihood"]
-    deck = html.escape(c["calibrated_deck"])
-    noise = lk["noise_sigma"]
-    head = f"<h2>Configuration {html.escape(c['name'])}</h2>" if several else "<h2>Test</h2>"
+    anchor = f"test-{html.escape(c['name'])}"
+    head = (f"<h2 id='{anchor}'>Configuration {html.escape(c['name'])}</h2>" if several
+            else f"<h2 id='{anchor}'>Test</h2>")  # fmt: skip
     return f"""{head}
-<p>Deck {html.escape(c['deck'])}; test {html.escape(c['test'])}; band
-{c['band_hz'][0]:g}-{c['band_hz'][1]:g} Hz at {c['n_frequencies']} frequencies; damping
-equalised to zeta0 = {c['zeta0']:.4f}; {len(c['outputs'])} outputs x {len(c['inputs'])}
-inputs; channels left out: {html.escape(', '.join(c['excluded_channels']) or 'none')}.
-Calibrated deck: <code>{deck}</code> (beside this report).</p>
-<p>Deviation before {c['deviation']['before']:.6g}, after {c['deviation']['after']:.6g} (full
-model, log10 FRF residuals squared and summed). One residual's standard deviation: {lk['sigma']:.3g}
-at the nominal model, {lk['misfit_sigma_after']:.3g} after calibration{
-'' if noise is None else f"; the test's noise (scatter about the identified model) {noise:.2g}"};
-the {lk['residuals']} residuals count as {lk['effective_observations']:.0f} independent
-observations.</p>
-<h3>Modes</h3>{_table(modes, ["test Hz", "FE before Hz", "FE after Hz", "error before %",
+<p>{html.escape(test_text(c))}</p>
+{_misfit_html(c)}
+<h3>Paired modes</h3>{_table(modes, ["test Hz", "FE before Hz", "FE after Hz", "error before %",
  "error after %", "MAC before", "MAC after"]) + "<p>Frequency error: (test - FE) / FE.</p>"
  if modes else "<p>No identified test modes (raw FRFs compared).</p>"}
 {_model_form_html(c.get("model_form"))}
@@ -639,6 +800,142 @@ observations.</p>
 {'<h3>Paired modes after calibration</h3>' if any(f.mode for f in figures) else ''}{
 ''.join(_figure(f) for f in figures if f.mode)}
 """
+
+
+def _before_after(c: dict) -> list[list[str]]:
+    """The verdict table's rows of one configuration: what before, what after."""
+    modes = c["modes"]
+
+    def worst(key: str) -> str:
+        errs = [(abs(m[f"frequency_error_{key}_pct"]), m["test_mode"]) for m in modes
+                if m[f"frequency_error_{key}_pct"] is not None]  # fmt: skip
+        return "-" if not errs else f"{max(errs)[0]:.2f} % (test mode {max(errs)[1]})"
+
+    def lowest(key: str) -> str:
+        macs = [(m[f"mac_{key}"], m["test_mode"]) for m in modes if m[f"mac_{key}"] is not None]
+        return "-" if not macs else f"{min(macs)[0]:.3f} (test mode {min(macs)[1]})"
+
+    def paired(key: str) -> str:
+        return f"{sum(m[f'fe_{key}_mode'] is not None for m in modes)} of {len(modes)}"
+
+    m = c["misfit"]
+    rows = [["worst frequency error", worst("before"), worst("after")],
+            ["lowest MAC", lowest("before"), lowest("after")],
+            ["test modes paired", paired("before"), paired("after")]] if modes else []
+    rows += [["misfit, root mean square (log10)", f"{m['rms_before']:.3g}",
+              f"{m['rms_after']:.3g}"]]  # fmt: skip
+    if m["typical_after"] is not None:
+        rows.append(["misfit, typical (log10, robust)", f"{m['typical_before']:.3g}",
+                     f"{m['typical_after']:.3g}"])  # fmt: skip
+    sus = c.get("suspects") or []
+    rows.append(["suspect channels", str(sum(x["misfit_before"] is not None and
+                                             x["misfit_before"] > STANDOUT_FACTOR
+                                             * (x["median_before"] or 0) for x in sus)),
+                 str(sum(x["misfit_after"] > STANDOUT_FACTOR * x["median_after"]
+                         for x in sus))])  # fmt: skip
+    return rows
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The verdict's parts, plain text, for the page and the PDF alike.
+
+    tables : per configuration (its name, rows of [what, before, after]).
+    moved : the parameters that moved most, as one sentence.
+    doubts : what to doubt: suspect channels, weakly informed and held parameters, warnings.
+    rest : the rest of the trust summary.
+    """
+
+    tables: list[tuple[str, list[list[str]]]]
+    moved: str
+    doubts: list[str]
+    rest: list[str]
+
+
+#: The verdict table's header.
+VERDICT_HEAD = ["", "before calibration", "after calibration"]
+
+
+def _is_warning(line: str) -> bool:
+    return line.startswith("Warning") or "warning" in line.split(":")[0]
+
+
+def verdict_of(report: dict) -> Verdict:
+    """:class:`Verdict` of ``report`` (:func:`report_dict`)."""
+    confs = report["configurations"]
+    free = [p for p in report["parameters"] if not p["held"]]
+    moved = sorted(free, key=lambda p: -abs(p["p"]))[:5]
+    moved_text = ("Moved most (change from the nominal, ± the posterior standard deviation): "
+                  + (", ".join(f"{p['name']} {100 * p['p']:+.2f} % (± "
+                               f"{100 * p['posterior_std_p']:.2g} %"
+                               f"{', identifiable' if p['identifiable'] else ''})"
+                               for p in moved) or "nothing (every parameter held)") + ".")
+    doubts = [f"{c['name'] + ': ' if len(confs) > 1 else ''}Suspect channels (misfit over "
+              f"{STANDOUT_FACTOR:g} times the median channel's; the suspect-channel table "
+              "says more): " + "; ".join(x["brief"] for x in c["suspects"]) + "."
+              for c in confs if c.get("suspects")]  # fmt: skip
+    weak = [p["name"] for p in free if not p["identifiable"]]
+    held = [p["name"] for p in report["parameters"] if p["held"]]
+    if weak:
+        doubts.append(f"{len(weak)} calibrated parameter{'s' * (len(weak) > 1)} the test "
+                      f"informs only weakly (posterior standard deviation over "
+                      f"{100 * report['posterior']['identifiable_below']:g} % of the prior's): "
+                      f"{', '.join(weak)}; their values lean on the prior.")  # fmt: skip
+    if held:
+        doubts.append(f"{len(held)} parameter{'s' * (len(held) > 1)} the test cannot inform, "
+                      f"held at the nominal: {', '.join(held)}.")  # fmt: skip
+    trust = report.get("trust", [])
+    doubts += [x for x in trust if _is_warning(x)]
+    return Verdict([(c["name"], _before_after(c)) for c in confs], moved_text,
+                   doubts or ["Nothing stands out."], [x for x in trust if not _is_warning(x)])
+
+
+def verdict_html(report: dict) -> str:
+    """The block that opens the page (:func:`verdict_of`): per configuration the frequency
+    errors, MAC and misfit before and after, then what moved most and what to doubt, then
+    the rest of the trust summary."""
+    v = verdict_of(report)
+    several = len(v.tables) > 1
+    tables = "".join((f"<p><b>{html.escape(name)}</b></p>" if several else "")
+                     + _table(rows, VERDICT_HEAD) for name, rows in v.tables)  # fmt: skip
+    return (f"<section id='verdict' class='verdict'><h2>Verdict</h2>{tables}"
+            f"<p>{html.escape(v.moved)}</p><p><b>What to doubt</b></p><ul class='doubt'>"
+            + "".join(f"<li>{html.escape(d)}</li>" for d in v.doubts)
+            + "</ul><ul class='summary'>"
+            + "".join(f"<li>{html.escape(x)}</li>" for x in v.rest)
+            + "</ul></section>")  # fmt: skip
+
+
+#: The runs tables' headers.
+CYCLES_HEAD = ["cycle", "step", "full-model deviation at the candidate",
+               "actual / predicted fall", "trust radius", "largest change (informed parameters)",
+               "search again: best deviation (surrogate)"]  # fmt: skip
+STARTS_HEAD = ["start", "deviation + prior: first point", "deviation + prior: last point",
+               "deviation (data) at the last point", "iterations", "seconds", "stop"]
+
+
+def runs_tables(report: dict) -> list[tuple[str, list[str], list[list[str]]]]:
+    """The runs' tables, each (what it shows, header, rows): the cycles, and cycle 1's
+    starts."""
+    cyc = [[c["cycle"], "multi-start" if c["cycle"] == 1 else
+            ("kept" if c["accepted"] else "rejected")
+            + (" (search candidate)" if c.get("from_search") else ""),
+            _f(c.get("exact_deviation_at_candidate", c.get("exact_deviation_at_center")), ".6g"),
+            _f(c.get("rho"), ".2f"), _f(c.get("radius"), ".3g"),
+            _f(c.get("moved_informed", c.get("moved")), ".2e"),
+            _f(c.get("search_best_deviation"), ".6g") if c.get("searched") else ""]
+           for c in report["cycles"]]  # fmt: skip
+    # like beside like: the objective (deviation + prior) at each start's first and last
+    # point, then the data's part of it at the last
+    starts = [[s["start"] + 1, f"{s['history'][0]:.6g}", f"{s['history'][-1]:.6g}",
+               f"{s['deviation']:.6g}", s["iterations"], f"{s['seconds']:.1f}", s["message"]]
+              for s in report["starts"]]  # fmt: skip
+    return [("Each cycle: its step, the full model's deviation at the candidate, the trust "
+             "region's ratio and radius.", CYCLES_HEAD, [[str(x) for x in r] for r in cyc]),
+            ("Each start of cycle 1 on the surrogate: the objective it minimises (the "
+             "deviation plus the prior's term) where it started and where it stopped, and the "
+             "deviation alone (the data's part) there.", STARTS_HEAD,
+             [[str(x) for x in r] for r in starts])]
 
 
 def write_html(path: Path, report: dict, figures: list[ReportFigure],
@@ -667,20 +964,7 @@ def write_html(path: Path, report: dict, figures: list[ReportFigure],
         prm_head += ["true", "error %", "|error| / posterior std"]
     why = "".join(f"<li><b>{html.escape(p['name'])}</b>: {html.escape(p['reason'])}</li>"
                   for p in report["parameters"])  # fmt: skip
-    summary = "".join(f"<li>{html.escape(line)}</li>" for line in report["summary"])
-    cyc = [[c["cycle"], "multi-start" if c["cycle"] == 1 else
-            ("kept" if c["accepted"] else "rejected")
-            + (" (search candidate)" if c.get("from_search") else ""),
-            _f(c.get("exact_deviation_at_candidate", c.get("exact_deviation_at_center")), ".6g"),
-            _f(c.get("rho"), ".2f"), _f(c.get("radius"), ".3g"),
-            _f(c.get("moved_informed", c.get("moved")), ".2e"),
-            _f(c.get("search_best_deviation"), ".6g") if c.get("searched") else ""]
-           for c in report["cycles"]]  # fmt: skip
-    # like beside like: the objective (deviation + prior) at each start's first and last
-    # point, then the data's part of it at the last
-    starts = [[s["start"] + 1, f"{s['history'][0]:.6g}", f"{s['history'][-1]:.6g}",
-               f"{s['deviation']:.6g}", s["iterations"], f"{s['seconds']:.1f}", s["message"]]
-              for s in report["starts"]]  # fmt: skip
+    (_, cyc_head, cyc), (_, starts_head, starts) = runs_tables(report)
     dev = report["deviation"]
     confs = report["configurations"]
     several = len(confs) > 1
@@ -688,26 +972,25 @@ def write_html(path: Path, report: dict, figures: list[ReportFigure],
                                            several) for c in confs)  # fmt: skip
     contents = "".join(f"<li><a href='#figure-{f.number}'>Figure {f.number}</a>. "
                        f"{html.escape(f.title)}</li>" for f in figures)  # fmt: skip
+    nav = "".join(f", <a href='#test-{html.escape(c['name'])}'>"
+                  f"{html.escape(c['name']) if several else 'test'}</a>" for c in confs)
     page = f"""<!DOCTYPE html><html><head><meta charset="utf-8"><title>femcal calibration</title>
-<style>body{{font-family:sans-serif;margin:2em;max-width:1500px}}table{{border-collapse:collapse;
-margin:1em 0}}td,th{{border:1px solid #bbb;padding:3px 8px;text-align:right}}th{{background:#eee}}
-img{{max-width:100%;display:block;margin:0.5em 0}}
+<meta name="viewport" content="width=device-width, initial-scale=1">
+<style>{PAGE_STYLE}
 figure.mode{{width:48%;display:inline-block;vertical-align:top;margin:0.5em 1% 0.5em 0}}
-ul.summary{{background:#f4f4f4;padding:0.8em 2em;font-size:1.05em}}
-figure{{margin:1.5em 0}}figcaption{{color:#333;max-width:1100px;font-size:0.95em}}
-{HEADER_STYLE}
 </style></head><body>
 <h1>femcal calibration</h1>
-{html_header(head) if head is not None else ''}
-{f'<p>Figures:</p><ul class="contents">{contents}</ul>' if contents else ''}
-<h2>Summary</h2><ul class="summary">{summary}</ul>
+{verdict_html(report)}
+<p class="nav">On this page: <a href="#parameters">parameters</a>{nav}{
+", <a href='#holdout'>held-out validation</a>" if report.get("holdout") else ""},
+<a href="#runs">runs</a>, <a href="#provenance">provenance and figures</a>.</p>
 <p>Metric {report['metric']}, {'Huber' if report.get('loss') == 'huber' else 'least-squares'}
 loss; {len(confs)} configuration{'s' if several else ''}
-({html.escape(', '.join(c['name'] for c in confs))}); deviation before {dev['before']:.6g},
-after {dev['after']:.6g}{'' if report['settled'] else
+({html.escape(', '.join(c['name'] for c in confs))}); deviation (the sum of the squared log10
+residuals) {dev['before']:.6g} before, after {dev['after']:.6g}{'' if report['settled'] else
 '; the parameters had not settled when the cycles ran out'}. Run time
 {report['seconds']:.0f} s.</p>
-<h2>Parameters</h2>{_table(prm, prm_head)}
+<h2 id='parameters'>Parameters</h2>{_table(prm, prm_head)}
 <p>The estimate is the posterior's maximum: the prior is each parameter's standard deviation
 (the bounds at {report['prior']['bounds_sigma']:g} standard deviations, or the parameter file's
 confidence), the likelihood weighs each test's residuals by their standard deviation and
@@ -724,20 +1007,20 @@ the prior's; held: the test cannot narrow the prior by more than
 {_holdout_html(report.get("holdout"))}
 {_augmented_html(report)}
 {sections}
-<h2>Runs</h2><p>Cycle 1 runs Levenberg-Marquardt from every start on the nominal model's
+<h2 id='runs'>Runs</h2><p>Cycle 1 runs Levenberg-Marquardt from every start on the nominal model's
 surrogate; each later cycle rebuilds the surrogate at the candidate point, where it is the full
 model, keeps the step if the full model's cost fell (trust region) and runs LM again inside the
 trust radius. When a kept step lowers the cost by less than {
 100 * report.get('restart_fall', 0):g} %, or the cycles settle, the multi-start search runs again
 on the current surrogate ({report.get('restarts', 0)} times here); a lower minimum elsewhere is
-the next candidate.</p>{_table(cyc, ["cycle", "step", "full-model deviation at the candidate",
- "actual / predicted fall", "trust radius", "largest change (informed parameters)",
- "search again: best deviation (surrogate)"])}
+the next candidate.</p>{_table(cyc, cyc_head)}
 <p>Each start of cycle 1 on the surrogate: the objective it minimises (the deviation plus the
 prior's term) where it started and where it stopped, and the deviation alone (the data's part)
 there.</p>
-{_table(starts, ["start", "deviation + prior: first point", "deviation + prior: last point",
- "deviation (data) at the last point", "iterations", "seconds", "stop"])}
+{_table(starts, starts_head)}
+<h2 id='provenance'>Provenance</h2>
+{html_header(head) if head is not None else ''}
+{f'<p>Figures:</p><ul class="contents">{contents}</ul>' if contents else ''}
 </body></html>
 """
     return write_atomic(path, lambda tmp: Path(tmp).write_text(page))
@@ -805,8 +1088,13 @@ def write_report(result: CalibrationResult, out: str | os.PathLike[str], *,
         from ..viz.report_pdf import write_report_pdf
 
         say("writing report.pdf")
+        groups: dict[int, str] = {}
+        for f in figures:  # the page's heading over each configuration's mode renderings
+            if f.mode and not any(g.mode and g.case == f.case for g in figures[:f.number - 1]):
+                groups[f.number] = "Paired modes after calibration"
         doc = write_report_pdf(out / "report.pdf", report, head,
-                               [(f.number, f.title, f.path, f.caption) for f in figures])
+                               [(f.number, f.title, f.path, f.caption) for f in figures],
+                               headings=groups)  # fmt: skip
         written.append(f"{doc.path.name} ({len(doc.pages)} pages)")
     say(f"wrote {' and '.join(written)} in {out} with {len(figures)} figures (also in "
         f"{pics})")

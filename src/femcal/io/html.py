@@ -129,6 +129,22 @@ HEADER_STYLE = (".provenance{background:#f7f7f7;border:1px solid #ddd;padding:0.
                 ".provenance td,.provenance th{text-align:left}td.digest{font-family:monospace;"
                 "font-size:0.85em}td.path{word-break:break-all}")  # fmt: skip
 
+#: The style of a report page: readable at 1024 px without sideways scrolling (wide tables
+#: scroll inside their own box, long words break), the verdict block set apart, then
+#: :data:`HEADER_STYLE`.
+PAGE_STYLE = ("body{font-family:sans-serif;margin:1.5em;max-width:1400px;overflow-wrap:anywhere}"
+              "table{border-collapse:collapse;margin:1em 0;display:block;max-width:100%;"
+              "overflow-x:auto;font-size:0.9em}"
+              "td,th{border:1px solid #bbb;padding:2px 5px;text-align:right;"
+              "overflow-wrap:normal}th{background:#eee}"
+              "img{max-width:100%;height:auto;display:block;margin:0.5em 0}"
+              "figure{margin:1.5em 0}figcaption{color:#333;max-width:1100px;font-size:0.95em}"
+              ".verdict{background:#f3f6fa;border:2px solid #4a6d94;padding:0.3em 1.2em;"
+              "margin:0 0 1.5em 0}.verdict h2{margin:0.4em 0}.verdict td{background:#fff}"
+              "ul.doubt li{margin:0.3em 0}ul.summary{padding-left:1.5em}"
+              "p.nav{font-size:0.95em;color:#333}"
+              + HEADER_STYLE)  # fmt: skip
+
 _ATTR = re.compile(r"""\b(?:src|href|action|poster|data|srcset)\s*=\s*(?:"([^"]*)"|'([^']*)'|"""
                    r"""([^\s>]+))""", re.I)  # fmt: skip
 _URL = re.compile(r"""url\(\s*['"]?([^'")]*)""", re.I)

@@ -1,12 +1,16 @@
 """The calibration report as a PDF (matplotlib's PdfPages, A4 portrait), to send on with or
-instead of ``report.html``: a title page (femcal's version, when it was made, the command, the
-input files with their sizes and SHA-256 digests, the trust summary the console prints), the
-parameter table, the paired-modes table (each split over as many pages as it needs, its
-header row repeated), then one page per figure with its number, title and caption.
+instead of ``report.html``, in the page's order and with its sections: the verdict first
+(frequency errors, MAC and misfit before and after, what moved, what to doubt), the
+parameters, the held-out validation, the model form tested, each configuration's test,
+misfit, suspect channels, paired modes and model form, the runs, one page per figure with
+its number, title and caption, and the provenance last (femcal's version, when it was made,
+the command, the input files with their sizes and SHA-256 digests, the list of figures).
+Tables split over as many pages as they need, their header row repeated.
 
 Every line of text is wrapped by its measured width (the font's own metrics), so nothing runs
-past its column or the page's margins; a word longer than its column (a path, a digest) is
-broken between characters. The document's metadata (Title, Author, Subject, Keywords,
+past its column or the page's margins; each column is at least as wide as its longest word
+(up to a third of the page), so a word is broken between characters only where it is longer
+than that (a path, a digest). The document's metadata (Title, Author, Subject, Keywords,
 Creator) name femcal and its version. Written atomically."""
 
 from __future__ import annotations
@@ -171,8 +175,7 @@ class _Document:
         wrapped to its column, below the heading ``title``; the header row again at the top
         of each new page, below the heading ``more`` (default: ``title`` continued)."""
         more = more or (f"{title} (continued)" if title else "")
-        scale = self.width / float(sum(weights))
-        widths = [w * scale for w in weights]
+        widths = self._widths(head, rows, weights, size)
         lefts = np.concatenate([[MARGIN], MARGIN + np.cumsum(widths)[:-1]])
         step = 1.2 * size
         wrap = self.measure.wrap
@@ -212,6 +215,28 @@ class _Document:
         if not rows:
             self.lines("(none)", size)
         self.y += step
+
+    def _widths(self, head: Sequence[str], rows: Sequence[Sequence[str]],
+                weights: Sequence[float], size: float) -> list[float]:  # fmt: skip
+        """Column widths over the text width in proportion to ``weights``, each at least as
+        wide as its longest word in the header (bold) and in the cells (up to a third of
+        the width), so that words break only where they are longer than that."""
+        def longest(text: str, weight: str) -> float:
+            return max((self.measure.width(w, size, weight) for w in str(text).split()),
+                       default=0.0)  # fmt: skip
+
+        need = [min(max([longest(h, "bold")] + [longest(r[k], "normal") for r in rows])
+                    + 2 * _PAD + 1, self.width / 3) for k, h in enumerate(head)]  # fmt: skip
+        w, need_a = np.asarray(weights, float), np.asarray(need)
+        fixed = np.zeros(len(w), bool)
+        while not fixed.all():  # columns below their need take it, the rest share what is left
+            share = (self.width - need_a[fixed].sum()) * w / w[~fixed].sum()
+            under = ~fixed & (share < need_a)
+            if not under.any():
+                break
+            fixed |= under
+        out = np.where(fixed, need_a, share if not fixed.all() else need_a)
+        return list(out * min(1.0, self.width / out.sum()))
 
     def _rect(self, x: float, y_top: float, w: float, h: float, color: str):
         from matplotlib.patches import Rectangle
@@ -257,12 +282,24 @@ def _f(v: float | None, spec: str) -> str:
 
 
 def _title_pages(doc: _Document, report: dict, head: dict) -> None:
+    """The first page: the title, then the verdict (as the page's), then the run in one
+    paragraph."""
+    from ..io.calibration import VERDICT_HEAD, verdict_of
+
     doc.new_page("title")
     doc.lines("femcal calibration report", TITLE, weight="bold", after=0.2)
     doc.lines(f"femcal {head['version']}, made {head['made']}", 10.5, after=0.6)
-    if head.get("command"):
-        doc.lines(f"Command: {head['command']}", BODY, family="monospace")
-    doc.lines(f"Working folder: {head['folder']}", BODY)
+    v = verdict_of(report)
+    doc.heading("Verdict")
+    for name, rows in v.tables:
+        doc.table(VERDICT_HEAD, rows, [40, 30, 30], ["left", "right", "right"], kind="title",
+                  title=name if len(v.tables) > 1 else "", size=8.0)  # fmt: skip
+    doc.lines(v.moved, BODY)
+    doc.lines("What to doubt", BODY, weight="bold", after=0.2)
+    for line in v.doubts:
+        doc.lines(line, BODY, indent=12, bullet="-")
+    for line in v.rest:
+        doc.lines(line, BODY, indent=12, bullet="-")
     confs = report["configurations"]
     dev = report["deviation"]
     doc.lines(f"Metric {report['metric']}, "
@@ -270,19 +307,110 @@ def _title_pages(doc: _Document, report: dict, head: dict) -> None:
               f"{len(confs)} configuration{'s' * (len(confs) > 1)}; deviation "
               f"{dev['before']:.6g} before, {dev['after']:.6g} after; run time "
               f"{report['seconds']:.0f} s.", BODY)  # fmt: skip
-    for c in confs:
-        doc.lines(f"{c['name']}: band {c['band_hz'][0]:g}-{c['band_hz'][1]:g} Hz at "
-                  f"{c['n_frequencies']} frequencies, zeta0 {c['zeta0']:.4f}, "
-                  f"{len(c['outputs'])} outputs x {len(c['inputs'])} inputs; calibrated deck "
-                  f"{c['calibrated_deck']}.", BODY, indent=12, bullet="-")  # fmt: skip
-    doc.heading("Inputs")
+
+
+def _provenance_pages(doc: _Document, head: dict,
+                      figures: Sequence[tuple[int, str, object, str]]) -> None:  # fmt: skip
+    """The last pages, as the page's end: what made the report from which files, and the
+    list of figures."""
+    doc.new_page("provenance")
+    doc.lines("Provenance", HEADING, weight="bold", after=0.25)
+    doc.lines(f"Made by femcal {head['version']} on {head['made']}"
+              + (f" by {head['command']}" if head.get("command") else "")
+              + f" in {head['folder']}.", BODY)  # fmt: skip
     rows = [[f["role"], f["path"] or "-", _size(f["bytes"]), f["sha256"] or "not readable"]
             for f in head["inputs"]]  # fmt: skip
     doc.table(["input", "file", "bytes", "SHA-256"], rows, [17, 44, 13, 50],
-              ["left", "left", "right", "left"], kind="title", size=6.5)  # fmt: skip
-    doc.heading("Summary")
-    for line in report["summary"]:
-        doc.lines(line, BODY, indent=12, bullet="-")
+              ["left", "left", "right", "left"], kind="provenance", title="Inputs",
+              size=6.5)  # fmt: skip
+    if figures:
+        doc.heading("Figures")
+        for number, title, _png, _caption in figures:
+            doc.lines(f"Figure {number}. {title}", BODY, indent=12, bullet="-", after=0.1)
+
+
+def _number(text: str) -> bool:
+    try:
+        float(str(text).replace("%", "").strip() or "x")
+    except ValueError:
+        return str(text).strip() in ("-", "")
+    return True
+
+
+def _aligns(rows: Sequence[Sequence[str]], n: int) -> list[str]:
+    """Numbers to the right, words to the left: a column of numbers (or blanks) is aligned
+    right."""
+    return ["right" if rows and all(_number(r[k]) for r in rows) else "left" for k in range(n)]
+
+
+def _sections(doc: _Document, report: dict) -> None:
+    """The held-out validation, the model-form test, each configuration's test, misfit,
+    suspect channels and model form, and the runs: every table of the page."""
+    from ..io.calibration import (
+        HOLDOUT_HEAD,
+        SUSPECT_HEAD,
+        holdout_parts,
+        misfit_text,
+        model_form_tables,
+        runs_tables,
+        suspect_rows,
+        suspects_text,
+        test_text,
+    )
+
+    def tables(parts, kind: str) -> None:
+        for text, head, rows in parts:
+            doc.lines(text, BODY)
+            doc.table(head, rows, [1] * len(head), _aligns(rows, len(head)), kind=kind)
+
+    ho = report.get("holdout")
+    if ho is not None:
+        doc.new_page("held-out validation")
+        doc.lines("Validation on held-out data", HEADING, weight="bold", after=0.25)
+        text, rows = holdout_parts(ho)
+        doc.lines(text, BODY)
+        doc.table(HOLDOUT_HEAD, rows, [2, 1, 1.3, 1.6, 1], ["left"] + ["right"] * 4,
+                  kind="held-out validation")  # fmt: skip
+    a = report.get("augmented")
+    if a is not None:
+        doc.heading("Model form tested: the calibration with the missing element added")
+        doc.lines(f"{a['element']} in configuration {a['configuration']} ({'; '.join(a['cards'])}"
+                  f", in {a['deck']}), parameter {a['parameter']['name']} calibrated to "
+                  f"{a['parameter']['calibrated']:.4g}; deviation after calibration "
+                  f"{a['deviation_after']:.6g} against {report['deviation']['after']:.6g} "
+                  f"without; {a['reason']}. Its own report: {a['report']}.", BODY)
+        first = {p["name"]: p for p in report["parameters"]}
+        rows = [[name, _f(first[name]["calibrated"], ".6g") if name in first
+                 else "(not in the model)", _f(value, ".6g")]
+                for name, value in a["parameters"].items()]  # fmt: skip
+        doc.table(["parameter", "calibrated without it", "calibrated with it"], rows,
+                  [1, 1, 1], ["left", "right", "right"], kind="model form tested")  # fmt: skip
+    confs = report["configurations"]
+    for c in confs:
+        kind = f"configuration {c['name']}"
+        doc.new_page(kind)
+        doc.lines(f"Configuration {c['name']}" if len(confs) > 1 else "Test", HEADING,
+                  weight="bold", after=0.25)  # fmt: skip
+        doc.lines(test_text(c), BODY)
+        doc.lines(misfit_text(c), BODY)
+        if c.get("suspects"):
+            doc.heading("Suspect channels")
+            doc.lines(suspects_text(c), BODY)
+            doc.table(SUSPECT_HEAD, suspect_rows(c), [12, 10, 8, 8, 8, 36, 30],
+                      ["left", "left", "right", "right", "right", "left", "left"],
+                      kind=kind)  # fmt: skip
+        else:
+            doc.lines(suspects_text(c), BODY)
+        _mode_table(doc, c, len(confs) > 1)
+        form = c.get("model_form")
+        if form is not None:
+            doc.heading("Model form")
+            for line in form["suggestions"]:
+                doc.lines(line, BODY, indent=12, bullet="-")
+            tables(model_form_tables(form), kind)
+    doc.new_page("runs")
+    doc.lines("Runs", HEADING, weight="bold", after=0.25)
+    tables(runs_tables(report), "runs")
 
 
 def _status(p: dict) -> str:
@@ -319,34 +447,36 @@ def _parameter_pages(doc: _Document, report: dict) -> None:
               "parameter keeps its nominal value"
               + ("; true: the synthetic test's hidden value." if truth else "."), 7.5)
     doc.table(head, rows, weights, align, kind="parameters", more="Parameters (continued)")
+    for p in params:
+        doc.lines(f"{p['name']}: {p['reason']}", 7.5, indent=12, bullet="-", after=0.1)
 
 
-def _mode_pages(doc: _Document, report: dict) -> None:
-    doc.new_page("modes")
-    confs = report["configurations"]
+def _mode_table(doc: _Document, c: dict, several: bool) -> None:
+    """A configuration's paired-modes table."""
     head = ["test mode", "test Hz", "FE mode before", "FE before Hz", "FE mode after",
             "FE after Hz", "error before %", "error after %", "MAC before", "MAC after"]
-    for c in confs:
-        title = "Paired modes" + (f": configuration {c['name']}" if len(confs) > 1 else "")
-        if not c["modes"]:
-            doc.heading(title)
-            doc.lines("No identified test modes (the raw FRFs were compared).", BODY)
-            continue
-        rows = [[str(m["test_mode"]), f"{m['test_hz']:.3f}", _f(m["fe_before_mode"], "d"),
-                 _f(m["fe_before_hz"], ".3f"), _f(m["fe_after_mode"], "d"),
-                 _f(m["fe_after_hz"], ".3f"), _f(m["frequency_error_before_pct"], "+.2f"),
-                 _f(m["frequency_error_after_pct"], "+.2f"), _f(m["mac_before"], ".4f"),
-                 _f(m["mac_after"], ".4f")] for m in c["modes"]]  # fmt: skip
-        doc.table(head, rows, [1] * len(head), ["right"] * len(head), kind="modes",
-                  title=title)  # fmt: skip
+    title = "Paired modes" + (f": configuration {c['name']}" if several else "")
+    if not c["modes"]:
+        doc.heading(title)
+        doc.lines("No identified test modes (the raw FRFs were compared).", BODY)
+        return
+    rows = [[str(m["test_mode"]), f"{m['test_hz']:.3f}", _f(m["fe_before_mode"], "d"),
+             _f(m["fe_before_hz"], ".3f"), _f(m["fe_after_mode"], "d"),
+             _f(m["fe_after_hz"], ".3f"), _f(m["frequency_error_before_pct"], "+.2f"),
+             _f(m["frequency_error_after_pct"], "+.2f"), _f(m["mac_before"], ".4f"),
+             _f(m["mac_after"], ".4f")] for m in c["modes"]]  # fmt: skip
+    doc.table(head, rows, [1] * len(head), ["right"] * len(head), kind=doc.kinds[-1],
+              title=title)  # fmt: skip
     doc.lines("Frequency error: (test - FE) / FE. Each test mode is paired with the FE mode of "
               "the highest MAC within a frequency ratio, each FE mode once "
               "(femcal.correlate).", 7.5)
 
 
 def _figure_page(doc: _Document, number: int, title: str, png: str | os.PathLike[str],
-                 caption: str) -> None:  # fmt: skip
+                 caption: str, heading: str = "") -> None:  # fmt: skip
     doc.new_page(f"figure {number}")
+    if heading:
+        doc.lines(heading, HEADING, weight="bold", after=0.25)
     doc.lines(f"Figure {number}. {title}", HEADING, weight="bold", after=0.5)
     cap = doc.measure.wrap(f"Figure {number}. {caption}", doc.width, BODY)
     space = doc.room() - len(cap) * _LEADING * BODY - 12
@@ -356,13 +486,14 @@ def _figure_page(doc: _Document, number: int, title: str, png: str | os.PathLike
 
 def write_report_pdf(path: str | os.PathLike[str], report: dict, head: dict,
                      figures: Sequence[tuple[int, str, str | os.PathLike[str], str]],
-                     *, title: str = "femcal calibration report") -> PdfReport:  # fmt: skip
+                     *, title: str = "femcal calibration report",
+                     headings: dict[int, str] | None = None) -> PdfReport:  # fmt: skip
     """Write the calibration report ``report`` (``report.json``'s content,
     :func:`femcal.io.calibration.report_dict`) as an A4 PDF: the title page(s) with the
     header ``head`` (:func:`femcal.io.html.provenance`: version, date, command, the input
     files) and the summary, the parameter table, the paired-modes tables, then one page per
-    figure (number, title, PNG file, caption). Written atomically; returns the path and
-    what each page holds."""
+    figure (number, title, PNG file, caption; ``headings``: a heading above figure N, the
+    page's group title). Written atomically; returns the path and what each page holds."""
     from matplotlib import rc_context
     from matplotlib.backends.backend_pdf import PdfPages
 
@@ -384,9 +515,11 @@ def write_report_pdf(path: str | os.PathLike[str], report: dict, head: dict,
             try:
                 _title_pages(doc, report, head)
                 _parameter_pages(doc, report)
-                _mode_pages(doc, report)
+                _sections(doc, report)
                 for number, caption_title, png, caption in figures:
-                    _figure_page(doc, number, caption_title, png, caption)
+                    _figure_page(doc, number, caption_title, png, caption,
+                                 (headings or {}).get(number, ""))
+                _provenance_pages(doc, head, figures)
                 doc.close_page()
             finally:
                 if doc.fig is not None:
