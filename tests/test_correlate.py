@@ -51,3 +51,26 @@ def test_pseudo_orthogonality_of_the_fe_shapes_themselves_is_the_identity():
     np.testing.assert_allclose(np.abs(real_shapes(test)), np.abs(test), rtol=1e-12)
     s = modal_scale_factor(test[:, 0], Phi[:, 0])
     assert s == pytest.approx(2.0 * np.exp(0.3j))
+
+
+def test_comac_and_sign_agreement_per_channel():
+    from femcal.correlate import comac, sign_agreement
+
+    rng = np.random.default_rng(2)
+    A = rng.standard_normal((12, 5))
+    T = 3.0 * A.copy()  # a scale per mode changes nothing
+    T[4] *= -1  # a sensor mounted reversed: CoMAC cannot see it, the sign agreement can
+    T[7] = rng.standard_normal(5)  # a sensor that reads something else
+    co, sg = comac(T, A), sign_agreement(T, A)
+    np.testing.assert_allclose(comac(3.0 * A, A), 1.0, rtol=1e-12)
+    sound = [i for i in range(12) if i not in (4, 7)]
+    # the odd channel moves each shape's length a little: the sound channels stay near 1
+    assert (co[sound] > 0.99).all() and co[sound].max() <= 1.0 + 1e-12
+    np.testing.assert_allclose(sg[sound], 1.0, rtol=1e-12)
+    assert co[4] > 0.99 and sg[4] == pytest.approx(-1.0)
+    assert co[7] < 0.9 and abs(sg[7]) < 1
+    # by hand for one channel: (sum |t a|)^2 / (sum t^2 sum a^2), shapes unit length
+    t, a = T / np.linalg.norm(T, axis=0), A / np.linalg.norm(A, axis=0)
+    assert co[7] == pytest.approx(np.sum(np.abs(t[7] * a[7])) ** 2
+                                  / (np.sum(t[7] ** 2) * np.sum(a[7] ** 2)))
+    assert comac(np.zeros((2, 3)), A[:2, :3]).tolist() == [0.0, 0.0]

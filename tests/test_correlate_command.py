@@ -138,7 +138,9 @@ def test_mac_matrix_and_page(deck_run, independent):
     assert not re.search(r"(src|href)\s*=\s*[\"']?\s*(https?:|//)", page, re.IGNORECASE)
     assert "<link" not in page and "<script" not in page
     images = re.findall(r"<img src='([^']*)'", page)
-    assert len(images) == 2 + 5  # MAC matrix, component plot, one picture per pair
+    # the frequency scatter, the MAC matrix, the AutoMAC, the CoMAC, the component plot, one
+    # picture per pair
+    assert len(images) == 5 + 5
     assert all(s.startswith("data:image/png;base64,iVBOR") for s in images)
     assert page.count("<tr>") >= 1 + 5 + 1 + 5  # the paired table and the MAC table
 
@@ -167,6 +169,33 @@ def test_saved_modes_and_an_identified_model_with_sensor_labels(saved, independe
     assert status == 2
     assert "channel 'L01:+X' (output 1 of 72) names no grid (and 71 more" in stderr
     assert "--sensors" in stderr
+
+
+def test_the_verdict_comes_first_and_names_a_reversed_and_a_misdirected_sensor(saved,
+                                                                               tmp_path):
+    """The identified model with one sensor's sign flipped and another's direction
+    mislabelled: the page opens on the verdict, CoMAC and the sign agreement name both (and
+    only them), on the page and the console."""
+    ident = read_model(saved / "model.npz")
+    labels = [c.label for c in ident.outputs]
+    flip, turn = labels.index("455:3"), labels.index("1716:3")
+    shapes = ident.shapes.copy()
+    shapes[flip] *= -1
+    outputs = list(ident.outputs)
+    outputs[turn] = Channel.parse("1716:2")  # a +Z accelerometer entered as +Y
+    write_model(tmp_path / "odd.npz", replace(ident, shapes=shapes, outputs=tuple(outputs)))
+    status, stdout, stderr = run(saved / "modes.npz", tmp_path / "odd.npz", "--band", *BAND,
+                                 "--sensors", SENSORS, "--out", tmp_path / "o")  # fmt: skip
+    assert status == 0, stderr
+    suspects = [x for x in stdout.splitlines() if x.startswith("Suspect channel")]
+    assert len(suspects) == 2, stdout
+    assert any("(455:3)" in x and "likely sign" in x for x in suspects), suspects
+    assert any("1716:2" in x and "moves unlike" in x for x in suspects), suspects
+    page = (tmp_path / "o" / "correlation.html").read_text()
+    assert re.search(r"<h2[^>]*>(.*?)</h2>", page).group(1) == "Verdict"
+    verdict = page[page.index("id='verdict'"):page.index("</section>")]
+    assert "likely sign" in verdict and "1716:2" in verdict
+    assert page.index("id='verdict'") < page.index("Paired modes") < page.index("Provenance")
 
 
 def test_fewer_fe_modes_leave_a_test_mode_unpaired(saved, tmp_path):

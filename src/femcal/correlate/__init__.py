@@ -3,6 +3,7 @@ differences, SEREP pseudo-orthogonality, modal scale factors."""
 
 from .shapes import (
     Pair,
+    comac,
     frequency_difference,
     in_scale_of,
     mac,
@@ -11,10 +12,12 @@ from .shapes import (
     pseudo_orthogonality,
     real_shapes,
     serep_mass,
+    sign_agreement,
 )
 
 __all__ = [
     "Pair",
+    "comac",
     "frequency_difference",
     "in_scale_of",
     "mac",
@@ -23,4 +26,5 @@ __all__ = [
     "pseudo_orthogonality",
     "real_shapes",
     "serep_mass",
+    "sign_agreement",
 ]

@@ -23,6 +23,32 @@ def mac(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return num / np.where(den > 0, den, 1.0)
 
 
+def comac(test_shapes: np.ndarray, fe_shapes: np.ndarray) -> np.ndarray:
+    """Coordinate modal assurance criterion of each channel over paired modes: the columns of
+    test (p, k) and FE (p, k) shapes are pairs, each made unit length; channel i's CoMAC is
+    ``(sum_j |t_ij a_ij|)^2 / (sum_j |t_ij|^2 sum_j |a_ij|^2)`` (Lieven and Ewins, 1988),
+    (p,) in [0, 1]: near 1 where the channel moves alike in test and FE over the pairs, low
+    where it does not (a wrong sensor, or a local feature the model lacks). A channel that
+    moves in no mode gets 0."""
+    t = np.asarray(test_shapes)
+    a = np.asarray(fe_shapes)
+    t = t / np.where((n := np.linalg.norm(t, axis=0)) > 0, n, 1.0)
+    a = a / np.where((n := np.linalg.norm(a, axis=0)) > 0, n, 1.0)
+    num = np.sum(np.abs(t * a.conj()), axis=1) ** 2
+    den = np.sum(np.abs(t) ** 2, axis=1) * np.sum(np.abs(a) ** 2, axis=1)
+    return np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0)
+
+
+def sign_agreement(test_shapes: np.ndarray, fe_shapes: np.ndarray) -> np.ndarray:
+    """(p,) in [-1, 1] per channel: ``sum_j t_ij a_ij / sum_j |t_ij a_ij|`` over paired real
+    shapes, the test's in the FE shape's scale (:func:`in_scale_of`): 1 where the channel
+    moves with the FE model in every pair, -1 where it moves against it in every pair (a
+    sensor mounted reversed, which CoMAC cannot see), 0 for a channel that never moves."""
+    t, a = np.real(test_shapes), np.real(fe_shapes)
+    den = np.sum(np.abs(t * a), axis=1)
+    return np.where(den > 0, np.sum(t * a, axis=1) / np.where(den > 0, den, 1.0), 0.0)
+
+
 def frequency_difference(f_test: np.ndarray, f_fe: np.ndarray) -> np.ndarray:
     """(f_test - f_FE) / f_FE x 100 %."""
     f_test, f_fe = np.asarray(f_test, float), np.asarray(f_fe, float)

@@ -44,7 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from ..atomic import write_atomic, write_lines
-from ..correlate import in_scale_of, mac, pair_modes
+from ..correlate import comac, in_scale_of, mac, pair_modes, sign_agreement
 from ..errors import FemcalError, message
 from ..identify.layout import Layout
 from ..identify.workflow import IdentifiedModel, Settings, identify
@@ -203,6 +203,112 @@ class Correlation:
     @property
     def band(self) -> tuple[float, float]:
         return self.test.band
+
+
+#: A channel is suspect where its CoMAC over the pairs is below this ...
+COMAC_LOW = 0.5
+#: ... or it moves against the FE model (sign agreement below minus this).
+AGAINST = 0.5
+#: CoMAC and the sign agreement need at least this many pairs to say anything.
+MIN_PAIRS = 3
+#: Two test modes the sensors can hardly tell apart: AutoMAC over this.
+ALIKE = 0.5
+
+
+@dataclass(frozen=True)
+class ChannelVerdict:
+    """A test channel the paired shapes call into doubt: its index in
+    :attr:`Correlation.channels`, label and name, CoMAC and sign agreement over the pairs
+    (:func:`femcal.correlate.comac`, :func:`femcal.correlate.sign_agreement`) and the likely
+    reason."""
+
+    index: int
+    label: str
+    name: str
+    comac: float
+    sign: float
+    reason: str
+
+    def describe(self) -> str:
+        who = f"{self.name} ({self.label})" if self.name and self.name != self.label \
+            else self.label  # fmt: skip
+        return f"{who}: CoMAC {self.comac:.2f}, sign agreement {self.sign:+.2f}; {self.reason}"
+
+
+@dataclass(frozen=True)
+class Checks:
+    """What the correlation page and console judge beyond the pairs.
+
+    comac, sign : (p,) per channel over the pairs (NaN with fewer than :data:`MIN_PAIRS`).
+    automac : (kt, kt) MAC of the test modes against each other.
+    alike : (test mode, test mode, AutoMAC), 1-based, of modes the sensors can hardly tell
+        apart (AutoMAC over :data:`ALIKE`).
+    suspects : the channels in doubt.
+    """
+
+    comac: np.ndarray
+    sign: np.ndarray
+    automac: np.ndarray
+    alike: tuple[tuple[int, int, float], ...]
+    suspects: tuple[ChannelVerdict, ...]
+
+
+def checks_of(result: Correlation) -> Checks:
+    """CoMAC and sign agreement per channel over the pairs, the test modes' AutoMAC, and the
+    channels and modes in doubt."""
+    p = len(result.channels)
+    pairs = result.pairs
+    auto = mac(result.test_shapes, result.test_shapes)
+    kt = auto.shape[0]
+    alike = tuple((i + 1, j + 1, float(auto[i, j])) for i in range(kt) for j in range(i + 1, kt)
+                  if auto[i, j] > ALIKE)  # fmt: skip
+    if len(pairs) < MIN_PAIRS:
+        nan = np.full(p, np.nan)
+        return Checks(nan, nan, auto, alike, ())
+    shapes = [_pair_shapes(result, r) for r in pairs]
+    T = np.stack([t for t, _ in shapes], axis=1)
+    A = np.stack([a for _, a in shapes], axis=1)
+    co, sg = comac(T, A), sign_agreement(T, A)
+    suspects = []
+    for i in range(p):
+        if sg[i] < -AGAINST:
+            why = ("likely sign: it moves against the FE model in most pairs (a sensor "
+                   "mounted reversed, or a sign lost in the geometry)")
+        elif co[i] < COMAC_LOW:
+            why = ("it moves unlike the FE model over the pairs: a wrong direction or grid, "
+                   "a loose sensor, or a local feature the model lacks")
+        else:
+            continue
+        label = result.channels[i].label
+        suspects.append(ChannelVerdict(i, label, result.names.get(label, ""), float(co[i]),
+                                       float(sg[i]), why))  # fmt: skip
+    return Checks(co, sg, auto, alike, tuple(sorted(suspects, key=lambda v: v.comac)))
+
+
+def verdict_lines(result: Correlation, checks: Checks | None = None) -> list[str]:
+    """What to doubt, in sentences: FE modes in the band without a test partner, test modes
+    without an FE partner, test modes the sensors can hardly tell apart, suspect channels."""
+    checks = checks or checks_of(result)
+    out = []
+    if result.unpaired_fe:
+        out.append(f"{len(result.unpaired_fe)} FE mode(s) in the band have no test partner: "
+                   + ", ".join(f"{r.fe_mode} ({r.fe_hz:.2f} Hz)" for r in result.unpaired_fe[:8])
+                   + ": the test missed them, or its sensors and inputs cannot see them.")
+    if result.unpaired_test:
+        out.append(f"{len(result.unpaired_test)} test mode(s) pair with no FE mode: "
+                   + ", ".join(f"{r.test_mode} ({r.test_hz:.2f} Hz)"
+                               for r in result.unpaired_test)
+                   + ": a mode the model lacks or places far off, or a spurious test mode.")
+    if checks.alike:
+        out.append("Test modes the sensors can hardly tell apart (AutoMAC over "
+                   f"{ALIKE:g}): " + ", ".join(f"{i} and {j} ({v:.2f})"
+                                               for i, j, v in checks.alike)
+                   + ": too few or badly placed sensors for these shapes; their MAC with the "
+                   "FE modes is weaker evidence.")  # fmt: skip
+    out += [f"Suspect channel: {v.describe()}." for v in checks.suspects]
+    if len(result.pairs) < MIN_PAIRS:
+        out.append(f"CoMAC is not judged: fewer than {MIN_PAIRS} pairs.")
+    return out
 
 
 def _check_band(band: tuple[float, float] | None) -> tuple[float, float] | None:
@@ -723,23 +829,10 @@ def summary_lines(result: Correlation) -> list[str]:
     else:
         lines.append(f"none of the {len(result.test.frequency_hz)} test modes in {f1:g}-{f2:g} "
                      "Hz pairs with an FE mode")  # fmt: skip
-    lost = result.unpaired_fe
-    if lost:
-        names = ", ".join(f"{r.fe_mode} ({r.fe_hz:.2f} Hz)" for r in lost[:8])
-        more = f" and {len(lost) - 8} more" if len(lost) > 8 else ""
-        lines.append(f"but {len(lost)} FE mode(s) in the band have no test partner: {names}"
-                     f"{more}: the identification missed them, or the sensors and inputs "
-                     "cannot see them")  # fmt: skip
-    return lines
+    return lines + verdict_lines(result)
 
 
 # ----------------------------------------------------------------------------- the page
-
-_STYLE = ("body{font-family:sans-serif;margin:2em;max-width:1400px}"
-          "table{border-collapse:collapse;margin:1em 0}"
-          "td,th{border:1px solid #bbb;padding:3px 8px;text-align:right}th{background:#eee}"
-          "img{max-width:100%;display:block;margin:0.5em 0}"
-          "figure{margin:1.5em 0}figcaption{color:#333;max-width:1100px;font-size:0.95em}")
 
 
 def _png(fig) -> str:
@@ -791,21 +884,64 @@ def correlation_html(result: Correlation, *, deck: str = "", test: str = "",
             f"({r.fe_hz:.2f} Hz): MAC {r.mac:.3f}", _png(shape_figure(result, r)),
             f"Test mode {r.test_mode} (left, red) beside FE mode {r.fe_mode} (right, blue); "
             f"frequency difference {r.frequency_difference:+.2f} %."))  # fmt: skip
+    checks = checks_of(result)
+    extra = [html_figure(
+        "Frequencies: test against FE", _png(frequency_figure(result)),
+        "Each pair's test frequency against its FE frequency (Hz), numbered by test mode and "
+        "coloured by MAC; the diagonal is agreement, the grey band +-5 %. Points above the "
+        "diagonal: the structure is stiffer than the model there.")]  # fmt: skip
+    extra.append(html_figure(
+        "AutoMAC of the test modes", _png(automac_figure(result, checks)),
+        "MAC of each test mode against every other at the test channels (no unit): "
+        f"off-diagonal values over {ALIKE:g} mean the sensors can hardly tell those modes "
+        "apart."))  # fmt: skip
+    if len(result.pairs) >= MIN_PAIRS:
+        extra.append(html_figure(
+            "CoMAC per channel", _png(comac_figure(result, checks)),
+            f"Each channel's CoMAC over the {len(result.pairs)} pairs (no unit, 1: it moves "
+            "as the FE model in every pair) and its sign agreement (-1: against it in every "
+            f"pair); red: suspect (CoMAC below {COMAC_LOW:g} or sign agreement below "
+            f"{-AGAINST:g})."))  # fmt: skip
     unpaired_t = ", ".join(f"{r.test_mode} ({r.test_hz:.2f} Hz)" for r in result.unpaired_test)
     unpaired_f = ", ".join(f"{r.fe_mode} ({r.fe_hz:.2f} Hz)" for r in result.unpaired_fe)
     excluded = ", ".join(c.label for c in result.excluded)
     pairs = result.pairs
+    esc = html.escape
     if pairs:
         d = np.abs([p.frequency_difference for p in pairs])
-        verdict = (f"{len(pairs)} of {len(result.test.frequency_hz)} test modes paired; "
-                   f"frequency difference mean {d.mean():.2f} %, worst {d.max():.2f} %; "
-                   f"lowest MAC {min(p.mac for p in pairs):.3f}.")  # fmt: skip
+        macs = [p.mac for p in pairs]
+        worst = pairs[int(np.argmax(d))]
+        low = pairs[int(np.argmin(macs))]
+        key = [["test modes paired", f"{len(pairs)} of {len(result.test.frequency_hz)}"],
+               ["frequency difference, mean |.|", f"{d.mean():.2f} %"],
+               ["frequency difference, worst", f"{worst.frequency_difference:+.2f} % (test "
+                                                f"mode {worst.test_mode})"],
+               ["MAC, lowest", f"{low.mac:.3f} (test mode {low.test_mode})"],
+               ["MAC, mean", f"{np.mean(macs):.3f}"]]  # fmt: skip
     else:
-        verdict = "No test mode pairs with an FE mode."
-    esc = html.escape
+        key = [["test modes paired", f"0 of {len(result.test.frequency_hz)}"]]
+    if np.isfinite(checks.comac).any():
+        i = int(np.nanargmin(checks.comac))
+        key.append(["CoMAC, lowest channel", f"{checks.comac[i]:.2f} "
+                    f"({result.names.get(result.channels[i].label, result.channels[i].label)})"])
+    off = checks.automac - np.eye(len(checks.automac))
+    if off.size > 1:
+        i, j = np.unravel_index(int(np.argmax(off)), off.shape)
+        key.append(["AutoMAC, largest off-diagonal", f"{off[i, j]:.2f} (test modes {i + 1} "
+                                                     f"and {j + 1})"])
+    doubts = verdict_lines(result, checks) or ["Nothing stands out."]
+    from ..io.html import PAGE_STYLE, file_facts, html_header, provenance
+
+    facts = [file_facts(role, path) for role, path in
+             (("deck", deck), ("test", test), ("sensors", sensors)) if path]  # fmt: skip
     return f"""<!DOCTYPE html><html><head><meta charset="utf-8">
-<title>femcal correlation</title><style>{_STYLE}</style></head><body>
+<meta name="viewport" content="width=device-width, initial-scale=1">
+<title>femcal correlation</title><style>{PAGE_STYLE}</style></head><body>
 <h1>Test-FE correlation</h1>
+<section id='verdict' class='verdict'><h2>Verdict</h2>
+{html_table(key, ["measure", "value"])}
+<p><b>What to doubt</b></p><ul class='doubt'>{"".join(f"<li>{esc(x)}</li>" for x in doubts)}</ul>
+</section>
 <p>FE modes of <code>{esc(deck or result.fe.source)}</code>
 ({len(result.fe.frequencies_hz)} solved, {len(result.fe_index)} within
 {f1 / FE_RATIO:.3g}-{f2 * FE_RATIO:.3g} Hz); test modes of <code>{esc(test or
@@ -815,24 +951,104 @@ f" placed by <code>{esc(sensors)}</code>" if sensors else ""}{
 f"; suspect channels left out: {esc(excluded)}" if excluded else ""}.
 Pairs: MAC at least {result.min_mac:g}, frequencies within a factor {FE_RATIO:g}, each FE
 mode once, the highest MAC first; frequency difference (test - FE) / FE.</p>
-<p><b>{esc(verdict)}</b></p>
 <h2>Paired modes</h2>
 {html_table(rows, head)}
 <p>Test modes no FE mode pairs with: {esc(unpaired_t) or "none"}.<br>
 FE modes in {f1:g}-{f2:g} Hz no test mode pairs with: {esc(unpaired_f) or "none"}.</p>
-{figures[0]}
+{extra[0]}
 <h2>MAC matrix</h2>
+{figures[0]}
 {html_table(mac_rows, mac_head)}
+<h2>AutoMAC and CoMAC</h2>
+{''.join(extra[1:])}
 <h2>Shapes</h2>
 <p>Each pair's shapes at the sensors, on the FE model's grid points (grey): every sensor
 position displaced along its measured directions (the test shape made real and scaled to the
 FE shape by the modal scale factor, both drawn to the same scale), the undeformed positions in
 black, each sensor joined to its two nearest.</p>
 {''.join(figures[1:])}
+<h2 id='provenance'>Provenance</h2>
+{html_header(provenance(facts))}
 </body></html>"""
 
 
 # ----------------------------------------------------------------------------- pictures
+
+
+def frequency_figure(result: Correlation):
+    """Test against FE frequency of each pair (Hz), the diagonal and a +-5 % band."""
+    from ..viz.figures import pyplot
+
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(6.0, 5.0))
+    pairs = result.pairs
+    lo, hi = result.band
+    ax.fill_between([lo, hi], [lo * 0.95, hi * 0.95], [lo * 1.05, hi * 1.05], color="0.9",
+                    label="+-5 %")  # fmt: skip
+    ax.plot([lo, hi], [lo, hi], color="0.4", lw=1, label="test = FE")
+    if pairs:
+        fe = np.array([p.fe_hz for p in pairs])
+        te = np.array([p.test_hz for p in pairs])
+        sc = ax.scatter(fe, te, c=[p.mac for p in pairs], cmap="viridis", vmin=0, vmax=1,
+                        zorder=3, edgecolor="k")  # fmt: skip
+        for p, x, y in zip(pairs, fe, te, strict=True):
+            ax.annotate(str(p.test_mode), (x, y), xytext=(4, -10), textcoords="offset points",
+                        fontsize=9)  # fmt: skip
+        fig.colorbar(sc, ax=ax, fraction=0.05, label="MAC (no unit)")
+    ax.set_xlabel("FE frequency (Hz)")
+    ax.set_ylabel("test frequency (Hz)")
+    ax.set_xlim(lo, hi)
+    ax.set_ylim(lo, hi)
+    ax.legend(loc="upper left", fontsize=9)
+    ax.set_title("paired modes: test against FE")
+    return fig
+
+
+def automac_figure(result: Correlation, checks: Checks):
+    """The test modes' AutoMAC as a picture, values printed."""
+    from ..viz.figures import pyplot
+
+    plt = pyplot()
+    M = checks.automac
+    k = len(M)
+    fig, ax = plt.subplots(figsize=(max(4.5, 0.5 * k + 2.5), max(4.0, 0.45 * k + 2.0)))
+    im = ax.imshow(M, vmin=0, vmax=1, cmap="viridis")
+    ticks = [f"{i + 1}: {f:.1f}" for i, f in enumerate(result.test.frequency_hz)]
+    ax.set_xticks(range(k), ticks, rotation=90, fontsize=8)
+    ax.set_yticks(range(k), ticks, fontsize=8)
+    ax.set_xlabel("test mode: frequency (Hz)")
+    ax.set_ylabel("test mode: frequency (Hz)")
+    for (r, c), v in np.ndenumerate(M):
+        if v > 0.1:
+            ax.text(c, r, f"{v:.2f}", ha="center", va="center", fontsize=7,
+                    color="k" if v > 0.6 else "w")  # fmt: skip
+    fig.colorbar(im, ax=ax, fraction=0.04, label="MAC (no unit)")
+    ax.set_title("AutoMAC of the test modes")
+    return fig
+
+
+def comac_figure(result: Correlation, checks: Checks):
+    """Each channel's CoMAC and sign agreement over the pairs, suspects in red."""
+    from ..viz.figures import pyplot
+
+    plt = pyplot()
+    p = len(result.channels)
+    names = [result.names.get(c.label, c.label) for c in result.channels]
+    bad = {v.index for v in checks.suspects}
+    colours = ["tab:red" if i in bad else "tab:blue" for i in range(p)]
+    fig, axes = plt.subplots(2, 1, figsize=(max(8.0, 0.16 * p + 2.0), 6.0), sharex=True)
+    axes[0].bar(range(p), checks.comac, color=colours)
+    axes[0].axhline(COMAC_LOW, color="tab:red", lw=0.8, ls="--")
+    axes[0].set_ylabel("CoMAC (no unit)")
+    axes[0].set_ylim(0, 1.02)
+    axes[1].bar(range(p), checks.sign, color=colours)
+    axes[1].axhline(-AGAINST, color="tab:red", lw=0.8, ls="--")
+    axes[1].set_ylabel("sign agreement (no unit)")
+    axes[1].set_ylim(-1.05, 1.05)
+    axes[1].set_xticks(range(p), names, rotation=90, fontsize=6 if p > 40 else 8)
+    axes[1].set_xlabel("test channel")
+    axes[0].set_title(f"channels over {len(result.pairs)} paired modes; red: suspect")
+    return fig
 
 
 def mac_figure(result: Correlation):
