@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.femcal-setup
 
-.PHONY: setup demo test test-slow lint bench-parse bench-deck-edit bench-assembly bench-eigen bench-identify bench-identify-real bench-calibration bench-fuzz bench-scaling setup-slepc bench-slepc clean
+.PHONY: setup demo test test-slow lint bench-parse bench-deck-edit bench-assembly bench-eigen bench-identify bench-identify-real bench-calibration bench-fuzz bench-scaling bench-pages setup-slepc bench-slepc clean
 
 setup: $(STAMP)
 
@@ -74,6 +74,11 @@ bench-calibration: setup
 # local worker processes and a Dask LocalCluster (docs/scaling.md).
 bench-scaling: setup
 	$(PY) benchmarks/scaling.py
+
+# The report pages in headless Chromium at 1024 px: the verdict first, no sideways scrolling.
+bench-pages: setup
+	@command -v chromium >/dev/null || { [ "$$(id -u)" = 0 ] && apt-get install -y -qq chromium >/dev/null; } || true
+	$(PY) benchmarks/pages.py $(PAGES)
 
 # The optional SLEPc backend (femcal solve --backend slepc under mpirun): Debian's petsc4py,
 # slepc4py (PETSc 3.18 with MUMPS) and Open MPI in .venv-slepc/ (as root, apt-get).

@@ -29,6 +29,8 @@ from femcal.testdata.data import Channel
 from femcal.testdata.formats import write_frf
 from femcal.testdata.points import point_label, read_points
 
+from .browser import assert_verdict_first_at_1024, needs_browser
+
 ROOT = Path(__file__).resolve().parents[1]
 FRAME = ROOT / "models" / "truck_frame"
 DECK, TEST = FRAME / "hammer_frame.bdf", FRAME / "hammer_test.uff"
@@ -143,6 +145,11 @@ def test_mac_matrix_and_page(deck_run, independent):
     assert len(images) == 5 + 5
     assert all(s.startswith("data:image/png;base64,iVBOR") for s in images)
     assert page.count("<tr>") >= 1 + 5 + 1 + 5  # the paired table and the MAC table
+
+
+@needs_browser
+def test_the_page_opens_on_its_verdict_and_fits_1024_pixels(deck_run, tmp_path):
+    assert_verdict_first_at_1024(deck_run["out"] / "correlation.html", tmp_path / "c.png")
 
 
 def test_saved_modes_and_an_identified_model_with_sensor_labels(saved, independent, tmp_path):

@@ -26,6 +26,7 @@ from femcal.io.html import command_line, outside_references
 from femcal.jobs.calibration import run
 from femcal.viz.webview import find_browser
 
+from .browser import assert_verdict_first_at_1024, needs_browser
 from .calib_decks import INS, OUTS, TRUE_P, plate_deck, write_modal_test, write_plate
 
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -256,6 +257,12 @@ def test_the_pdf_holds_every_section_of_the_page(report):
     # the page's header cells are whole words in the PDF: no header broken mid-word
     for word in ("name", "description", "nominal", "calibrated", "status"):
         assert re.search(rf"(?m)^{word}$", pdf), word
+
+
+@needs_browser
+def test_the_page_opens_on_its_verdict_and_fits_1024_pixels(report, tmp_path):
+    _, _, page = report
+    assert_verdict_first_at_1024(page, tmp_path / "calibration.png")
 
 
 def test_long_tables_split_and_no_text_leaves_the_page(report, tmp_path, monkeypatch):

@@ -20,6 +20,7 @@ from femcal.testdata.formats import read_frf, read_time_data, write_frf, write_t
 from femcal.testdata.points import read_points
 from femcal.testdata.timedata import TimeData
 
+from .browser import assert_verdict_first_at_1024, find_browser
 from .conftest import ROOT
 from .rig_decks import ACTUATORS, SENSORS, small_rig_deck
 
@@ -103,6 +104,12 @@ def test_the_small_rig_iterated_against_another_plant_finds_the_known_drive(tmp_
     assert err.max() < 0.10, err
     for name in ("report.html", "rms_error.png", "target_response.png", "response.rsp"):
         assert (out / name).stat().st_size > 1000
+    page = (out / "report.html").read_text()
+    verdict = page[page.index("id='verdict'"):page.index("</section>")]
+    assert "control error in the band, worst" in verdict and "What to doubt" in verdict
+    assert page.index("id='verdict'") < page.index("id='provenance'")
+    if frf == "model" and find_browser() is not None:
+        assert_verdict_first_at_1024(out / "report.html", tmp_path / "rig.png")
 
 
 @pytest.mark.slow

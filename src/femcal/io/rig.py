@@ -19,13 +19,12 @@ from ..rig.iterate import Correction, Iteration, IterationSettings
 from ..rig.limits import QUANTITIES, LimitCheck
 from ..rig.plant import RigPlant
 from ..rig.quality import ChannelStats, band_errors
-from .html import HEADER_STYLE, embedded_figure, file_facts, html_header, html_table, provenance
+from .html import PAGE_STYLE, embedded_figure, file_facts, html_header, html_table, provenance
 
-_STYLE = ("body{font-family:sans-serif;margin:2em;max-width:1400px}"
-          "table{border-collapse:collapse;margin:1em 0}"
-          "td,th{border:1px solid #bbb;padding:3px 8px;text-align:right}th{background:#eee}"
-          "img{max-width:100%;display:block;margin:0.5em 0}"
-          "figcaption{color:#333;font-size:0.95em}.warn{color:#a00}" + HEADER_STYLE)
+_STYLE = PAGE_STYLE + ".warn{color:#a00}"
+
+#: A control channel whose in-band error stays above this after the last step is doubted.
+STILL_OFF = 0.10
 
 
 def settings_dict(settings: IterationSettings) -> dict:
@@ -261,6 +260,68 @@ def _settings_text(s: dict) -> str:
     return "; ".join(parts)
 
 
+def iteration_verdict(report: dict) -> tuple[list[list[str]], list[str]]:
+    """What an engineer decides from, first on the page: (rows of [what, first step, last
+    step], what to doubt: channels still off or made worse, quiet channels, drives over their
+    limits, drive directions the control channels do not see, a drive unlike the reference)."""
+    control = report["control"]
+    steps = len(control[0]["rms_error"]) if control else 0
+    rows: list[list[str]] = []
+    doubts: list[str] = []
+    if steps:
+        first = _worst_and_median(np.array([c["rms_error"][0] for c in control], float))
+        last = report["final_rms_error"]
+        worst = max(control, key=lambda c: -np.inf if c["rms_error"][-1] is None
+                    or not np.isfinite(c["rms_error"][-1]) else c["rms_error"][-1])
+        rows += [["control error in the band, worst (% of the target's RMS)",
+                  _pct(first["worst"]), f"{_pct(last['worst'])} ({worst['channel']})"],
+                 ["control error in the band, median (%)", _pct(first["median"]),
+                  _pct(last["median"])]]  # fmt: skip
+        for c in control:
+            e = c["rms_error"]
+            if e[-1] is None or not np.isfinite(e[-1]):
+                continue
+            if e[-1] > STILL_OFF:
+                grew = steps > 1 and e[-1] > e[0]
+                doubts.append(f"{c['channel']}: still {_pct(e[-1])} % off after the last step"
+                              + (f" (it was {_pct(e[0])} %: the iteration made it worse; "
+                                 "the model's FRF is wrong there, or the channel is)"
+                                 if grew else "") + ".")  # fmt: skip
+    for c in control:
+        if "status" in c:
+            doubts.append(f"{c['channel']}: {c['status']}.")
+    limits = report.get("limits")
+    if limits and report["drives"] and "peak_stroke" in report["drives"][0]:
+        rows.append(["drive peaks, largest share of a limit", "",
+                     f"{100 * limits['worst_ratio']:.0f} %" if limits.get("worst_ratio")
+                     is not None else "no limits given"])  # fmt: skip
+        if limits["exceeded"]:
+            doubts += list(limits["messages"])
+    if report["drives"] and "reference_error" in report["drives"][0]:
+        worst_ref = max(report["drives"], key=lambda d: d["reference_error"])
+        rows.append(["drive against the reference drive, worst (%)", "",
+                     f"{100 * worst_ref['reference_error']:.1f} ({worst_ref['actuator']})"])
+        if worst_ref["reference_error"] > STILL_OFF:
+            doubts.append(f"The drive differs from the reference drive by "
+                          f"{100 * worst_ref['reference_error']:.1f} % at "
+                          f"{worst_ref['actuator']}: responses matched with other drives "
+                          "than the physical ones (the model, or an unseen direction).")
+    if report.get("unseen"):
+        doubts.append(f"{len(report['unseen'])} frequency band(s) where the control channels "
+                      "do not see every drive direction above the noise: the drive is held "
+                      "at its least effort there (see below).")
+    return rows, doubts or ["Nothing stands out."]
+
+
+def _verdict_block(rows: list[list[str]], head: list[str], doubts: list[str],
+                   label: str = "What to doubt") -> str:  # fmt: skip
+    esc = html.escape
+    return ("<section id='verdict' class='verdict'><h2>Verdict</h2>"
+            + (html_table(rows, head) if rows else "")
+            + f"<p><b>{esc(label)}</b></p><ul class='doubt'>"
+            + "".join(f"<li>{esc(d)}</li>" for d in doubts) + "</ul></section>")
+
+
 def write_iteration_html(path: str | os.PathLike[str], report: dict,
                          figures: list[tuple[str, str, str]]) -> Path:  # fmt: skip
     """The page: a header (version, date, command, input files), what was iterated and how,
@@ -376,10 +437,12 @@ def write_iteration_html(path: str | os.PathLike[str], report: dict,
                      + "".join(items) + "</ul>")
     noise = report.get("noise_floor")
     taper = report.get("taper_s", 0.0)
+    v_rows, doubts = iteration_verdict(report)
     page = f"""<!DOCTYPE html><html><head><meta charset="utf-8">
+<meta name="viewport" content="width=device-width, initial-scale=1">
 <title>femcal drive iteration</title><style>{_STYLE}</style></head><body>
 <h1>femcal drive iteration</h1>
-{_header(report, [("target", "target"), ("model", "model deck"), ("plant", "plant deck")])}
+{_verdict_block(v_rows, ["", "first step", "last step"], doubts)}
 <p>Target <code>{esc(report['target'])}</code>; FRF inverted: {esc(report['frf'])}
 of <code>{esc(report['model'])}</code>; plant played: <code>{esc(report['plant'])}</code>.
 {esc(_settings_text(report['settings']))}.{
@@ -390,6 +453,8 @@ f"the target's at worst, {_pct(last['median'])} % median." if steps else
 "No response measured yet: the drive is the first one."}</b></p>
 {''.join(parts)}
 {_figures(path, figures)}
+<h2 id='provenance'>Provenance</h2>
+{_header(report, [("target", "target"), ("model", "model deck"), ("plant", "plant deck")])}
 </body></html>"""
     return write_lines(path, [page])
 
@@ -417,10 +482,29 @@ def write_comparison_html(path: str | os.PathLike[str], report: dict,
         parts += ["<h2>Uncontrolled channels: RMS of (predicted - measured), % of the "
                   "measured RMS</h2>", html_table(rows, ["channel", *names])]
     s = report["settings"]
+    v_rows = [["control error, median (%)",
+               *(f"{100 * np.nanmedian(m['control_rms_error']):.2f}" for m in models)],
+              ["control error, worst (%)",
+               *(f"{100 * np.nanmax(m['control_rms_error']):.2f}" for m in models)]]
+    doubts = []
+    if models and "drive_rms_error" in models[0]:
+        v_rows.append(["drive - reference drive, worst (%)",
+                       *(f"{100 * max(m['drive_rms_error'].values()):.2f}" for m in models)])
+        best = min(models, key=lambda m: max(m["drive_rms_error"].values()))
+        doubts.append(f"Nearest the physical drives: {best['name']} (worst actuator "
+                      f"{100 * max(best['drive_rms_error'].values()):.1f} %).")
+    if others:
+        v_rows.append(["uncontrolled channels, median error (%)",
+                       *(f"{100 * np.nanmedian(list(m['uncontrolled_rms_error'].values())):.2f}"
+                         for m in models)])  # fmt: skip
+        best = min(models, key=lambda m: np.nanmedian(list(m["uncontrolled_rms_error"]
+                                                           .values())))
+        doubts.append(f"Best prediction of the channels nobody controlled: {best['name']}.")
     page = f"""<!DOCTYPE html><html><head><meta charset="utf-8">
+<meta name="viewport" content="width=device-width, initial-scale=1">
 <title>femcal: models on the virtual rig</title><style>{_STYLE}</style></head><body>
 <h1>Models on the virtual rig</h1>
-{_header(report, [("target", "target")])}
+{_verdict_block(v_rows, ["", *names], doubts or ["Nothing stands out."], "Which model")}
 <p>Target <code>{html.escape(report['target'])}</code>. Each model is its own plant: its FRF
 inverted, its drives iterated on it ({s['iterations']} corrections, gain {s['gain']:g}, band
 {s['band_hz'][0]:g}-{s['band_hz'][1]:g} Hz) until its control channels follow the target. A
@@ -429,5 +513,7 @@ measured on the channels nobody controlled.</p>
 <h2>Control channels after the last step (RMS error, % of the target's)</h2>
 {''.join(parts)}
 {_figures(path, figures)}
+<h2 id='provenance'>Provenance</h2>
+{_header(report, [("target", "target")])}
 </body></html>"""
     return write_lines(path, [page])
