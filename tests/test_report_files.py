@@ -268,7 +268,7 @@ def test_the_page_opens_on_its_verdict_and_fits_1024_pixels(report, tmp_path):
 def test_long_tables_split_and_no_text_leaves_the_page(report, tmp_path, monkeypatch):
     """Many parameters with long descriptions and long paths: the table goes on over pages,
     each line is wrapped to its column, and every piece of text stays inside the margins."""
-    from femcal.io.calibration import report_dict, report_inputs
+    from femcal.io.calibration import report_dict, report_inputs, report_texts
     from femcal.io.html import provenance
     from femcal.viz import report_pdf
 
@@ -297,7 +297,8 @@ def test_long_tables_split_and_no_text_leaves_the_page(report, tmp_path, monkeyp
 
     monkeypatch.setattr(report_pdf._Document, "close_page", check)
     out = report_pdf.write_report_pdf(tmp_path / "r.pdf", rep, head,
-                                      [(1, "History " * 30, png, "A caption. " * 200)])
+                                      [(1, "History " * 30, png, "A caption. " * 200)],
+                                      texts=report_texts(rep))  # fmt: skip
     assert out.pages.count("parameters") >= 3 and out.pages[-2:] == ("figure 1", "provenance")
     raw = out.path.read_bytes()
     assert len(re.findall(rb"/Type\s*/Page\b", raw)) == len(out.pages)

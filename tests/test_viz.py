@@ -39,3 +39,13 @@ def test_overlay_refuses_a_model_without_the_channel(tmp_path):
     other = FRFData.from_labels(data().frequency_hz, data().H, ["9:1", "2:3"], ["5:2", "6:3"])
     with pytest.raises(ValueError, match="no FRF 1:2 / 5:2"):
         frf_overlay(tmp_path / "x.png", data(), other)
+
+
+def test_the_length_unit_of_frf_units():
+    from femcal.viz.calibration import length_unit
+
+    assert length_unit("mm/s^2/N") == "mm"
+    assert length_unit("m/N") == "m"
+    assert length_unit("in/lbf") == "in"
+    assert length_unit("g/N") == "model length unit"
+    assert length_unit("") == length_unit(None) == "model length unit"

@@ -37,6 +37,7 @@ from .html import (
 
 if TYPE_CHECKING:
     from ..deck.deck import Deck
+    from ..viz.report_pdf import ReportTexts
 
 
 def calibrated_deck_name(conf: Configuration, cfg: Config) -> str:
@@ -890,6 +891,21 @@ def verdict_of(report: dict) -> Verdict:
                    doubts or ["Nothing stands out."], [x for x in trust if not _is_warning(x)])
 
 
+def report_texts(report: dict) -> ReportTexts:
+    """The report's words and tables for the PDF, as the page has them."""
+    from ..viz.report_pdf import ConfigurationTexts, ReportTexts
+
+    v = verdict_of(report)
+    ho = report.get("holdout")
+    holdout = None if ho is None else (holdout_parts(ho)[0], HOLDOUT_HEAD, holdout_parts(ho)[1])
+    confs = [ConfigurationTexts(test_text(c), misfit_text(c), suspects_text(c), SUSPECT_HEAD,
+                                suspect_rows(c),
+                                model_form_tables(c["model_form"]) if c.get("model_form")
+                                else []) for c in report["configurations"]]  # fmt: skip
+    return ReportTexts(VERDICT_HEAD, v.tables, v.moved, v.doubts, v.rest, holdout, confs,
+                       runs_tables(report))
+
+
 def verdict_html(report: dict) -> str:
     """The block that opens the page (:func:`verdict_of`): per configuration the frequency
     errors, MAC and misfit before and after, then what moved most and what to doubt, then
@@ -1094,7 +1110,7 @@ def write_report(result: CalibrationResult, out: str | os.PathLike[str], *,
                 groups[f.number] = "Paired modes after calibration"
         doc = write_report_pdf(out / "report.pdf", report, head,
                                [(f.number, f.title, f.path, f.caption) for f in figures],
-                               headings=groups)  # fmt: skip
+                               headings=groups, texts=report_texts(report))  # fmt: skip
         written.append(f"{doc.path.name} ({len(doc.pages)} pages)")
     say(f"wrote {' and '.join(written)} in {out} with {len(figures)} figures (also in "
         f"{pics})")

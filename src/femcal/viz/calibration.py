@@ -8,6 +8,7 @@ the PDF that show them are :mod:`femcal.io.calibration`'s."""
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -60,12 +61,12 @@ def frf_comparison(path: Path, outcome: CaseResult, pairs: list[tuple[int, int]]
                     label="FE before")  # fmt: skip
         ax.semilogy(f, np.abs(outcome.H_after[o, i]), color="tab:red", lw=1.0, label="FE after")
         ax.set_title(f"{outcome.channel_name(outcome.outputs[o])} / "
-                     f"{outcome.channel_name(outcome.inputs[i])}", fontsize=8)
+                     f"{outcome.channel_name(outcome.inputs[i])}", fontsize=9)
         ax.set_xlabel("frequency (Hz)")
         ax.set_ylabel(f"|H| ({units})" if units else "|H| (the test's units)")
         ax.grid(True, which="both", alpha=0.3)
         if n == 0:
-            ax.legend(fontsize=7)
+            ax.legend(fontsize=9)
     for n in range(len(pairs), rows * cols):
         axes[divmod(n, cols)].set_visible(False)
     return _save(fig, path)
@@ -83,14 +84,14 @@ def mac_matrices(path: Path, outcome: CaseResult) -> Path:
         cols = np.flatnonzero((fe_hz >= 0.7 * band[0]) & (fe_hz <= 1.3 * band[1]))
         im = ax.imshow(M[:, cols], vmin=0, vmax=1, cmap="viridis", aspect="auto")
         ax.set_xticks(range(len(cols)), [f"{fe_hz[j]:.1f}" for j in cols], rotation=90,
-                      fontsize=7)  # fmt: skip
+                      fontsize=9)  # fmt: skip
         ax.set_yticks(range(len(outcome.test_hz)), [f"{f:.1f}" for f in outcome.test_hz])
         ax.set_xlabel("FE mode (Hz)")
         ax.set_ylabel("test mode (Hz)")
         ax.set_title(f"MAC, FE {title} calibration")
         for (r, c), v in np.ndenumerate(M[:, cols]):
             if v > 0.3:
-                ax.text(c, r, f"{v:.2f}", ha="center", va="center", fontsize=6,
+                ax.text(c, r, f"{v:.2f}", ha="center", va="center", fontsize=9,
                         color="k" if v > 0.6 else "w")  # fmt: skip
         fig.colorbar(im, ax=ax, fraction=0.04, label="MAC (0-1)")
     return _save(fig, path)
@@ -123,17 +124,17 @@ def parameters_plot(path: Path, outcome: CalibrationResult) -> Path:
         ax.plot(x[bound] + 0.15, change[bound], "o", mfc="none", mec="tab:red", ms=11,
                 label="on a bound")  # fmt: skip
     ax.axhline(0.0, color="k", lw=0.6)
-    ax.set_xticks(x, names, rotation=90, fontsize=8)
+    ax.set_xticks(x, names, rotation=90, fontsize=9)
     ax.set_ylabel("change from the nominal value (%)")
     ax.set_title("parameters: prior, calibrated value and posterior")
-    ax.legend(fontsize=7, ncol=2)
+    ax.legend(fontsize=9, ncol=2)
     ax.grid(True, axis="y", alpha=0.3)
     free = np.flatnonzero(~held)
     corr = outcome.posterior.correlation[np.ix_(free, free)]
     im = axes[1].imshow(np.where(np.isfinite(corr), corr, np.nan), vmin=-1, vmax=1,
                         cmap="RdBu_r")  # fmt: skip
-    axes[1].set_xticks(range(len(free)), [names[i] for i in free], rotation=90, fontsize=7)
-    axes[1].set_yticks(range(len(free)), [names[i] for i in free], fontsize=7)
+    axes[1].set_xticks(range(len(free)), [names[i] for i in free], rotation=90, fontsize=9)
+    axes[1].set_yticks(range(len(free)), [names[i] for i in free], fontsize=9)
     axes[1].set_title("posterior correlation of the calibrated parameters")
     axes[1].set_xlabel("parameter")
     axes[1].set_ylabel("parameter")
@@ -151,7 +152,7 @@ def history_plot(path: Path, outcome: CalibrationResult) -> Path:
     axes[0].set_xlabel("Levenberg-Marquardt iteration")
     axes[0].set_ylabel("deviation + prior term\n(surrogate; dimensionless)")
     axes[0].set_title("starts of the first cycle")
-    axes[0].legend(fontsize=7, ncol=2)
+    axes[0].legend(fontsize=9, ncol=2)
     axes[0].grid(True, which="both", alpha=0.3)
     dev = [c.deviation for c in outcome.cycles]
     axes[1].semilogy(range(1, len(dev) + 1), dev, "o-", label="best of each cycle (surrogate)")
@@ -162,7 +163,7 @@ def history_plot(path: Path, outcome: CalibrationResult) -> Path:
     axes[1].set_xlabel("cycle (surrogate rebuilt)")
     axes[1].set_ylabel("deviation: squared log10 residuals,\nsummed (dimensionless)")
     axes[1].set_title("deviation")
-    axes[1].legend(fontsize=8)
+    axes[1].legend(fontsize=9)
     axes[1].grid(True, which="both", alpha=0.3)
     return _save(fig, path)
 
@@ -172,6 +173,14 @@ def _units(outcome: CaseResult) -> str:
     if outcome.data is not None:
         return outcome.data.units
     return outcome.identified.units if outcome.identified is not None else ""
+
+
+def length_unit(units: str | None) -> str:
+    """The length unit of FRF units such as ``mm/s^2/N`` or ``m/N`` (what the deck's
+    coordinates are in, the test's units being the model's), or ``model length unit`` when
+    they name none."""
+    m = re.match(r"\s*(mm|cm|m|in|ft|um|µm)\b", units or "")
+    return m.group(1) if m else "model length unit"
 
 
 def vector_plot(path: Path, outcome: CaseResult) -> Path | None:
@@ -195,13 +204,13 @@ def vector_plot(path: Path, outcome: CaseResult) -> Path | None:
         t_r = in_scale_of(outcome.test_shapes[:, pr.test_mode - 1], a)
         shape_scatter(ax, a, t_r)
         ax.set_title(f"test {pr.test_hz:.1f} Hz / FE {pr.fe_after_hz:.1f} Hz\n"
-                     f"MAC {pr.mac_after:.3f}", fontsize=8)  # fmt: skip
+                     f"MAC {pr.mac_after:.3f}", fontsize=9)  # fmt: skip
         for o in np.argsort(np.abs(t_r - a))[::-1][:3]:  # the three farthest, by name
             ch = outcome.outputs[o]
             ax.annotate(outcome.channel_names.get(ch.label, ch.label), (a[o], t_r[o]),
-                        fontsize=6, xytext=(3, 3), textcoords="offset points")  # fmt: skip
-        ax.set_xlabel(f"FE shape after calibration\n({unit})", fontsize=8)
-        ax.set_ylabel(f"test shape x MSF\n({unit})", fontsize=8)
+                        fontsize=9, xytext=(3, 3), textcoords="offset points")  # fmt: skip
+        ax.set_xlabel(f"FE shape after calibration\n({unit})", fontsize=9)
+        ax.set_ylabel(f"test shape x MSF\n({unit})", fontsize=9)
     return _save(fig, path)
 
 
@@ -233,16 +242,21 @@ def model_form_plot(path: Path, outcome: CaseResult) -> Path | None:
                         linewidths=0.4)  # fmt: skip
         fig.colorbar(sc, ax=ax, shrink=0.6, pad=0.08,
                      label="typical residual after calibration (log10)")  # fmt: skip
-        for g, p_, r in zip(grids, at, rms, strict=True):
-            if r >= np.sort(rms)[-min(5, len(rms))]:  # the worst five by name
-                first = outcome.outputs[positions[int(g)][0]]
-                name = outcome.channel_names.get(first.label, first.label).split(" ")[0]
-                ax.text(*p_, f" {name}", fontsize=7)
+        worst = np.argsort(rms)[::-1][:5]  # the worst five: a letter on the frame, named aside
+        key = []
+        for letter, i in zip("abcde", worst, strict=False):
+            first = outcome.outputs[positions[int(grids[i])][0]]
+            name = outcome.channel_names.get(first.label, first.label).split(" ")[0]
+            ax.text(*at[i], f" {letter}", fontsize=10, weight="bold")
+            key.append(f"{letter}: {name} ({rms[i]:.3g})")
+        ax.text2D(0.0, 1.0, "worst sensors\n" + "\n".join(key), transform=ax.transAxes,
+                  fontsize=9, va="top", family="monospace")  # fmt: skip
     for k, c in enumerate(form.candidates, start=1):
         ax.scatter(*c.xyz, marker="*", s=160, c="tab:red", depthshade=False)
         ax.text(*c.xyz, f"  {k}", color="tab:red", fontsize=9, weight="bold")
+    length = length_unit(_units(outcome))
     for set_label, axis in ((ax.set_xlabel, "x"), (ax.set_ylabel, "y"), (ax.set_zlabel, "z")):
-        set_label(f"{axis} (the deck's length unit)")
+        set_label(f"{axis} ({length})")
     span = np.ptp(xyz, axis=0)
     ax.set_box_aspect(np.maximum(span, 0.05 * span.max()))
     ax.set_title("residual by sensor; red stars: missing-element candidates", fontsize=9)
@@ -262,7 +276,7 @@ def model_form_plot(path: Path, outcome: CaseResult) -> Path | None:
     ax2.set_ylabel("residual over the channels (log10)")
     ax2.set_title("residual by frequency")
     ax2.grid(True, which="both", alpha=0.3)
-    ax2.legend(fontsize=8)
+    ax2.legend(fontsize=9)
     return _save(fig, path)
 
 

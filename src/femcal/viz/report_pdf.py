@@ -44,6 +44,40 @@ def _no_ligatures() -> dict:
     return {"fontfeatures": ["-liga", "-clig"]} if hasattr(Text, "set_fontfeatures") else {}
 
 
+Table = tuple[str, list[str], list[list[str]]]
+
+
+@dataclass(frozen=True)
+class ConfigurationTexts:
+    """One configuration's words as the page has them: its test, its misfit, what the
+    suspect-channel table shows (and its header and rows; no rows: none stands out), its
+    model-form tables (what each shows, header, rows)."""
+
+    test: str
+    misfit: str
+    suspects: str
+    suspect_head: list[str]
+    suspect_rows: list[list[str]]
+    model_form: list[Table]
+
+
+@dataclass(frozen=True)
+class ReportTexts:
+    """The report's words and tables as the page has them (:mod:`femcal.io.calibration`
+    makes them, so that both say the same): the verdict (its header, a table per
+    configuration, what moved, what to doubt, the rest of the trust summary), the held-out
+    validation (text, header, rows), each configuration's, the runs' tables."""
+
+    verdict_head: list[str]
+    verdict_tables: list[tuple[str, list[list[str]]]]
+    moved: str
+    doubts: list[str]
+    rest: list[str]
+    holdout: Table | None
+    configurations: list[ConfigurationTexts]
+    runs: list[Table]
+
+
 @dataclass(frozen=True)
 class PdfReport:
     """The written PDF: its path and what each page holds (``title``, ``parameters``,
@@ -281,19 +315,16 @@ def _f(v: float | None, spec: str) -> str:
     return "-" if v is None else format(v, spec)
 
 
-def _title_pages(doc: _Document, report: dict, head: dict) -> None:
+def _title_pages(doc: _Document, report: dict, head: dict, v: ReportTexts) -> None:
     """The first page: the title, then the verdict (as the page's), then the run in one
     paragraph."""
-    from ..io.calibration import VERDICT_HEAD, verdict_of
-
     doc.new_page("title")
     doc.lines("femcal calibration report", TITLE, weight="bold", after=0.2)
     doc.lines(f"femcal {head['version']}, made {head['made']}", 10.5, after=0.6)
-    v = verdict_of(report)
     doc.heading("Verdict")
-    for name, rows in v.tables:
-        doc.table(VERDICT_HEAD, rows, [40, 30, 30], ["left", "right", "right"], kind="title",
-                  title=name if len(v.tables) > 1 else "", size=8.0)  # fmt: skip
+    for name, rows in v.verdict_tables:
+        doc.table(v.verdict_head, rows, [40, 30, 30], ["left", "right", "right"], kind="title",
+                  title=name if len(v.verdict_tables) > 1 else "", size=8.0)  # fmt: skip
     doc.lines(v.moved, BODY)
     doc.lines("What to doubt", BODY, weight="bold", after=0.2)
     for line in v.doubts:
@@ -343,33 +374,21 @@ def _aligns(rows: Sequence[Sequence[str]], n: int) -> list[str]:
     return ["right" if rows and all(_number(r[k]) for r in rows) else "left" for k in range(n)]
 
 
-def _sections(doc: _Document, report: dict) -> None:
+def _sections(doc: _Document, report: dict, texts: ReportTexts) -> None:
     """The held-out validation, the model-form test, each configuration's test, misfit,
     suspect channels and model form, and the runs: every table of the page."""
-    from ..io.calibration import (
-        HOLDOUT_HEAD,
-        SUSPECT_HEAD,
-        holdout_parts,
-        misfit_text,
-        model_form_tables,
-        runs_tables,
-        suspect_rows,
-        suspects_text,
-        test_text,
-    )
 
     def tables(parts, kind: str) -> None:
         for text, head, rows in parts:
             doc.lines(text, BODY)
             doc.table(head, rows, [1] * len(head), _aligns(rows, len(head)), kind=kind)
 
-    ho = report.get("holdout")
-    if ho is not None:
+    if texts.holdout is not None:
         doc.new_page("held-out validation")
         doc.lines("Validation on held-out data", HEADING, weight="bold", after=0.25)
-        text, rows = holdout_parts(ho)
+        text, head, rows = texts.holdout
         doc.lines(text, BODY)
-        doc.table(HOLDOUT_HEAD, rows, [2, 1, 1.3, 1.6, 1], ["left"] + ["right"] * 4,
+        doc.table(head, rows, [2, 1, 1.3, 1.6, 1], ["left"] + ["right"] * 4,
                   kind="held-out validation")  # fmt: skip
     a = report.get("augmented")
     if a is not None:
@@ -386,31 +405,31 @@ def _sections(doc: _Document, report: dict) -> None:
         doc.table(["parameter", "calibrated without it", "calibrated with it"], rows,
                   [1, 1, 1], ["left", "right", "right"], kind="model form tested")  # fmt: skip
     confs = report["configurations"]
-    for c in confs:
+    for c, t in zip(confs, texts.configurations, strict=True):
         kind = f"configuration {c['name']}"
         doc.new_page(kind)
         doc.lines(f"Configuration {c['name']}" if len(confs) > 1 else "Test", HEADING,
                   weight="bold", after=0.25)  # fmt: skip
-        doc.lines(test_text(c), BODY)
-        doc.lines(misfit_text(c), BODY)
-        if c.get("suspects"):
+        doc.lines(t.test, BODY)
+        doc.lines(t.misfit, BODY)
+        if t.suspect_rows:
             doc.heading("Suspect channels")
-            doc.lines(suspects_text(c), BODY)
-            doc.table(SUSPECT_HEAD, suspect_rows(c), [12, 10, 8, 8, 8, 36, 30],
+            doc.lines(t.suspects, BODY)
+            doc.table(t.suspect_head, t.suspect_rows, [12, 10, 8, 8, 8, 36, 30],
                       ["left", "left", "right", "right", "right", "left", "left"],
                       kind=kind)  # fmt: skip
         else:
-            doc.lines(suspects_text(c), BODY)
+            doc.lines(t.suspects, BODY)
         _mode_table(doc, c, len(confs) > 1)
         form = c.get("model_form")
         if form is not None:
             doc.heading("Model form")
             for line in form["suggestions"]:
                 doc.lines(line, BODY, indent=12, bullet="-")
-            tables(model_form_tables(form), kind)
+            tables(t.model_form, kind)
     doc.new_page("runs")
     doc.lines("Runs", HEADING, weight="bold", after=0.25)
-    tables(runs_tables(report), "runs")
+    tables(texts.runs, "runs")
 
 
 def _status(p: dict) -> str:
@@ -487,7 +506,8 @@ def _figure_page(doc: _Document, number: int, title: str, png: str | os.PathLike
 def write_report_pdf(path: str | os.PathLike[str], report: dict, head: dict,
                      figures: Sequence[tuple[int, str, str | os.PathLike[str], str]],
                      *, title: str = "femcal calibration report",
-                     headings: dict[int, str] | None = None) -> PdfReport:  # fmt: skip
+                     headings: dict[int, str] | None = None,
+                     texts: ReportTexts) -> PdfReport:  # fmt: skip
     """Write the calibration report ``report`` (``report.json``'s content,
     :func:`femcal.io.calibration.report_dict`) as an A4 PDF: the title page(s) with the
     header ``head`` (:func:`femcal.io.html.provenance`: version, date, command, the input
@@ -513,9 +533,9 @@ def write_report_pdf(path: str | os.PathLike[str], report: dict, head: dict,
                 PdfPages(tmp, metadata=meta) as pdf:  # fmt: skip
             doc = _Document(pdf, f"{who} - {title}, made {head['made']}")
             try:
-                _title_pages(doc, report, head)
+                _title_pages(doc, report, head, texts)
                 _parameter_pages(doc, report)
-                _sections(doc, report)
+                _sections(doc, report, texts)
                 for number, caption_title, png, caption in figures:
                     _figure_page(doc, number, caption_title, png, caption,
                                  (headings or {}).get(number, ""))
