@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from femcal.correlate.channels import STANDOUT_FACTOR, suspect_channels
+from femcal.calibrate.channels import STANDOUT_FACTOR, suspect_channels
 from femcal.model import EigenRequest
 from femcal.model.build import load_model
 from femcal.response.frf import channel_matrix, modal_frf

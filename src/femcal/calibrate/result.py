@@ -14,12 +14,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..correlate.channels import SuspectChannel
 from ..identify.workflow import IdentifiedModel
 from ..model.model import Model
 from ..solve.normal_modes import Modes
 from ..testdata.data import Channel, FRFData
 from .augment import AddedElement
+from .channels import SuspectChannel
 from .config import Config
 from .holdout import HoldOut
 from .identifiability import Identifiability

@@ -60,7 +60,6 @@ import numpy as np
 
 from ..atomic import write_atomic
 from ..correlate import mac, pair_modes, pseudo_orthogonality, serep_mass
-from ..correlate.channels import suspect_channels
 from ..identify import IdentifiedModel
 from ..model.model import Model
 from ..parallel.cluster import Engine, Session, result_of
@@ -68,6 +67,7 @@ from ..parallel.progress import Detail
 from ..response.frf import channel_matrix
 from ..testdata.data import FRFData
 from .cases import Case, TestSetup, prepare_case, residual_rows
+from .channels import suspect_channels
 from .config import SETTINGS, Config, ConfigError, check_config
 from .gradient import first_order_correction
 from .holdout import fold_plan, validate

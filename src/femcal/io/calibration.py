@@ -20,11 +20,11 @@ import numpy as np
 
 from ..atomic import write_atomic, write_lines
 from ..calibrate.augment import AddedElement
+from ..calibrate.channels import STANDOUT_FACTOR, SuspectChannel
 from ..calibrate.config import Config, Configuration
 from ..calibrate.modelform import NOISE_FACTOR
 from ..calibrate.parameters import Parameter
-from ..calibrate.result import CalibrationResult, CaseResult, Cycle, ModePairing
-from ..correlate.channels import STANDOUT_FACTOR, SuspectChannel
+from ..calibrate.result import CalibrationResult, CaseResult, Cycle
 from .html import (
     PAGE_STYLE,
     embedded_figure,
@@ -83,16 +83,17 @@ def misfit_sigma(case: CaseResult) -> float:
     return float(np.sqrt(case.deviation_after / case.likelihood.m))
 
 
-def _worst(modes: list[ModePairing], key: str) -> tuple[float, int] | None:
-    """(the largest |frequency error| in %, its test mode) of ``key`` (before or after)."""
-    errs = [(abs(v), m.test_mode) for m in modes
-            if (v := getattr(m, f"frequency_error_{key}_pct")) is not None]  # fmt: skip
+def _worst(modes: list[dict], key: str) -> tuple[float, int] | None:
+    """(the largest |frequency error| in %, its test mode) of ``key`` (before or after), of
+    the paired modes as the report lists them (:func:`_modes`)."""
+    errs = [(abs(v), m["test_mode"]) for m in modes
+            if (v := m[f"frequency_error_{key}_pct"]) is not None]  # fmt: skip
     return max(errs) if errs else None
 
 
-def _lowest(modes: list[ModePairing], key: str) -> tuple[float, int] | None:
-    """(the lowest MAC, its test mode) of ``key`` (before or after)."""
-    macs = [(v, m.test_mode) for m in modes if (v := getattr(m, f"mac_{key}")) is not None]
+def _lowest(modes: list[dict], key: str) -> tuple[float, int] | None:
+    """(the lowest MAC, its test mode) of ``key`` (before or after), as :func:`_worst`."""
+    macs = [(v, m["test_mode"]) for m in modes if (v := m[f"mac_{key}"]) is not None]
     return min(macs) if macs else None
 
 
@@ -104,10 +105,10 @@ def verdict_lines(result: CalibrationResult) -> list[str]:
     lines = []
     for case in result.cases:
         at = f"{case.name}: " if several else ""
-        modes = list(case.modes)
+        modes = _modes(case)
         wb, wa = _worst(modes, "before"), _worst(modes, "after")
         lb, la = _lowest(modes, "before"), _lowest(modes, "after")
-        paired = sum(m.fe_after is not None for m in modes)
+        paired = sum(m["fe_after_mode"] is not None for m in modes)
         if wb and wa and lb and la:
             lines.append(f"{at}Frequencies: the worst error {wb[0]:.2f} % before (test mode "
                          f"{wb[1]}), {wa[0]:.2f} % after (test mode {wa[1]}); MAC: the lowest "
@@ -318,6 +319,7 @@ def _suspect(s: SuspectChannel) -> dict:
             "misfit_after": s.misfit_after, "median_before": _finite(s.median_before),
             "median_after": s.median_after, "level": s.level, "reasons": list(s.reasons),
             "notes": list(s.notes), "worse_after": s.worse_after,
+            "out_before": s.out_before, "out_after": s.out_after,
             "text": s.describe(), "brief": s.brief()}  # fmt: skip
 
 
@@ -808,13 +810,12 @@ def _before_after(c: dict) -> list[list[str]]:
     modes = c["modes"]
 
     def worst(key: str) -> str:
-        errs = [(abs(m[f"frequency_error_{key}_pct"]), m["test_mode"]) for m in modes
-                if m[f"frequency_error_{key}_pct"] is not None]  # fmt: skip
-        return "-" if not errs else f"{max(errs)[0]:.2f} % (test mode {max(errs)[1]})"
+        w = _worst(modes, key)
+        return "-" if w is None else f"{w[0]:.2f} % (test mode {w[1]})"
 
     def lowest(key: str) -> str:
-        macs = [(m[f"mac_{key}"], m["test_mode"]) for m in modes if m[f"mac_{key}"] is not None]
-        return "-" if not macs else f"{min(macs)[0]:.3f} (test mode {min(macs)[1]})"
+        low = _lowest(modes, key)
+        return "-" if low is None else f"{low[0]:.3f} (test mode {low[1]})"
 
     def paired(key: str) -> str:
         return f"{sum(m[f'fe_{key}_mode'] is not None for m in modes)} of {len(modes)}"
@@ -829,11 +830,8 @@ def _before_after(c: dict) -> list[list[str]]:
         rows.append(["misfit, typical (log10, robust)", f"{m['typical_before']:.3g}",
                      f"{m['typical_after']:.3g}"])  # fmt: skip
     sus = c.get("suspects") or []
-    rows.append(["suspect channels", str(sum(x["misfit_before"] is not None and
-                                             x["misfit_before"] > STANDOUT_FACTOR
-                                             * (x["median_before"] or 0) for x in sus)),
-                 str(sum(x["misfit_after"] > STANDOUT_FACTOR * x["median_after"]
-                         for x in sus))])  # fmt: skip
+    rows.append(["suspect channels", str(sum(x["out_before"] for x in sus)),
+                 str(sum(x["out_after"] for x in sus))])
     return rows
 
 
@@ -897,7 +895,10 @@ def report_texts(report: dict) -> ReportTexts:
 
     v = verdict_of(report)
     ho = report.get("holdout")
-    holdout = None if ho is None else (holdout_parts(ho)[0], HOLDOUT_HEAD, holdout_parts(ho)[1])
+    holdout = None
+    if ho is not None:
+        text, rows = holdout_parts(ho)
+        holdout = (text, HOLDOUT_HEAD, rows)
     confs = [ConfigurationTexts(test_text(c), misfit_text(c), suspects_text(c), SUSPECT_HEAD,
                                 suspect_rows(c),
                                 model_form_tables(c["model_form"]) if c.get("model_form")

@@ -1006,22 +1006,18 @@ def frequency_figure(result: Correlation):
 
 def automac_figure(result: Correlation, checks: Checks):
     """The test modes' AutoMAC as a picture, values printed."""
-    from ..viz.figures import pyplot
+    from ..viz.figures import mac_image, pyplot
 
     plt = pyplot()
     M = checks.automac
     k = len(M)
     fig, ax = plt.subplots(figsize=(max(4.5, 0.5 * k + 2.5), max(4.0, 0.45 * k + 2.0)))
-    im = ax.imshow(M, vmin=0, vmax=1, cmap="viridis")
+    im = mac_image(ax, M, printed_above=0.1, fontsize=7, aspect="equal")
     ticks = [f"{i + 1}: {f:.1f}" for i, f in enumerate(result.test.frequency_hz)]
     ax.set_xticks(range(k), ticks, rotation=90, fontsize=8)
     ax.set_yticks(range(k), ticks, fontsize=8)
     ax.set_xlabel("test mode: frequency (Hz)")
     ax.set_ylabel("test mode: frequency (Hz)")
-    for (r, c), v in np.ndenumerate(M):
-        if v > 0.1:
-            ax.text(c, r, f"{v:.2f}", ha="center", va="center", fontsize=7,
-                    color="k" if v > 0.6 else "w")  # fmt: skip
     fig.colorbar(im, ax=ax, fraction=0.04, label="MAC (no unit)")
     ax.set_title("AutoMAC of the test modes")
     return fig
@@ -1054,13 +1050,13 @@ def comac_figure(result: Correlation, checks: Checks):
 def mac_figure(result: Correlation):
     """The MAC matrix as a picture (a matplotlib figure): test modes by row, FE modes by
     column, values over 0.3 printed, pairs framed."""
-    from ..viz.figures import pyplot
+    from ..viz.figures import mac_image, pyplot
 
     plt = pyplot()
     M = result.mac
     kt, kf = M.shape
     fig, ax = plt.subplots(figsize=(max(5.0, 0.55 * kf + 2.5), max(3.5, 0.45 * kt + 1.8)))
-    im = ax.imshow(M, vmin=0, vmax=1, cmap="viridis", aspect="auto")
+    im = mac_image(ax, M, printed_above=0.3, fontsize=6)
     f_fe = result.fe.frequencies_hz
     ax.set_xticks(range(kf), [f"{j + 1}: {f_fe[j]:.1f}" for j in result.fe_index],
                   rotation=90, fontsize=7)  # fmt: skip
@@ -1069,10 +1065,6 @@ def mac_figure(result: Correlation):
     ax.set_xlabel("FE mode: frequency (Hz)")
     ax.set_ylabel("test mode: frequency (Hz)")
     ax.set_title("MAC")
-    for (r, c), v in np.ndenumerate(M):
-        if v > 0.3:
-            ax.text(c, r, f"{v:.2f}", ha="center", va="center", fontsize=6,
-                    color="k" if v > 0.6 else "w")  # fmt: skip
     col = {int(j): c for c, j in enumerate(result.fe_index)}
     for p in result.pairs:
         c = col[p.fe_mode - 1]

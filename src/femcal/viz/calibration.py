@@ -17,7 +17,7 @@ import numpy as np
 from ..calibrate.result import CalibrationResult, CaseResult
 from ..correlate import in_scale_of
 from ..response.frf import channel_matrix
-from .figures import pyplot, save_figure, shape_scatter
+from .figures import mac_image, pyplot, save_figure, shape_scatter
 
 
 @dataclass(frozen=True)
@@ -82,17 +82,13 @@ def mac_matrices(path: Path, outcome: CaseResult) -> Path:
     for ax, M, modes, title in panels:
         fe_hz = modes.frequencies_hz
         cols = np.flatnonzero((fe_hz >= 0.7 * band[0]) & (fe_hz <= 1.3 * band[1]))
-        im = ax.imshow(M[:, cols], vmin=0, vmax=1, cmap="viridis", aspect="auto")
+        im = mac_image(ax, M[:, cols], printed_above=0.3, fontsize=9)
         ax.set_xticks(range(len(cols)), [f"{fe_hz[j]:.1f}" for j in cols], rotation=90,
                       fontsize=9)  # fmt: skip
         ax.set_yticks(range(len(outcome.test_hz)), [f"{f:.1f}" for f in outcome.test_hz])
         ax.set_xlabel("FE mode (Hz)")
         ax.set_ylabel("test mode (Hz)")
         ax.set_title(f"MAC, FE {title} calibration")
-        for (r, c), v in np.ndenumerate(M[:, cols]):
-            if v > 0.3:
-                ax.text(c, r, f"{v:.2f}", ha="center", va="center", fontsize=9,
-                        color="k" if v > 0.6 else "w")  # fmt: skip
         fig.colorbar(im, ax=ax, fraction=0.04, label="MAC (0-1)")
     return _save(fig, path)
 

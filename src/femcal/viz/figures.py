@@ -43,3 +43,16 @@ def shape_scatter(ax, fe_shape: np.ndarray, test_shape: np.ndarray) -> float:
     ax.set_ylim(-lim, lim)
     ax.set_aspect("equal")
     return lim
+
+
+def mac_image(ax, M: np.ndarray, *, printed_above: float, fontsize: float,
+              aspect: str = "auto"):  # fmt: skip
+    """A MAC-like matrix (values 0-1) drawn on ``ax`` (viridis), each value over
+    ``printed_above`` printed in its cell (dark on bright cells); returns the image, for its
+    colour bar."""
+    im = ax.imshow(M, vmin=0, vmax=1, cmap="viridis", aspect=aspect)
+    for (r, c), v in np.ndenumerate(M):
+        if v > printed_above:
+            ax.text(c, r, f"{v:.2f}", ha="center", va="center", fontsize=fontsize,
+                    color="k" if v > 0.6 else "w")  # fmt: skip
+    return im

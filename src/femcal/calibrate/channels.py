@@ -35,6 +35,8 @@ from ..model.model import Model
 from ..response.frf import channel_matrix, modal_frf
 from ..solve.normal_modes import Modes
 from ..testdata.data import Channel
+from .metric import residuals
+from .robust import robust_scale
 
 #: A channel stands out when its misfit is this many times the median channel's ...
 STANDOUT_FACTOR = 3.0
@@ -84,6 +86,16 @@ class SuspectChannel:
         return f"{self.name} ({self.label})" if self.name else self.label
 
     @property
+    def out_before(self) -> bool:
+        """It stands out at the nominal model."""
+        return bool(stands_out(self.misfit_before, self.median_before))
+
+    @property
+    def out_after(self) -> bool:
+        """It stands out at the calibrated model."""
+        return bool(stands_out(self.misfit_after, self.median_after))
+
+    @property
     def worse_after(self) -> bool:
         """Calibration made this channel's misfit larger."""
         return bool(self.misfit_after > self.misfit_before)
@@ -112,19 +124,23 @@ class SuspectChannel:
                 f"{', worse after calibration' if self.worse_after else ''}); {why}.{notes}")
 
 
+def stands_out(misfit: float | np.ndarray, median: float) -> bool | np.ndarray:
+    """A misfit over :data:`STANDOUT_FACTOR` times the median channel's and over
+    :data:`STANDOUT_FLOOR` (False for NaN)."""
+    return (misfit > STANDOUT_FACTOR * median) & (misfit > STANDOUT_FLOOR)
+
+
 def _channel_rms(eps: np.ndarray) -> np.ndarray:
     """(n_out,) RMS of residuals laid out (parts, n_out, n_in, n_f)."""
     return np.sqrt(np.mean(eps**2, axis=(0, 2, 3)))
 
 
 def _log_residuals(H_model: np.ndarray, H_test: np.ndarray, phase: bool) -> np.ndarray:
-    """(parts, ...) the log10 residuals of the metric: magnitude, and phase as the
-    complex-log metric weighs it (2 sin(angle / 2) / ln 10)."""
-    ratio = H_model / H_test
-    mag = np.log10(np.abs(ratio))
-    if not phase:
-        return mag[None]
-    return np.stack([mag, 2.0 * np.sin(np.angle(ratio) / 2.0) / np.log(10.0)])
+    """(parts, ...) the metric's log10 residuals (:func:`femcal.calibrate.metric.residuals`:
+    magnitude, and with ``phase`` the complex-log metric's phase part) in H's layout."""
+    shape = np.broadcast_shapes(np.shape(H_model), np.shape(H_test))
+    eps = residuals(H_model, H_test, "complex-log" if phase else "log-magnitude")
+    return eps.reshape(-1, *shape)
 
 
 def _alternatives(model: Model, channel: Channel) -> list[tuple[str, Channel]]:
@@ -191,13 +207,9 @@ def suspect_channels(outputs: Sequence[Channel], inputs: Sequence[Channel],
     else:
         before, med_b = np.full(len(outputs), np.nan), np.nan
 
-    def stands_out(x: np.ndarray, med: float) -> np.ndarray:
-        return (x > STANDOUT_FACTOR * med) & (x > STANDOUT_FLOOR)
-
     strength = np.median(np.abs(H_test), axis=(1, 2))  # (n_out,) each channel's level
     typical_strength = float(np.median(strength))
-    odd = stands_out(after, med_a) | (stands_out(before, med_b) if H_before is not None
-                                      else False)  # fmt: skip
+    odd = stands_out(after, med_a) | stands_out(before, med_b)  # NaN before: False
     found = []
     for o in np.flatnonzero(odd):
         ch = outputs[o]
@@ -221,7 +233,7 @@ def suspect_channels(outputs: Sequence[Channel], inputs: Sequence[Channel],
                          "level): near a node line noise and small modelling errors weigh "
                          "more")  # fmt: skip
         eps_o = _log_residuals(H_after[o], H_test[o], phase)
-        typical = 1.4826 * float(np.median(np.abs(eps_o)))
+        typical = robust_scale(eps_o)
         if own > GATHERED * typical:
             notes.append(f"its misfit gathers at a few frequencies (typically {typical:.2g}, "
                          f"{own:.2g} in all): the channel's antiresonances, which the "
