@@ -13,6 +13,7 @@ from femcal.correlate.shapes import (
     pair_modes,
     pseudo_orthogonality,
     real_shapes,
+    rigid_share,
     serep_mass,
 )
 
@@ -74,3 +75,20 @@ def test_comac_and_sign_agreement_per_channel():
     assert co[7] == pytest.approx(np.sum(np.abs(t[7] * a[7])) ** 2
                                   / (np.sum(t[7] ** 2) * np.sum(a[7] ** 2)))
     assert comac(np.zeros((2, 3)), A[:2, :3]).tolist() == [0.0, 0.0]
+
+
+def test_rigid_share_is_the_rigid_motions_part_of_a_shape():
+    rng = np.random.default_rng(3)
+    xyz = rng.normal(size=(40, 3)) * [2000.0, 400.0, 150.0] + [5000.0, -300.0, 800.0]
+    r = xyz - xyz.mean(axis=0)
+    t, theta = np.array([0.3, -1.0, 0.2]), np.array([1e-3, -4e-4, 2e-4])
+    rigid = t + np.cross(theta, r)  # a translation and a small turn about the centre
+    # a deformation with no rigid part: a random field less its rigid least-squares fit
+    basis = np.concatenate([np.tile(np.eye(3), (40, 1))] + [np.cross(e, r).reshape(-1, 1)
+                            for e in np.eye(3)], axis=1)  # fmt: skip
+    field = rng.normal(size=120)
+    deform = (field - basis @ np.linalg.lstsq(basis, field, rcond=None)[0]).reshape(40, 3)
+    deform *= np.linalg.norm(rigid) / np.linalg.norm(deform)  # as large as the rigid part
+    shares = rigid_share(xyz, np.stack([rigid, deform, rigid + deform, 5 * rigid + deform,
+                                        np.zeros((40, 3))]))  # fmt: skip
+    np.testing.assert_allclose(shares, [1.0, 0.0, 0.5, 25 / 26, 1.0], atol=1e-9)

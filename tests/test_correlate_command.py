@@ -28,6 +28,7 @@ from femcal.testdata import read_frf
 from femcal.testdata.data import Channel
 from femcal.testdata.formats import write_frf
 from femcal.testdata.points import point_label, read_points
+from femcal.viz.webview import read_webview
 
 from .browser import assert_verdict_first_at_1024, needs_browser
 
@@ -138,13 +139,50 @@ def test_mac_matrix_and_page(deck_run, independent):
         assert M[k, col] == pytest.approx(float(r["mac"]), abs=1e-6) and M[k].argmax() == col
     page = (out / "correlation.html").read_text()
     assert not re.search(r"(src|href)\s*=\s*[\"']?\s*(https?:|//)", page, re.IGNORECASE)
-    assert "<link" not in page and "<script" not in page
+    assert "<link" not in page
+    # the 3-D viewer's data and its script, inline
+    assert re.findall(r"<script\b[^>]*>", page) == [
+        '<script type="application/json" class="femcal-data" id="femcal-data">', "<script>"]
     images = re.findall(r"<img src='([^']*)'", page)
-    # the frequency scatter, the MAC matrix, the AutoMAC, the CoMAC, the component plot, one
-    # picture per pair
-    assert len(images) == 5 + 5
+    # the frequency scatter, the MAC matrix, the AutoMAC, the CoMAC, the component plot
+    assert len(images) == 5
     assert all(s.startswith("data:image/png;base64,iVBOR") for s in images)
     assert page.count("<tr>") >= 1 + 5 + 1 + 5  # the paired table and the MAC table
+
+
+def test_the_viewer_draws_each_pair_on_the_model(deck_run):
+    view = read_webview(deck_run["out"] / "correlation.html")
+    rows = read_table(deck_run["out"] / "correlation.csv")
+    o = view["overlay"]
+    # the paired FE modes, on the deck's faces (14 510 CQUAD4, 6 CTRIA3, the CHEXA's skins)
+    assert [m["mode"] for m in view["modes"]] == [int(r["fe_mode"]) for r in rows]
+    assert [p["label"].split(" / ")[0] for p in o["pairs"]] == [
+        f"test {r['test_mode']} ({float(r['test_hz']):.2f} Hz)" for r in rows]
+    assert view["n_faces"] > 14_510 and view["unit"] == "mm" and not any(
+        m["rigid"] for m in view["modes"])  # fmt: skip
+    # the FE shape at each sensor is the drawn mode's motion there, seen along the sensors'
+    # directions; the test's agrees with it as the pairs' MAC says (over 0.99)
+    model = load_model(DECK)
+    row = {int(g): n for n, g in enumerate(view["grid_ids"])}
+    grid_of, codes_of = {}, {}
+    for label, grid, code in read_points(SENSORS):
+        grid_of[label] = grid
+        codes_of.setdefault(label, []).append(code)
+    names = o["sensor_names"]
+    assert sorted(names) == sorted(grid_of) and len(names) == o["n_sensors"]
+    grids = [grid_of[name] for name in names]
+    np.testing.assert_allclose(o["sensor_points"], model.xyz[model.node_index(grids)],
+                               atol=1e-3)  # fmt: skip
+    for n, pair in enumerate(o["pairs"]):
+        fe = o["fe"][n]
+        motion = view["shapes"][pair["mode"]][[row[g] for g in grids]]
+        for s, name in enumerate(names):
+            axes = [c - 1 for c in codes_of[name] if 1 <= c <= 3]
+            np.testing.assert_allclose(fe[s, axes], motion[s, axes], rtol=0,
+                                       atol=1e-5 * np.abs(motion).max())  # fmt: skip
+        t = o["test"][n].ravel()
+        m = (t @ fe.ravel()) ** 2 / ((t @ t) * (fe.ravel() @ fe.ravel()))
+        assert m > 0.99 and pair["mac"] > 0.99
 
 
 @needs_browser
@@ -168,6 +206,9 @@ def test_saved_modes_and_an_identified_model_with_sensor_labels(saved, independe
     assert "identifying" not in stderr and "solving" not in stderr  # both read, not made
     rows = read_table(tmp_path / "o" / "correlation.csv")
     assert [int(r["fe_mode"]) for r in rows] == list(independent["fe_mode"])
+    view = read_webview(tmp_path / "o" / "correlation.html")  # no deck: the grids as points
+    assert (view["n_faces"], view["n_edges"], view["overlay"]["n_pairs"]) == (0, 0, len(rows))
+    assert view["n_points"] == len(load_model(DECK).node_ids) and view["unit"] == ""
     np.testing.assert_allclose([float(r["mac"]) for r in rows], independent["mac"], atol=1e-6)
     np.testing.assert_allclose([float(r["frequency_difference_pct"]) for r in rows],
                                independent["diff"], atol=1e-5)  # fmt: skip

@@ -21,6 +21,7 @@ from femcal.solve.normal_modes import solve_normal_modes
 from femcal.viz.webview import (
     EDGE_ELEMENT,
     EDGE_RIGID,
+    EDGE_SURFACE,
     MARKER_GROUND_SPRING,
     MARKER_MASS,
     browser_check,
@@ -28,6 +29,7 @@ from femcal.viz.webview import (
     find_browser,
     read_webview,
     render_page,
+    viewer_mesh,
     webview_data,
     write_webview,
 )
@@ -51,6 +53,111 @@ def page(ladder, tmp_path_factory):
     model, modes = ladder
     return write_webview(tmp_path_factory.mktemp("page") / "ladder.html", modes, model,
                          title="ladder_frame.bdf <&>")  # fmt: skip
+
+
+#: A free body of shells and solids: two CQUAD4 and two CTRIA3 in z = 0, two CHEXA stacked
+#: on the plate's end (the second triangle on the lower one's bottom: no hinge) and a
+#: CPENTA on them (its side face on the upper CHEXA's top).
+BLOCK = """SOL 103
+CEND
+METHOD = 1
+BEGIN BULK
+EIGRL,1,,,10
+MAT1,1,210000.,,0.3,7.85-9
+PSHELL,1,1,2.,1,,1
+PSOLID,2,1
+GRID,1,,0.,0.,0.
+GRID,2,,50.,0.,0.
+GRID,3,,100.,0.,0.
+GRID,4,,0.,10.,0.
+GRID,5,,50.,10.,0.
+GRID,6,,100.,10.,0.
+GRID,7,,-20.,5.,0.
+GRID,8,,110.,0.,0.
+GRID,9,,110.,10.,0.
+GRID,10,,100.,0.,10.
+GRID,11,,110.,0.,10.
+GRID,12,,110.,10.,10.
+GRID,13,,100.,10.,10.
+GRID,14,,100.,0.,20.
+GRID,15,,110.,0.,20.
+GRID,16,,110.,10.,20.
+GRID,17,,100.,10.,20.
+GRID,18,,105.,0.,30.
+GRID,19,,105.,10.,30.
+CQUAD4,1,1,1,2,5,4
+CQUAD4,2,1,2,3,6,5
+CTRIA3,3,1,1,4,7
+CTRIA3,7,1,3,8,9
+CHEXA,4,2,3,8,9,6,10,11,+
++,12,13
+CHEXA,5,2,10,11,12,13,14,15,+
++,16,17
+CPENTA,6,2,14,15,18,17,16,19
+ENDDATA
+"""
+
+
+def test_faces_of_shells_and_the_outer_faces_of_solids(tmp_path):
+    deck = tmp_path / "block.bdf"
+    deck.write_text(BLOCK)
+    model = load_model(deck)
+    mesh = viewer_mesh(model)
+    faces = [tuple(mesh.grid_ids[f].tolist()) for f in mesh.faces]
+    corners = [frozenset(f) for f in faces]
+    # 2 quads and 2 triangles; 2 x 6 hexahedron faces and 5 wedge faces less the 2 shared
+    # faces, each counted twice
+    assert len(faces) == 4 + 12 + 5 - 4 == len(set(corners))
+    assert frozenset({10, 11, 12, 13}) not in corners  # between the two CHEXA
+    assert frozenset({14, 15, 16, 17}) not in corners  # between the CHEXA and the CPENTA
+    assert {frozenset({1, 4, 7}), frozenset({14, 15, 18}), frozenset({16, 17, 19}),
+            frozenset({3, 8, 9, 6}), frozenset({3, 8, 9})} <= set(corners)  # fmt: skip
+    # every side of every face is an element edge, so no face is a bow-tie
+    edges = {frozenset(e) for e in mesh.grid_ids[mesh.edges].tolist()}
+    for f in faces:
+        ring = list(dict.fromkeys(f))
+        assert all(frozenset(p) in edges for p in zip(ring, ring[1:] + ring[:1], strict=True)), f
+    assert (mesh.edge_kind == EDGE_SURFACE).all() and mesh.unit == "mm"
+
+
+def test_the_page_starts_on_the_first_flexible_mode(tmp_path, ladder):
+    deck = tmp_path / "block.bdf"
+    deck.write_text(BLOCK)
+    model = load_model(deck)
+    modes, _ = solve_normal_modes(model)
+    d = webview_data(modes, model)
+    assert [m["rigid"] for m in d["modes"]] == [True] * 6 + [False] * 4  # a free body
+    assert d["start"] == 6 and d["n_faces"] == 17 and d["shape_unit"] == "mm/\u221at"
+    # the ladder frame on four soft springs: its five lowest modes swing it rigidly
+    model, modes = ladder
+    d = webview_data(modes, model)
+    assert [m["rigid"] for m in d["modes"]][:6] == [True] * 5 + [False]
+    assert d["start"] == 5 and d["unit"] == "mm"
+
+
+@needs_browser
+def test_shaded_surfaces_a_triad_and_picking_in_a_headless_browser(tmp_path):
+    from PIL import Image
+
+    deck = tmp_path / "block.bdf"
+    deck.write_text(BLOCK)
+    model = load_model(deck)
+    modes, _ = solve_normal_modes(model)
+    page = write_webview(tmp_path / "block.html", modes, model, title="block")
+    r = browser_check(page, browser=BROWSER, screenshot=tmp_path / "shot.png")
+    # the self-test clicks the grid nearest the eye and reads its id back, checks the
+    # triad, the wireframe and the shaded drawing of every mode
+    assert r.ok, r
+    assert (r.faces, r.modes, r.start) == (17, 10, 7)  # opened on the first flexible mode
+    img = np.asarray(Image.open(r.screenshot).convert("RGB")).astype(int)[60:-60]
+    grey = (np.ptp(img, axis=2) < 12) & (img.sum(axis=2) < 700)
+    coloured = np.ptp(img, axis=2) > 40
+    assert coloured.sum() > 2000 and grey.sum() > 200  # filled faces, lettering and lines
+    no_pick = tmp_path / "no_pick.html"
+    no_pick.write_text(page.read_text(encoding="utf-8").replace("picked = best >= 0 ?",
+                                                                "picked = false ?"))
+    r = browser_check(no_pick, browser=BROWSER)
+    assert r.selftest.startswith("fail: a click does not name grid")
 
 
 def script_of(text: str) -> str:
@@ -109,7 +216,7 @@ def test_fewer_modes_and_the_hammer_frames_budget(ladder):
     assert back["shapes"].shape == (3, model.n_grids, 3)
     # the page is about 4 bytes x 4/3 per grid, direction and mode, plus the script
     full = render_page(webview_data(modes, model, max_modes=None))
-    assert len(full) < 30_000 + 6 * model.n_grids * 3 * len(modes.eigenvalues)
+    assert len(full) < 45_000 + 6 * model.n_grids * 3 * len(modes.eigenvalues)
 
 
 def test_the_script_parses(page):

@@ -1,5 +1,5 @@
 """Correlation of test and FE modes: MAC, pairing by MAC and frequency, frequency
-differences, SEREP pseudo-orthogonality, modal scale factors."""
+differences, SEREP pseudo-orthogonality, modal scale factors, the rigid-body share of a shape."""
 
 from .shapes import (
     Pair,
@@ -11,6 +11,7 @@ from .shapes import (
     pair_modes,
     pseudo_orthogonality,
     real_shapes,
+    rigid_share,
     serep_mass,
     sign_agreement,
 )
@@ -25,6 +26,7 @@ __all__ = [
     "pair_modes",
     "pseudo_orthogonality",
     "real_shapes",
+    "rigid_share",
     "serep_mass",
     "sign_agreement",
 ]

@@ -139,3 +139,34 @@ def in_scale_of(test_shape: np.ndarray, fe_shape: np.ndarray) -> np.ndarray:
     t = np.asarray(test_shape)
     s = modal_scale_factor(t, fe_shape)
     return (t / s).real if abs(s) > 0 else real_shapes(t[:, None])[:, 0]
+
+
+#: A shape is a rigid-body motion when a rigid motion explains at least this share of it.
+RIGID_SHARE = 0.95
+
+
+def rigid_share(xyz: np.ndarray, translations: np.ndarray) -> np.ndarray:
+    """The share of each shape's translations that a rigid-body motion explains, (k,) in
+    [0, 1]: ``1 - |u - u_r|^2 / |u|^2`` with ``u_r = t + theta x (x - c)`` the least-squares
+    rigid motion (translation ``t``, small rotation ``theta`` about the points' centre ``c``).
+
+    ``xyz`` (P, 3) the points, ``translations`` (k, P, 3) each shape's translations there
+    (any frame common to both, any scale). Near 1 for a free body's rigid modes and for a
+    stiff body swinging on soft mounts (a frame on air springs); well below 1 for modes that
+    deform it. A shape that does not move gets 1."""
+    xyz = np.asarray(xyz, float)
+    u = np.asarray(translations, float)
+    k, p = u.shape[0], xyz.shape[0]
+    r = xyz - xyz.mean(axis=0)
+    a = np.zeros((p, 3, 6))
+    a[:, [0, 1, 2], [0, 1, 2]] = 1.0
+    # theta x r = -r x theta: the rows of -[r]x
+    a[:, 0, 4], a[:, 0, 5] = r[:, 2], -r[:, 1]
+    a[:, 1, 3], a[:, 1, 5] = -r[:, 2], r[:, 0]
+    a[:, 2, 3], a[:, 2, 4] = r[:, 1], -r[:, 0]
+    a = a.reshape(3 * p, 6)
+    b = u.reshape(k, 3 * p).T
+    fit = a @ np.linalg.lstsq(a, b, rcond=None)[0]
+    total = np.einsum("ij,ij->j", b, b)
+    left = np.einsum("ij,ij->j", b - fit, b - fit)
+    return np.where(total > 0, 1.0 - left / np.where(total > 0, total, 1.0), 1.0)

@@ -25,7 +25,8 @@ test's channels (``femcal correlate``).
 
 :func:`run_correlation` does it all from files and writes ``correlation.csv`` (the paired
 table), ``mac.csv`` (the MAC matrix, labelled) and ``correlation.html`` (self-contained: the
-tables, the MAC matrix and the paired shapes at the sensors as embedded PNG pictures). The
+verdict, the tables, the pictures embedded as PNG and the paired shapes in an interactive 3-D
+viewer, :func:`shape_viewer`). The
 library returns data and reports progress through a callback; it prints nothing.
 """
 
@@ -67,8 +68,6 @@ IDENTIFY_MARGIN = 1.2
 MODES_KEYS = ("frequencies_hz", "shapes", "node_ids", "dof_start", "is_grid", "xyz", "cd_frames")
 #: Keys that make an NPZ file an identified model rather than FRFs.
 IDENTIFIED_KEYS = ("A", "poles", "shapes", "output_labels")
-
-_AXES = {"X": 0, "Y": 1, "Z": 2}
 
 
 class CorrelationError(FemcalError, ValueError):
@@ -741,7 +740,7 @@ def run_correlation(deck: str | os.PathLike[str], test: str | os.PathLike[str], 
     if out is not None:
         files = write_correlation(result, out, deck=str(deck), test=str(test),
                                   sensors=None if sensors is None else str(sensors),
-                                  progress=say)  # fmt: skip
+                                  model=model, progress=say)  # fmt: skip
     return result, files
 
 
@@ -778,7 +777,7 @@ def fe_label(result: Correlation, col: int) -> str:
 
 
 def write_correlation(result: Correlation, out: str | os.PathLike[str], *, deck: str = "",
-                      test: str = "", sensors: str | None = None,
+                      test: str = "", sensors: str | None = None, model=None,
                       progress: Callable[[str], None] | None = None
                       ) -> CorrelationFiles:  # fmt: skip
     """``out/correlation.csv`` (the table, :data:`TABLE_HEAD`), ``out/mac.csv`` (test modes
@@ -796,9 +795,10 @@ def write_correlation(result: Correlation, out: str | os.PathLike[str], *, deck:
     mac_path = out / "mac.csv"
     text_mac = _csv_text([head, *rows])
     write_atomic(mac_path, lambda tmp: Path(tmp).write_text(text_mac, encoding="utf-8"))
-    say(f"drawing the MAC matrix and {len(result.pairs)} paired shapes")
+    say(f"drawing the MAC matrix and the {len(result.pairs)} paired shapes")
     page = write_lines(out / "correlation.html",
-                       [correlation_html(result, deck=deck, test=test, sensors=sensors)])
+                       [correlation_html(result, deck=deck, test=test, sensors=sensors,
+                                         model=model)])  # fmt: skip
     say(f"wrote {table}, {mac_path}, {page}")
     return CorrelationFiles(table, mac_path, page)
 
@@ -850,10 +850,11 @@ def _png(fig) -> str:
 
 
 def correlation_html(result: Correlation, *, deck: str = "", test: str = "",
-                     sensors: str | None = None) -> str:  # fmt: skip
-    """The self-contained page: what was correlated, the paired table, the unpaired modes,
-    the MAC matrix (picture and numbers) and the paired shapes at the sensors, every picture
-    embedded as a base64 PNG (no external reference)."""
+                     sensors: str | None = None, model=None) -> str:  # fmt: skip
+    """The self-contained page: the verdict, what was correlated, the paired table, the
+    unpaired modes, the frequency scatter, the MAC matrix (picture and numbers), AutoMAC and
+    CoMAC, the paired shapes in the 3-D viewer on ``model`` (:func:`shape_viewer`) and the
+    provenance; every picture embedded (no external reference)."""
     from ..io.html import html_figure, html_number, html_table
 
     f1, f2 = result.band
@@ -878,12 +879,6 @@ def correlation_html(result: Correlation, *, deck: str = "", test: str = "",
             "For each pair: every channel of the test shape (made real and scaled to the FE "
             "shape by the modal scale factor) against the FE shape's; points on the diagonal "
             "agree."))  # fmt: skip
-    for r in result.pairs:
-        figures.append(html_figure(
-            f"Test mode {r.test_mode} ({r.test_hz:.2f} Hz) and FE mode {r.fe_mode} "
-            f"({r.fe_hz:.2f} Hz): MAC {r.mac:.3f}", _png(shape_figure(result, r)),
-            f"Test mode {r.test_mode} (left, red) beside FE mode {r.fe_mode} (right, blue); "
-            f"frequency difference {r.frequency_difference:+.2f} %."))  # fmt: skip
     checks = checks_of(result)
     extra = [html_figure(
         "Frequencies: test against FE", _png(frequency_figure(result)),
@@ -931,6 +926,19 @@ def correlation_html(result: Correlation, *, deck: str = "", test: str = "",
                                                      f"and {j + 1})"])
     doubts = verdict_lines(result, checks) or ["Nothing stands out."]
     from ..io.html import PAGE_STYLE, file_facts, html_header, provenance
+    from ..viz.webview import viewer_assets
+
+    viewer = ""
+    if pairs:
+        style, script = viewer_assets()
+        viewer = (f"{style}<p>Each pair animated on the FE model "
+                  f"({'its elements' if model is not None else 'its grids'}, coloured by the "
+                  "deflection drawn): the test shape at the sensors in red, made real and "
+                  "scaled to the FE shape by the modal scale factor, and the FE shape as the "
+                  "same channels see it in blue, both to the model's scale; each sensor "
+                  "joined to its two nearest. Choose the pair above the drawing; drag to "
+                  "turn, click a sensor or grid for its motion.</p>\n"
+                  f"{shape_viewer(result, model)}\n{script}")  # fmt: skip
 
     facts = [file_facts(role, path) for role, path in
              (("deck", deck), ("test", test), ("sensors", sensors)) if path]  # fmt: skip
@@ -962,10 +970,7 @@ FE modes in {f1:g}-{f2:g} Hz no test mode pairs with: {esc(unpaired_f) or "none"
 <h2>AutoMAC and CoMAC</h2>
 {''.join(extra[1:])}
 <h2>Shapes</h2>
-<p>Each pair's shapes at the sensors, on the FE model's grid points (grey): every sensor
-position displaced along its measured directions (the test shape made real and scaled to the
-FE shape by the modal scale factor, both drawn to the same scale), the undeformed positions in
-black, each sensor joined to its two nearest.</p>
+{viewer}
 {''.join(figures[1:])}
 <h2 id='provenance'>Provenance</h2>
 {html_header(provenance(facts))}
@@ -1082,6 +1087,40 @@ def _pair_shapes(result: Correlation, r: PairedMode) -> tuple[np.ndarray, np.nda
     return in_scale_of(result.test_shapes[:, r.test_mode - 1], a), a
 
 
+def fe_translations(fe: FEModes, columns: Sequence[int]) -> np.ndarray:
+    """(k, P, 3) the translations in basic of the FE modes ``columns`` (0-based) at every
+    grid, in the order of ``fe.node_ids``' grids."""
+    g = np.flatnonzero(fe.is_grid)
+    local = fe.shapes[fe.dof_start[g][:, None] + np.arange(3)][:, :, list(columns)]
+    return np.einsum("nij,njk->kni", fe.cd_frames[g], local)
+
+
+def shape_viewer(result: Correlation, model=None) -> str:
+    """The 3-D viewer of the paired modes (:mod:`femcal.viz.webview`), as HTML: the FE model
+    (its elements' faces and lines from ``model``, else its grids as points) animated in
+    each paired FE mode, the test shape drawn over it at the sensors (red) beside the FE
+    shape as the same channels see it (blue)."""
+    from ..viz.pair_view import OverlayPair, pair_overlay
+    from ..viz.webview import grid_cloud, viewer_block, viewer_data, viewer_mesh
+
+    fe = result.fe
+    g = np.flatnonzero(fe.is_grid)
+    mesh = viewer_mesh(model) if model is not None else grid_cloud(fe.xyz[g], fe.node_ids[g])
+    columns = sorted({r.fe_mode - 1 for r in result.pairs})
+    row = {c: n for n, c in enumerate(columns)}
+    pairs = []
+    for r in result.pairs:
+        t, a = _pair_shapes(result, r)
+        pairs.append(OverlayPair(f"test {r.test_mode} ({r.test_hz:.2f} Hz) / FE {r.fe_mode} "
+                                 f"({r.fe_hz:.2f} Hz), MAC {r.mac:.2f}", row[r.fe_mode - 1],
+                                 t, a, float(r.mac)))  # fmt: skip
+    overlay = pair_overlay(mesh, fe.cd_frames[g], result.placed, pairs, result.names)
+    data = viewer_data(mesh, fe_translations(fe, columns), fe.frequencies_hz[columns],
+                       title=Path(fe.source).name if fe.source else "FE model",
+                       mode_numbers=np.array(columns) + 1, overlay=overlay)  # fmt: skip
+    return viewer_block(data)
+
+
 def vector_figure(result: Correlation):
     """Test against FE shape, channel by channel, one panel per pair."""
     from ..viz.figures import pyplot, shape_scatter
@@ -1101,109 +1140,4 @@ def vector_figure(result: Correlation):
         ax.set_ylabel("test shape, scaled by the MSF", fontsize=8)
     for n in range(len(pairs), rows * cols):
         axes[divmod(n, cols)].set_visible(False)
-    return fig
-
-
-def sensor_vectors(result: Correlation, shape: np.ndarray
-                   ) -> tuple[np.ndarray, np.ndarray, list[str]]:  # fmt: skip
-    """A shape at the channels (p,) as a displacement (3,) in the basic frame at each sensor
-    grid: the least-squares fit of its translational channels there (a triaxial sensor's
-    three readings, a uniaxial one's along its direction). Returns the grids' positions
-    (g, 3), their displacements (g, 3) and names (the sensor's, or the grid id)."""
-    fe = result.fe
-    rows: dict[int, list[tuple[np.ndarray, float]]] = {}
-    names: dict[int, str] = {}
-    for k, c in enumerate(result.placed):
-        d = c.direction.upper()
-        sign = -1.0 if d.startswith("-") else 1.0
-        axis = d.lstrip("+-")
-        idx = int(fe.node_index(c.grid)[0])
-        if axis in _AXES:
-            vec = np.eye(3)[_AXES[axis]]
-        elif axis.isdigit() and 1 <= int(axis) <= 3 and fe.is_grid[idx]:
-            vec = fe.cd_frames[idx][:, int(axis) - 1]
-        else:
-            continue  # rotations are not drawn
-        rows.setdefault(c.grid, []).append((sign * vec, float(shape[k])))
-        label = result.channels[k].label
-        name = result.names.get(label, label)
-        names.setdefault(c.grid, str(c.grid) if name == label else name.split(" ")[0])
-    grids = list(rows)
-    xyz = fe.xyz[fe.node_index(grids)] if grids else np.zeros((0, 3))
-    disp = np.zeros((len(grids), 3))
-    for n, g in enumerate(grids):
-        D = np.array([v for v, _ in rows[g]])
-        y = np.array([s for _, s in rows[g]])
-        disp[n] = np.linalg.lstsq(D, y, rcond=None)[0]
-    return xyz, disp, [names[g] for g in grids]
-
-
-def _sensor_edges(xyz: np.ndarray, k: int = 2) -> list[tuple[int, int]]:
-    """Each sensor joined to its ``k`` nearest neighbours (a wireframe of the sensors)."""
-    if len(xyz) < 2:
-        return []
-    d = np.linalg.norm(xyz[:, None, :] - xyz[None, :, :], axis=2)
-    np.fill_diagonal(d, np.inf)
-    edges = set()
-    for i in range(len(xyz)):
-        for j in np.argsort(d[i])[: min(k, len(xyz) - 1)]:
-            edges.add((min(i, int(j)), max(i, int(j))))
-    return sorted(edges)
-
-
-def shape_figure(result: Correlation, r: PairedMode):
-    """A pair's shapes at the sensors in 3D: test, FE, and the two overlaid (see
-    :func:`correlation_html`)."""
-    from ..viz.figures import pyplot
-
-    plt = pyplot()
-    t, a = _pair_shapes(result, r)
-    xyz, u_fe, names = sensor_vectors(result, a)
-    _, u_t, _ = sensor_vectors(result, t)
-    fe = result.fe
-    cloud = fe.xyz[fe.is_grid]
-    cloud = cloud[:: max(len(cloud) // 3000, 1)]
-    span = np.ptp(cloud if len(cloud) else xyz, axis=0)
-    size = float(span.max()) if span.size and span.max() > 0 else 1.0
-    big = float(max(np.linalg.norm(u_fe, axis=1).max(initial=0.0),
-                    np.linalg.norm(u_t, axis=1).max(initial=0.0)))  # fmt: skip
-    scale = 0.12 * size / big if big > 0 else 0.0
-    edges = _sensor_edges(xyz)
-    # one scale for both panels, true to the model's proportions
-    pts = np.vstack([cloud, xyz, xyz + scale * u_t, xyz + scale * u_fe])
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    mid, half = (lo + hi) / 2, np.maximum((hi - lo) / 2, 0.04 * size)
-    test = (u_t, f"test mode {r.test_mode}: {r.test_hz:.2f} Hz", "tab:red")
-    model = (u_fe, f"FE mode {r.fe_mode}: {r.fe_hz:.2f} Hz", "tab:blue")
-    panels = ((test,), (model,), (test, model))  # beside each other, then overlaid
-    fig = plt.figure(figsize=(18, 4.4))
-    for n, shapes in enumerate(panels):
-        ax = fig.add_subplot(1, 3, n + 1, projection="3d")
-        if len(cloud):
-            ax.scatter(*cloud.T, s=0.3, c="0.8", depthshade=False)
-        for i, j in edges:
-            ax.plot(*xyz[[i, j]].T, color="0.35", lw=0.6)
-        ax.scatter(*xyz.T, s=6, c="k", depthshade=False)
-        if n == 0:
-            for p_, name in zip(xyz, names, strict=True):
-                ax.text(*p_, f" {name}", fontsize=5, color="0.3")
-        for u, _title, color in shapes:
-            moved = xyz + scale * u
-            for i, j in edges:
-                ax.plot(*moved[[i, j]].T, color=color, lw=1.4)
-            ax.scatter(*moved.T, s=14, c=color, depthshade=False)
-            for i in range(len(xyz)):
-                ax.plot(*np.array([xyz[i], moved[i]]).T, color=color, lw=0.6, alpha=0.6)
-        ax.set_xlim(mid[0] - half[0], mid[0] + half[0])
-        ax.set_ylim(mid[1] - half[1], mid[1] + half[1])
-        ax.set_zlim(mid[2] - half[2], mid[2] + half[2])
-        ax.set_box_aspect(tuple(half), zoom=1.1)  # (it scales an array in place)
-        title = (shapes[0][1] if len(shapes) == 1
-                 else "overlaid: test (red) and FE (blue)")  # fmt: skip
-        ax.set_title(f"{title} (MAC {r.mac:.3f})", fontsize=9)
-        ax.set_xlabel("x", fontsize=8)
-        ax.set_ylabel("y", fontsize=8)
-        ax.set_zlabel("z", fontsize=8)
-        ax.tick_params(labelsize=6)
-    fig.subplots_adjust(left=0.0, right=1.0, bottom=0.0, top=0.95, wspace=0.0)
     return fig

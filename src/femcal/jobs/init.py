@@ -56,6 +56,7 @@ import numpy as np
 from ..atomic import write_atomic
 from ..errors import FemcalError
 from ..model.model import Model
+from ..model.units import length_unit
 
 #: (card, field) -> (relative lower bound, relative upper bound, what it is, why these
 #: bounds): the fields femcal init proposes, in this order of kinds.
@@ -321,27 +322,6 @@ def check_channels(data, model: Model, test: str, deck: str) -> None:
 
 
 # ----------------------------------------------------------------------------- units
-
-
-def length_unit(model: Model) -> str | None:
-    """``mm`` (mm, tonne, s, N, MPa) or ``m`` (SI) as the model's MAT1 cards say, None when
-    they do not tell: the speed of sound sqrt(E / RHO) of each material with a density must
-    be a structural material's (1-12 km/s) in that length unit, and E a modulus in N per
-    its square (0.1 GPa to 1 TPa); PARAM WTMASS other than 1 changes the mass unit."""
-    mats = model.materials.get("MAT1")
-    if not isinstance(mats, dict) or model.params.wtmass != 1.0:
-        return None
-    e, rho = np.asarray(mats["e"], float), np.asarray(mats["rho"], float)
-    ok = np.isfinite(e) & np.isfinite(rho) & (e > 0) & (rho > 0)
-    if not ok.any():
-        return None
-    speed, modulus = np.sqrt(e[ok] / rho[ok]), e[ok]
-    for unit, metres in (("mm", 1e-3), ("m", 1.0)):
-        c = speed * metres
-        pa = modulus / metres**2
-        if ((c >= 1e3) & (c <= 1.2e4) & (pa >= 1e8) & (pa <= 1e12)).all():
-            return unit
-    return None
 
 
 def frf_units(quantity: str, unit: str | None) -> str | None:
