@@ -17,6 +17,7 @@ import subprocess
 import tempfile
 import zlib
 
+import numpy as np
 import pytest
 
 from femcal import __version__
@@ -24,7 +25,7 @@ from femcal.calibrate.config import read_config
 from femcal.calibrate.parameters import with_values
 from femcal.io.html import command_line, outside_references
 from femcal.jobs.calibration import run
-from femcal.viz.webview import find_browser
+from femcal.viz.webview import find_browser, read_webview
 
 from .browser import assert_verdict_first_at_1024, needs_browser
 from .calib_decks import INS, OUTS, TRUE_P, plate_deck, write_modal_test, write_plate
@@ -372,7 +373,7 @@ def test_the_page_opens_in_a_browser_with_every_picture_and_no_console_error(rep
                                                                             tmp_path):  # fmt: skip
     _, _, page = report
     # a copy away from the pictures folder, with a line of script that counts the pictures
-    # the browser decoded (the report itself has no script)
+    # the browser decoded
     probe = ("<script>addEventListener('load', () => document.documentElement.setAttribute("
              "'data-pictures', [...document.images].filter(i => i.complete && "
              "i.naturalWidth > 0).length + '/' + document.images.length));</script>")
@@ -388,6 +389,27 @@ def test_the_page_opens_in_a_browser_with_every_picture_and_no_console_error(rep
     console = re.findall(r":CONSOLE[^\]]*\]\s*(.*)", err + err2)
     assert console == []
     assert shot.read_bytes()[:8] == PNG and shot.stat().st_size > 20_000
+
+
+def test_the_paired_modes_are_drawn_in_the_3d_viewer(report):
+    _, result, page = report
+    case = result.cases[0]
+    view = read_webview(page)
+    paired = [m for m in case.modes if m.fe_after is not None]
+    o = view["overlay"]
+    assert [p["label"].split(" / ")[0] for p in o["pairs"]] == [
+        f"test {m.test_mode} ({m.test_hz:.2f} Hz)" for m in paired]
+    numbers = [m["mode"] for m in view["modes"]]
+    assert [numbers[p["mode"]] for p in o["pairs"]] == [m.fe_after for m in paired]
+    np.testing.assert_allclose([m["frequency_hz"] for m in view["modes"]],
+                               case.modes_after.frequencies_hz[np.array(numbers) - 1])
+    # the plate's shells as faces, the sensors named by the sensors file
+    assert view["n_faces"] > 0 and set(o["sensor_names"]) == {
+        f"S{g:02d}" for g in {c.grid for c in case.outputs}}
+    # the test shape scaled to the FE shape agrees with it as the pair's MAC says
+    for n, m in enumerate(paired):
+        t, f = o["test"][n].ravel(), o["fe"][n].ravel()
+        assert (t @ f) ** 2 / ((t @ t) * (f @ f)) == pytest.approx(m.mac_after, abs=0.05)
 
 
 def test_the_runs_table_sets_like_beside_like(report):

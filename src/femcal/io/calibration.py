@@ -12,7 +12,7 @@ import html
 import json
 import os
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -782,9 +782,10 @@ def _suspects_html(c: dict) -> str:
             f"<p>{html.escape(suspects_text(c))}</p>{_table(suspect_rows(c), SUSPECT_HEAD)}")
 
 
-def _configuration_html(c: dict, figures: list[ReportFigure], several: bool) -> str:
-    """One configuration's section: its test, deviation, modes and figures (the renderings
-    of the calibrated paired modes last)."""
+def _configuration_html(c: dict, figures: list[ReportFigure], several: bool,
+                        viewer: str = "") -> str:  # fmt: skip
+    """One configuration's section: its test, deviation, modes and figures (the calibrated
+    paired modes last: ``viewer``, the 3-D viewer's block, then their renderings)."""
     modes = [[f"{m['test_hz']:.3f}", _f(m["fe_before_hz"], ".3f"), _f(m["fe_after_hz"], ".3f"),
               _f(m["frequency_error_before_pct"], "+.2f"),
               _f(m["frequency_error_after_pct"], "+.2f"), _f(m["mac_before"], ".4f"),
@@ -800,9 +801,47 @@ def _configuration_html(c: dict, figures: list[ReportFigure], several: bool) -> 
  if modes else "<p>No identified test modes (raw FRFs compared).</p>"}
 {_model_form_html(c.get("model_form"))}
 {''.join(_figure(f) for f in figures if not f.mode)}
-{'<h3>Paired modes after calibration</h3>' if any(f.mode for f in figures) else ''}{
-''.join(_figure(f) for f in figures if f.mode)}
+{'<h3>Paired modes after calibration</h3>' if viewer or any(f.mode for f in figures)
+ else ''}{_viewer_html(viewer)}{''.join(_figure(f) for f in figures if f.mode)}
 """
+
+
+def _viewer_html(block: str) -> str:
+    if not block:
+        return ""
+    return ("<p>Each pair animated on the calibrated model, coloured by the deflection drawn: "
+            "the test shape at the sensors in red (made real and scaled to the FE shape by "
+            "the modal scale factor) over the FE shape as the same channels see it in blue. "
+            "Choose the pair above the drawing; drag to turn, click a sensor or grid for "
+            f"its motion.</p>{block}")
+
+
+def paired_viewer(case: CaseResult, n: int = 0) -> str:
+    """The 3-D viewer (:mod:`femcal.viz.pair_view`) of a configuration's test modes and the
+    calibrated model's modes paired with them, as the ``n``-th viewer of its page; ``""``
+    without pairs."""
+    from ..response.frf import channel_matrix
+    from ..viz.pair_view import ShapePair, paired_modes_block
+    from ..viz.webview import viewer_mesh
+    from .modes import basic_translations
+
+    paired = [m for m in case.modes if m.fe_after is not None]
+    if not paired:
+        return ""
+    modes, model = case.modes_after, case.model
+    fe = np.asarray(channel_matrix(model, case.outputs) @ modes.shapes)
+    pairs = [ShapePair(m.test_mode, m.test_hz, m.fe_after, float(m.fe_after_hz),
+                       float(m.mac_after), case.test_shapes[:, m.test_mode - 1],
+                       fe[:, m.fe_after - 1]) for m in paired]  # fmt: skip
+    grids = np.flatnonzero(model.is_grid)
+
+    def translations(columns: list[int]) -> np.ndarray:
+        some = replace(modes, shapes=modes.shapes[:, columns])
+        return np.moveaxis(basic_translations(some, model)[grids], 2, 0)
+
+    return paired_modes_block(viewer_mesh(model), model.cd_frames[grids], translations,
+                              modes.frequencies_hz, case.outputs, pairs, case.channel_names,
+                              title=f"calibrated model ({case.name})", n=n)  # fmt: skip
 
 
 def _before_after(c: dict) -> list[list[str]]:
@@ -956,12 +995,19 @@ def runs_tables(report: dict) -> list[tuple[str, list[str], list[list[str]]]]:
 
 
 def write_html(path: Path, report: dict, figures: list[ReportFigure],
-               head: dict | None = None) -> Path:  # fmt: skip
+               head: dict | None = None, viewers: dict[str, str] | None = None
+               ) -> Path:  # fmt: skip
     """The HTML page, one file: the header (``head``, :func:`femcal.io.html.provenance`:
     version, date, command, input files with sizes and digests) and the list of figures, the
     trust summary, then the parameters, each configuration's test, modes and figures, and
     the runs. ``figures`` are numbered in the page's order (the whole calibration's first,
-    then each configuration's) and embedded as PNG data URIs."""
+    then each configuration's) and embedded as PNG data URIs; ``viewers`` maps a
+    configuration's name to its 3-D viewer of the paired modes (:func:`paired_viewer`)."""
+    from ..viz.webview import viewer_assets
+
+    viewers = viewers or {}
+    style, script = viewer_assets() if any(viewers.values()) else ("", "")
+
     def status(p: dict) -> str:
         s = "held" if p["held"] else ("identifiable" if p["identifiable"] else "weakly informed")
         return s + (" (at a bound!)" if p["at_bound"] else "")
@@ -986,7 +1032,8 @@ def write_html(path: Path, report: dict, figures: list[ReportFigure],
     confs = report["configurations"]
     several = len(confs) > 1
     sections = "".join(_configuration_html(c, [f for f in figures if f.case == c["name"]],
-                                           several) for c in confs)  # fmt: skip
+                                           several, viewers.get(c["name"], ""))
+                       for c in confs)  # fmt: skip
     contents = "".join(f"<li><a href='#figure-{f.number}'>Figure {f.number}</a>. "
                        f"{html.escape(f.title)}</li>" for f in figures)  # fmt: skip
     nav = "".join(f", <a href='#test-{html.escape(c['name'])}'>"
@@ -995,7 +1042,7 @@ def write_html(path: Path, report: dict, figures: list[ReportFigure],
 <meta name="viewport" content="width=device-width, initial-scale=1">
 <style>{PAGE_STYLE}
 figure.mode{{width:48%;display:inline-block;vertical-align:top;margin:0.5em 1% 0.5em 0}}
-</style></head><body>
+</style>{style}</head><body>
 <h1>femcal calibration</h1>
 {verdict_html(report)}
 <p class="nav">On this page: <a href="#parameters">parameters</a>{nav}{
@@ -1038,6 +1085,7 @@ there.</p>
 <h2 id='provenance'>Provenance</h2>
 {html_header(head) if head is not None else ''}
 {f'<p>Figures:</p><ul class="contents">{contents}</ul>' if contents else ''}
+{script}
 </body></html>
 """
     return write_atomic(path, lambda tmp: Path(tmp).write_text(page))
@@ -1099,7 +1147,10 @@ def write_report(result: CalibrationResult, out: str | os.PathLike[str], *,
                     _mode_caption(case, k), case.name, mode=True)  # fmt: skip
     report = report_dict(result)
     head = provenance(report_inputs(result), command=command)
-    page = write_html(out / "report.html", report, figures, head)
+    viewers: dict[str, str] = {}
+    for case in result.cases:
+        viewers[case.name] = paired_viewer(case, n=sum(map(bool, viewers.values())))
+    page = write_html(out / "report.html", report, figures, head, viewers)
     written = [page.name]
     if pdf:
         from ..viz.report_pdf import write_report_pdf

@@ -1096,29 +1096,24 @@ def fe_translations(fe: FEModes, columns: Sequence[int]) -> np.ndarray:
 
 
 def shape_viewer(result: Correlation, model=None) -> str:
-    """The 3-D viewer of the paired modes (:mod:`femcal.viz.webview`), as HTML: the FE model
-    (its elements' faces and lines from ``model``, else its grids as points) animated in
-    each paired FE mode, the test shape drawn over it at the sensors (red) beside the FE
+    """The 3-D viewer of the paired modes (:mod:`femcal.viz.pair_view`), as HTML: the FE
+    model (its elements' faces and lines from ``model``, else its grids as points) animated
+    in each paired FE mode, the test shape drawn over it at the sensors (red) beside the FE
     shape as the same channels see it (blue)."""
-    from ..viz.pair_view import OverlayPair, pair_overlay
-    from ..viz.webview import grid_cloud, viewer_block, viewer_data, viewer_mesh
+    from ..viz.pair_view import ShapePair, paired_modes_block
+    from ..viz.webview import grid_cloud, viewer_mesh
 
     fe = result.fe
     g = np.flatnonzero(fe.is_grid)
     mesh = viewer_mesh(model) if model is not None else grid_cloud(fe.xyz[g], fe.node_ids[g])
-    columns = sorted({r.fe_mode - 1 for r in result.pairs})
-    row = {c: n for n, c in enumerate(columns)}
-    pairs = []
-    for r in result.pairs:
-        t, a = _pair_shapes(result, r)
-        pairs.append(OverlayPair(f"test {r.test_mode} ({r.test_hz:.2f} Hz) / FE {r.fe_mode} "
-                                 f"({r.fe_hz:.2f} Hz), MAC {r.mac:.2f}", row[r.fe_mode - 1],
-                                 t, a, float(r.mac)))  # fmt: skip
-    overlay = pair_overlay(mesh, fe.cd_frames[g], result.placed, pairs, result.names)
-    data = viewer_data(mesh, fe_translations(fe, columns), fe.frequencies_hz[columns],
-                       title=Path(fe.source).name if fe.source else "FE model",
-                       mode_numbers=np.array(columns) + 1, overlay=overlay)  # fmt: skip
-    return viewer_block(data)
+    column = {c: n for n, c in enumerate(result.fe_index.tolist())}
+    pairs = [ShapePair(r.test_mode, r.test_hz, r.fe_mode, r.fe_hz, r.mac,
+                       result.test_shapes[:, r.test_mode - 1],
+                       result.fe_shapes[:, column[r.fe_mode - 1]])
+             for r in result.pairs]  # fmt: skip
+    return paired_modes_block(mesh, fe.cd_frames[g], lambda cols: fe_translations(fe, cols),
+                              fe.frequencies_hz, result.placed, pairs, result.names,
+                              title=Path(fe.source).name if fe.source else "FE model")  # fmt: skip
 
 
 def vector_figure(result: Correlation):

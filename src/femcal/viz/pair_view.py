@@ -9,7 +9,7 @@ is made real in the FE shape's phase and scale (the modal scale factor) before i
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -108,3 +108,45 @@ def pair_overlay(mesh: ViewerMesh, frames: np.ndarray, channels: Sequence[Channe
                        tuple(p.label for p in pairs),
                        np.array([p.fe_mode for p in pairs], np.int64),
                        disp[:, 0], disp[:, 1], np.array([p.mac for p in pairs]))  # fmt: skip
+
+
+@dataclass(frozen=True)
+class ShapePair:
+    """A test mode and the FE mode paired with it: numbers from 1, frequencies in Hz, their
+    MAC, and both shapes at the test's channels (p,): the test's as identified (complex, any
+    scale), the FE's as solved (mass-normalised)."""
+
+    test_mode: int
+    test_hz: float
+    fe_mode: int
+    fe_hz: float
+    mac: float
+    test: np.ndarray
+    fe: np.ndarray
+
+
+def paired_modes_block(mesh: ViewerMesh, frames: np.ndarray,
+                       translations: Callable[[list[int]], np.ndarray],
+                       frequencies_hz: np.ndarray, channels: Sequence[Channel],
+                       pairs: Sequence[ShapePair], names: Mapping[str, str] | None = None, *,
+                       title: str = "", n: int = 0) -> str:  # fmt: skip
+    """The viewer (:func:`femcal.viz.webview.viewer_block`, the ``n``-th of its page) of
+    ``pairs``: each paired FE mode animated on ``mesh`` (``translations(columns)``: (k, P, 3)
+    the FE modes' translations in basic at the mesh's grids, for 0-based ``columns``;
+    ``frequencies_hz`` of every FE mode), the test shape at the sensors over the FE shape as
+    the same ``channels`` see it. The test shape is made real in the FE shape's phase and
+    scale (the modal scale factor)."""
+    from ..correlate.shapes import in_scale_of
+    from .webview import viewer_block, viewer_data
+
+    columns = sorted({p.fe_mode - 1 for p in pairs})
+    row = {c: k for k, c in enumerate(columns)}
+    overlay = pair_overlay(mesh, frames, channels, [
+        OverlayPair(f"test {p.test_mode} ({p.test_hz:.2f} Hz) / FE {p.fe_mode} "
+                    f"({p.fe_hz:.2f} Hz), MAC {p.mac:.2f}", row[p.fe_mode - 1],
+                    in_scale_of(p.test, p.fe), np.real(p.fe), p.mac)
+        for p in pairs], names)  # fmt: skip
+    freqs = np.asarray(frequencies_hz)[columns]
+    data = viewer_data(mesh, translations(columns), freqs, title=title,
+                       mode_numbers=np.array(columns) + 1, overlay=overlay)  # fmt: skip
+    return viewer_block(data, n=n)
