@@ -230,6 +230,16 @@ def test_cli_writes_the_model_summary_and_pictures(tmp_path, capsys):
     for name in ("model.npz", "identify.json", "frf_model.npz", "overlay.png",
                  "stabilization_part1.png", "stabilization_part2.png"):  # fmt: skip
         assert (out / name).stat().st_size > 0, name
+    # the page: its verdict first, the suspect channel doubted there, every picture inside
+    from femcal.io.html import outside_references
+
+    page = (out / "identification.html").read_text()
+    assert page.index("<h2>Verdict</h2>") < page.index("id='modes'") < page.index(
+        "id='figures'") < page.index("id='provenance'")
+    doubts = page[page.index("What to doubt"):page.index("</section>")]
+    assert "Channel 4:3 is suspect" in doubts
+    assert len(re.findall(r"<img src='data:image/png;base64,", page)) == 4  # 2 + 2 diagrams
+    assert outside_references(page) == []
     back = read_model(out / "model.npz")
     np.testing.assert_allclose(back.frequency_hz, got, rtol=1e-12)
     clean, _ = modal_set(seed=8)  # the same model without noise (noise is drawn last)

@@ -25,6 +25,8 @@ from femcal.identify import identify
 from femcal.testdata.data import Channel, FRFData
 from femcal.testdata.formats import read_frf, write_frf
 
+from .browser import assert_verdict_first_at_1024, needs_browser
+
 REAL = Path(__file__).parent / "data" / "real"
 
 
@@ -222,6 +224,13 @@ def test_cli_both_methods_side_by_side_with_the_shapes_at_the_hammer_points(tmp_
     summary = json.loads((out / "identify.json").read_text())
     assert summary["layout"]["kind"] == "roving hammer"
     assert len(summary["poles"][0]["shape"]) == 9 and summary["poles"][0]["mpc"] > 0.95
+    # the page opens on its verdict: the two modes of the real beam, the fit, no doubt
+    page = (out / "identification.html").read_text()
+    assert page.index("id='verdict'") < page.index("id='modes'") < page.index("id='provenance'")
+    freqs = ", ".join(f"{p['frequency_hz']:.2f}" for p in summary["poles"])
+    verdict = page[page.index("id='verdict'"):page.index("</section>")]
+    assert "2 in 250-650 Hz (plscf)" in verdict and f"{freqs} Hz" in verdict
+    assert "beam.npz" in page[page.index("id='provenance'"):]
 
 
 def test_a_band_from_zero_hz_leaves_the_dc_line_out():
@@ -235,3 +244,33 @@ def test_a_band_from_zero_hz_leaves_the_dc_line_out():
     assert any("the first line above 0 Hz" in line for line in lines)
     ref = published("vibrationtesting")
     assert_published_modes(model, ref, ref["modes_hz"]["case1.mat"])
+
+
+@needs_browser
+def test_the_page_opens_on_its_verdict_and_fits_1024_pixels(tmp_path):
+    from femcal.cli import main
+
+    out = tmp_path / "out"
+    assert main(["identify", str(REAL / "modelab_beam" / "beam.npz"), "--band", "250", "650",
+                 "--out", str(out)]) == 0  # fmt: skip
+    assert_verdict_first_at_1024(out / "identification.html", tmp_path / "page.png")
+
+
+def test_the_verdict_doubts_complex_edge_damped_and_alike_modes():
+    from femcal.io.identify_page import identification_verdict
+
+    model = identify(read_frf(REAL / "modelab_beam" / "beam.npz"), (250.0, 650.0))
+    assert identification_verdict(model).all_doubts == ()  # two clean modes
+    f, z = model.frequency_hz.copy(), model.damping_ratio.copy()
+    f[0], z[1] = 252.0, 0.2  # mode 1 at the band's bottom edge; mode 2 heavily damped
+    shapes = np.column_stack([model.shapes[:, 0], model.shapes[:, 0] * 1j])  # alike
+    bad = replace(model, frequency_hz=f, damping_ratio=z, shapes=shapes,
+                  mpc=np.array([0.5, 0.99]), mpd=np.array([40.0, 2.0]),
+                  suspect=np.eye(1, len(model.suspect), 3, dtype=bool)[0])  # fmt: skip
+    v = identification_verdict(bad)
+    assert [d.split(":")[0].split(" lies")[0] for d in v.doubts] == [
+        "Mode 1 at 252.00 Hz", "Mode 1 at 252.00 Hz", "Mode 2 at 596.37 Hz",
+        "Modes 1 and 2 (252.00 and 596.37 Hz) are alike at the sensors (AutoMAC 1.00)"]
+    assert "MPC 0.50, MPD 40 deg" in v.doubts[0] and "edge of the band" in v.doubts[1]
+    assert "damping 20.0 %" in v.doubts[2]
+    assert len(v.channel_doubts) == 1 and v.channel_doubts[0].startswith("Channel 4:+X")

@@ -205,6 +205,10 @@ def run(args: argparse.Namespace) -> int:
             methods = methods[:1]
     model = models[0]
     print_modes(model)
+    from ..io.identify_page import identification_verdict
+
+    for line in identification_verdict(model).doubts:
+        print(f"doubt: {line}")
     rows = None
     if len(models) > 1:
         rows = pair_models(models[0], models[1])
@@ -213,9 +217,11 @@ def run(args: argparse.Namespace) -> int:
         write_summary(args.json, model)
         progress(f"wrote {args.json}")
     if args.out:
-        _write_out(args.out, data, model, progress, geometry)
+        _write_out(args.out, data, model, progress, geometry, source=args.frf,
+                   geometry_path=args.geometry)  # fmt: skip
         if rows is not None:
-            _write_out(args.out / methods[1], data, models[1], progress, geometry)
+            _write_out(args.out / methods[1], data, models[1], progress, geometry,
+                       source=args.frf, geometry_path=args.geometry)  # fmt: skip
             write_comparison(args.out / "comparison.json", rows, methods)
             progress(f"wrote {args.out / 'comparison.json'}")
     return 0
@@ -295,7 +301,10 @@ def _write_shapes(path: Path, model, geometry) -> str | None:
     return f"{shapes.n_modes} shapes, {len(grids.ids)} grids, {len(lines.pairs)} trace lines"
 
 
-def _write_out(out: Path, data, model, progress, geometry=None) -> None:
+def _write_out(out: Path, data, model, progress, geometry=None, *, source: Path,
+               geometry_path: Path | None = None) -> None:  # fmt: skip
+    from ..io.html import file_facts, provenance
+    from ..io.identify_page import write_identification_page
     from ..viz.frf import frf_overlay
     from ..viz.identification import indicator_plot, stabilization_diagram
 
@@ -321,9 +330,28 @@ def _write_out(out: Path, data, model, progress, geometry=None) -> None:
     frf_overlay(out / "overlay.png", test, fitted, pairs=pairs, title=title)
     indicator_plot(out / "indicators.png", test, model.band, model.frequency_hz,
                    model.peaks_hz)  # fmt: skip
+    figures = [
+        ("Measured and identified FRFs", out / "overlay.png",
+         "Magnitude and phase of the measured FRFs (black) and the identified model's (red) "
+         "against frequency (Hz), the worst-fitting channels first, in the data's units."),
+        ("Mode indicator functions", out / "indicators.png",
+         "The CMIF (singular values of the FRF matrix) and the MIF against frequency (Hz), "
+         "with the CMIF's peaks and the identified modes marked.")]  # fmt: skip
     for k, part in enumerate(model.parts, start=1):
         if part.diagram is not None:
-            stabilization_diagram(out / f"stabilization_part{k}.png", part.diagram, test)
+            path = out / f"stabilization_part{k}.png"
+            stabilization_diagram(path, part.diagram, test)
+            figures.append((f"Stabilisation diagram, {part.band[0]:g}-{part.band[1]:g} Hz",
+                            path, "The poles of every model order (vertical) against "
+                            "frequency (Hz): filled, stable in frequency, damping and shape; "
+                            "half, in frequency only; dots, new. Each chosen mode a vertical "
+                            "line with the number of orders it was stable in; the CMIF in "
+                            "grey on the right-hand axis."))  # fmt: skip
+    inputs = [file_facts("FRFs", source)] + ([file_facts("geometry", geometry_path)]
+                                             if geometry_path else [])  # fmt: skip
+    page = write_identification_page(out / "identification.html", model, figures,
+                                     provenance(inputs), source=str(source))  # fmt: skip
     progress(f"wrote {out}/: model.npz, identify.json, frf_model.npz, overlay.png, "
              "indicators.png"
-             + (", stabilisation diagrams" if any(p.diagram for p in model.parts) else ""))
+             + (", stabilisation diagrams" if any(p.diagram for p in model.parts) else "")
+             + f", {page.name}")
