@@ -391,6 +391,15 @@ def test_the_page_opens_in_a_browser_with_every_picture_and_no_console_error(rep
     assert shot.read_bytes()[:8] == PNG and shot.stat().st_size > 20_000
 
 
+def test_the_identification_it_ran_has_its_own_page(report):
+    d, result, _ = report
+    page = (d / "out" / "identify" / "identification.html").read_text()
+    assert page.index("<h2>Verdict</h2>") < page.index("id='modes'") < page.index(
+        "id='provenance'")
+    k = len(result.cases[0].identified.frequency_hz)
+    assert f"<td>{k} in 10-560 Hz" in page and outside_references(page) == []
+
+
 def test_the_paired_modes_are_drawn_in_the_3d_viewer(report):
     _, result, page = report
     case = result.cases[0]

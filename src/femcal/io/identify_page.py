@@ -174,8 +174,7 @@ the synthesised FRFs over that of the measured, per channel; FRF correlation: th
 {html_table(modes_rows(model), ["mode", "frequency Hz", "damping %", "MPC", "MPD deg"])}
 <h2 id='channels'>Channels</h2>
 {html_table(channel_rows(model), ["channel", "fit error", "FRF correlation", "status"])}
-<h2 id='figures'>Figures</h2>
-{figs}
+{f"<h2 id='figures'>Figures</h2>{figs}" if figs else ""}
 <h2 id='provenance'>Provenance</h2>
 {html_header(head)}
 </body></html>

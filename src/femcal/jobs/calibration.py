@@ -8,12 +8,13 @@ stopped run resumes), and writes ``out/report.json``, each configuration's calib
 (the engineer's deck with the calibrated fields changed, its changed INCLUDE files and its
 changed cards alone: :func:`femcal.io.calibration.write_calibrated_deck`) and, when
 identified here, ``out/identify/`` (``out/identify/<name>/`` with several
-configurations: model.npz, identify.json). When the model-form warning fires and the
-element the search names removes at least ``augment_fall`` of the deviation, the element is
-added to its configuration's deck as a parameter and the calibration runs again into
-``out/augmented/`` (the deck with the element, ``starts/``, the calibrated decks,
-report.json; :mod:`femcal.calibrate.augment`), and the first report says what the data
-prefer. The pictures and ``report.html`` are :func:`femcal.io.calibration.write_report`'s.
+configurations: model.npz, identify.json, identification.html, the identification's page with
+its verdict). When the model-form warning fires and the element the search names removes
+at least ``augment_fall`` of the deviation, the element is added to its configuration's deck
+as a parameter and the calibration runs again into ``out/augmented/`` (the deck with the
+element, ``starts/``, the calibrated decks, report.json; :mod:`femcal.calibrate.augment`),
+and the first report says what the data prefer. The pictures and ``report.html`` are
+:func:`femcal.io.calibration.write_report`'s.
 """
 
 from __future__ import annotations
@@ -53,7 +54,9 @@ from ..io.calibration import (
     write_calibrated_deck,
     write_report_json,
 )
+from ..io.html import file_facts, provenance
 from ..io.identified import read_model, write_model, write_summary
+from ..io.identify_page import write_identification_page
 from ..model.build import load_model
 from ..model.model import Model
 from ..parallel.cluster import Engine, Session
@@ -89,6 +92,9 @@ def load_test(conf: Configuration, out: Path, say: Callable[[str], None],
                          progress=say, pool=pool)  # fmt: skip
         write_model(out / "model.npz", ident)
         write_summary(out / "identify.json", ident)
+        write_identification_page(out / "identification.html", ident, [],
+                                  provenance([file_facts("FRFs", conf.test_frf)]),
+                                  source=str(conf.test_frf))  # fmt: skip
     elif conf.test_model is not None:
         ident = read_model(conf.test_model)
         say(f"{conf.name}: identified test model read from {conf.test_model}")
