@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import pytest
@@ -48,3 +49,39 @@ def solve_cantilever(coupled_mass: bool, n_modes: int = 1000):
     mats = assemble(model, Options(coupled_mass=coupled_mass))
     modes, red = solve_normal_modes(model, matrices=mats, request=EigenRequest(nd=n_modes))
     return model, mats, modes, red
+
+
+#: Every picture a test draws is read as a reader would: each axis with a label and a unit
+#: (femcal.viz.figures.unlabelled_axes). What a test's pictures lack fails that test
+#: (FEMCAL_AXES_SURVEY=FILE lists them in FILE instead, test by test).
+_UNREADABLE: list[str] = []
+
+
+def pytest_configure(config):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    from femcal.viz.figures import unlabelled_axes
+
+    original = Figure.savefig
+
+    def savefig(self, *args, **kwargs):
+        _UNREADABLE.extend(unlabelled_axes(self))
+        return original(self, *args, **kwargs)
+
+    Figure.savefig = savefig
+
+
+@pytest.fixture(autouse=True)
+def _pictures_are_readable(request):
+    # what was drawn since the last test (its module's fixtures' pictures too) is this one's
+    yield
+    found, _UNREADABLE[:] = list(dict.fromkeys(_UNREADABLE)), []
+    if os.environ.get("FEMCAL_AXES_SURVEY"):
+        if found:
+            with open(os.environ["FEMCAL_AXES_SURVEY"], "a") as fh:
+                fh.write("".join(f"{request.node.nodeid}: {x}\n" for x in found))
+        return
+    assert not found, "pictures with unreadable axes: " + "; ".join(found)

@@ -319,6 +319,7 @@ def test_rig_pages_embed_their_pictures(tmp_path):
     plt = pyplot()
     fig, ax = plt.subplots()
     ax.plot([0, 1], [0, 1])
+    ax.set(xlabel="iteration", ylabel="RMS error (%)")
     save_figure(fig, tmp_path / "rms_error.png")
     target = tmp_path / "target.rsp"
     target.write_bytes(b"\0" * 512)

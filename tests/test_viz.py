@@ -49,3 +49,24 @@ def test_the_length_unit_of_frf_units():
     assert length_unit("in/lbf") == "in"
     assert length_unit("g/N") == "model length unit"
     assert length_unit("") == length_unit(None) == "model length unit"
+
+
+def test_unreadable_axes_are_found_and_readable_ones_pass():
+    from femcal.viz.figures import pyplot, unlabelled_axes
+
+    plt = pyplot()
+    fig, axes = plt.subplots(2, 2, sharex=True)
+    a, b, c, d = axes.ravel()
+    a.set_title("bare")  # no labels at all, its x ticks hidden by the shared axis
+    b.set(title="words", ylabel="response")  # a quantity without a unit
+    c.set(title="good", xlabel="frequency (Hz)", ylabel="PSD ((mm/s^2)²/Hz)")
+    d.set(title="unit alone", xlabel="time (s)", ylabel="mm/s^2")
+    im = c.imshow(np.eye(2))
+    fig.colorbar(im, ax=c, label="MAC (no unit)")
+    found = unlabelled_axes(fig)
+    plt.close(fig)
+    assert found == ["bare: y axis has no label", "words: y axis 'response' gives no unit"]
+    fig, ax = plt.subplots()
+    ax.set(xlabel="mode", ylabel="frequency error (%)")  # a count needs no unit
+    assert unlabelled_axes(fig) == []
+    plt.close(fig)

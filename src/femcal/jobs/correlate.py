@@ -1075,7 +1075,7 @@ def mac_figure(result: Correlation):
         c = col[p.fe_mode - 1]
         ax.add_patch(plt.Rectangle((c - 0.5, p.test_mode - 1.5), 1, 1, fill=False,
                                    edgecolor="tab:red", lw=1.5))  # fmt: skip
-    fig.colorbar(im, ax=ax, fraction=0.04)
+    fig.colorbar(im, ax=ax, fraction=0.04, label="MAC (no unit)")
     return fig
 
 

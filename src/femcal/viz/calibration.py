@@ -122,6 +122,7 @@ def parameters_plot(path: Path, outcome: CalibrationResult) -> Path:
     ax.axhline(0.0, color="k", lw=0.6)
     ax.set_xticks(x, names, rotation=90, fontsize=9)
     ax.set_ylabel("change from the nominal value (%)")
+    ax.set_xlabel("parameter")
     ax.set_title("parameters: prior, calibrated value and posterior")
     ax.legend(fontsize=9, ncol=2)
     ax.grid(True, axis="y", alpha=0.3)
@@ -134,7 +135,7 @@ def parameters_plot(path: Path, outcome: CalibrationResult) -> Path:
     axes[1].set_title("posterior correlation of the calibrated parameters")
     axes[1].set_xlabel("parameter")
     axes[1].set_ylabel("parameter")
-    fig.colorbar(im, ax=axes[1], fraction=0.046, label="correlation")
+    fig.colorbar(im, ax=axes[1], fraction=0.046, label="correlation (no unit)")
     return _save(fig, path)
 
 

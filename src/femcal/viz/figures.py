@@ -4,6 +4,7 @@ as PNG."""
 from __future__ import annotations
 
 import os
+import re
 from types import ModuleType
 
 import numpy as np
@@ -56,3 +57,45 @@ def mac_image(ax, M: np.ndarray, *, printed_above: float, fontsize: float,
             ax.text(c, r, f"{v:.2f}", ha="center", va="center", fontsize=fontsize,
                     color="k" if v > 0.6 else "w")  # fmt: skip
     return im
+
+
+#: Axis labels that count rather than measure need no unit.
+_COUNTS = ("mode", "channel", "sensor", "order", "input", "output", "start", "cycle", "step",
+           "parameter", "iteration", "pair", "point", "grid", "configuration", "test", "FE")
+#: A label that is a unit alone (``mm/s^2``, ``N``), over a panel its title names.
+_UNIT_ALONE = re.compile(r"^[A-Za-z\u00b5\u00b0]{1,5}([/*^.][A-Za-z0-9\u00b5\u00b0^]{1,5})*$")
+#: What marks a unit in a label.
+_UNIT_MARKS = ("(", "[", "Hz", "%", "dB", "no unit")
+
+
+def _shows_ticks(axis) -> bool:
+    """Whether an axis shows tick labels (shared axes hide theirs on inner panels)."""
+    kw = axis._major_tick_kw  # what set_tick_params / label_outer set
+    return axis.get_visible() and (kw.get("label1On", True) or kw.get("label2On", False))
+
+
+def unlabelled_axes(fig) -> list[str]:
+    """The axes of a figure a reader cannot read: an x, y (or z) axis that shows tick labels
+    but has no label, or whose label gives no unit (a unit in parentheses or brackets,
+    ``Hz``, ``%``, ``dB``, ``no unit``, or a unit alone over a panel) and is not a count
+    (mode, channel, order ...). Each as ``"<axes title>: <which> axis <problem>"``; empty
+    for a good figure."""
+    problems = []
+    suptitle = fig._suptitle.get_text() if fig._suptitle else ""
+    for n, ax in enumerate(fig.axes):
+        if not ax.get_visible() or not ax.axison:
+            continue
+        name = ax.get_title() or suptitle or f"axes {n + 1}"
+        axes = [("x", ax.xaxis), ("y", ax.yaxis)]
+        if hasattr(ax, "zaxis"):
+            axes.append(("z", ax.zaxis))
+        for which, axis in axes:
+            if not _shows_ticks(axis) or not len(axis.get_ticklocs()):
+                continue
+            label = axis.get_label_text().strip()
+            if not label:
+                problems.append(f"{name}: {which} axis has no label")
+            elif not (any(m in label for m in _UNIT_MARKS) or _UNIT_ALONE.match(label)
+                      or any(w.lower() in label.lower() for w in _COUNTS)):
+                problems.append(f"{name}: {which} axis '{label}' gives no unit")
+    return problems

@@ -76,10 +76,9 @@ def frf_overlay(
         ph.set_ylim(-180, 180)
         ph.set_yticks([-180, -90, 0, 90, 180])
         ph.set_xlabel("frequency (Hz)")
-        if c == 0:
-            mag.set_ylabel(f"|H| ({test.units})" if test.units
-                           else f"|{test.quantity}| (units not given)")  # fmt: skip
-            ph.set_ylabel("phase (deg)")
+        mag.set_ylabel(f"|H| ({test.units})" if test.units
+                       else f"|{test.quantity}| (units not given)")  # fmt: skip
+        ph.set_ylabel("phase (deg)")
         if n == 0 and model is not None:
             mag.legend(fontsize=8)
     for n in range(len(pairs), rows * cols):  # empty panels

@@ -113,7 +113,7 @@ def indicator_plot(path: str | os.PathLike[str], data: FRFData, band: tuple[floa
     for curve in M[:3]:
         a2.plot(f[sel], curve, lw=0.8)
     a2.set_ylim(-0.02, 1.02)
-    a2.set_ylabel("MIF")
+    a2.set_ylabel("MIF (no unit)")
     a2.set_xlabel("frequency (Hz)")
     a2.grid(True, alpha=0.3)
     return save_figure(fig, path)

@@ -65,7 +65,7 @@ def target_and_response(path: str | os.PathLike[str], dt: float, target: np.ndar
         ax.plot(t, response[c, start : start + m], color="tab:red", lw=0.8, ls="--",
                 label="response")  # fmt: skip
         ax.set_title(names[c], fontsize=9, loc="left")
-        ax.set_ylabel(units[c] or "-")
+        ax.set_ylabel(units[c] or "(no unit)")
         ax.grid(True, alpha=0.3)
     axes[0, 0].legend(fontsize=7)
     axes[-1, 0].set_xlabel("time (s)")
@@ -113,8 +113,8 @@ def overlay_psd(path: str | os.PathLike[str], dt: float, names: Sequence[str],
         ax.grid(True, which="both", alpha=0.3)
         if band is not None:
             ax.set_xlim(0, min(f[-1], 1.5 * band[1]))
-    for c in range(rows, axes.size):
-        axes[c // cols, c % cols].axis("off")
+    _hide_spare(axes, rows)
+    _xlabel(axes, "frequency (Hz)")
     axes[0, 0].legend(fontsize=7)
     fig.suptitle(title or "Power spectral densities")
     return save_figure(fig, path)
@@ -127,9 +127,25 @@ def _panels(plt, count: int, height: float = 2.2):
     n_rows = -(-rows // cols)
     fig, axes = plt.subplots(n_rows, cols, figsize=(5.2 * cols, 1.6 + height * n_rows),
                              squeeze=False, sharex=True)  # fmt: skip
-    for c in range(rows, axes.size):
-        axes[c // cols, c % cols].axis("off")
+    _hide_spare(axes, rows)
     return fig, [axes[c // cols, c % cols] for c in range(rows)]
+
+
+def _hide_spare(axes: np.ndarray, used: int) -> None:
+    """Hide the grid's panels past the ``used`` first (row by row); the panel above a
+    hidden one shows its frequency or time ticks, being the lowest of its column."""
+    cols = axes.shape[1]
+    for c in range(used, axes.size):
+        axes[c // cols, c % cols].axis("off")
+        if c - cols >= 0:
+            axes[(c - cols) // cols, c % cols].tick_params(labelbottom=True)
+
+
+def _xlabel(axes, text: str) -> None:
+    """The x label on every panel that shows its x ticks (the lowest of each column)."""
+    for ax in np.ravel(axes):
+        if ax.axison and ax.xaxis._major_tick_kw.get("label1On", True):
+            ax.set_xlabel(text)
 
 
 def drive_psd_history(path: str | os.PathLike[str], frequency_hz: np.ndarray,
@@ -157,7 +173,7 @@ def drive_psd_history(path: str | os.PathLike[str], frequency_hz: np.ndarray,
         ax.grid(True, which="both", alpha=0.3)
         if band is not None:
             ax.set_xlim(0, min(frequency_hz[-1], 1.5 * band[1]))
-    axes[-1].set_xlabel("frequency (Hz)")
+    _xlabel(axes, "frequency (Hz)")
     axes[0].legend(fontsize=7)
     fig.suptitle(title or "Drives at each iteration: power spectral densities")
     return save_figure(fig, path)
@@ -187,7 +203,7 @@ def drive_histories(path: str | os.PathLike[str], dt: float, drive: np.ndarray,
         ax.set_title(names[j], fontsize=9, loc="left")
         ax.set_ylabel(unit)
         ax.grid(True, alpha=0.3)
-    axes[-1].set_xlabel("time (s)")
+    _xlabel(axes, "time (s)")
     axes[0].legend(fontsize=7)
     fig.suptitle(title or "Drives: time histories")
     return save_figure(fig, path)
@@ -220,7 +236,7 @@ def error_spectra(path: str | os.PathLike[str], dt: float, target: np.ndarray,
         ax.set_title(names[c], fontsize=9, loc="left")
         ax.set_ylabel(f"PSD ({units[c]}²/Hz)" if units[c] else "PSD")
         ax.grid(True, which="both", alpha=0.3)
-    axes[-1].set_xlabel("frequency (Hz); shaded: the drive band")
+    _xlabel(axes, "frequency (Hz); shaded: the drive band")
     axes[0].legend(fontsize=7)
     fig.suptitle(title or "Error spectra: target - response")
     return save_figure(fig, path)

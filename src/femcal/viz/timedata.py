@@ -82,7 +82,7 @@ def time_histories(path: str | os.PathLike[str], data: TimeData,
                                  sharex=True, squeeze=False)  # fmt: skip
         for ax, c in zip(axes[:, 0], some, strict=True):
             ax.plot(t, data.values[c, start:start + n], color="k", lw=0.6)
-            ax.set_ylabel(data.units[c] or "-")
+            ax.set_ylabel(data.units[c] or "(no unit)")
             ax.set_title(data.names[c], fontsize=9, loc="left")
             ax.grid(True, alpha=0.3)
         axes[-1, 0].set_xlabel("time (s)")
