@@ -221,8 +221,10 @@ def test_the_pdf_holds_the_same_on_a4_pages(report):
     # provenance (no held-out validation here)
     assert result.holdout is None
     assert len(pages) >= 5 + figures
-    boxes = set(re.findall(rb"/MediaBox\s*\[\s*0 0 ([\d.]+) ([\d.]+)\s*\]", raw))
-    assert {(round(float(w)), round(float(h))) for w, h in boxes} == {(595, 842)}  # A4
+    boxes = re.findall(rb"/MediaBox\s*\[\s*0 0 ([\d.]+) ([\d.]+)\s*\]", raw)
+    sizes = [(round(float(w)), round(float(h))) for w, h in boxes]
+    # A4: text pages upright, the wide figures (the parameters' 15 x 5.8 in) turned
+    assert set(sizes) == {(595, 842), (842, 595)} and sizes.count((595, 842)) > 5
     info = raw.decode("latin-1")
     assert f"/Author (femcal {__version__})" in info
     assert "/Title (femcal calibration report)" in info
@@ -282,7 +284,7 @@ def test_long_tables_split_and_no_text_leaves_the_page(report, tmp_path, monkeyp
     head = provenance(report_inputs(result), command="femcal calibrate " + "/deep" * 60)
     head["inputs"].append(dict(head["inputs"][0], path="/" + "long_folder_name/" * 20))
     png = d / "out" / "pictures" / "history.png"
-    seen: list[tuple[str, float, float, float, float]] = []
+    seen: list[tuple[str, float, float, float, float, float, float]] = []
     close = report_pdf._Document.close_page
 
     def check(doc):
@@ -292,7 +294,8 @@ def test_long_tables_split_and_no_text_leaves_the_page(report, tmp_path, monkeyp
             for t in doc.fig.texts:
                 box = t.get_window_extent(renderer)
                 seen.append((t.get_text(), *(v / 10 for v in (box.x0, box.x1, box.y0,
-                                                              box.y1))))  # fmt: skip
+                                                              box.y1)),
+                             doc.page_w, doc.page_h))  # fmt: skip
             doc.fig.set_dpi(72)
         close(doc)
 
@@ -304,9 +307,9 @@ def test_long_tables_split_and_no_text_leaves_the_page(report, tmp_path, monkeyp
     raw = out.path.read_bytes()
     assert len(re.findall(rb"/Type\s*/Page\b", raw)) == len(out.pages)
     m = report_pdf.MARGIN - 0.5
-    for s, x0, x1, y0, y1 in seen:
-        assert x0 >= m and x1 <= report_pdf.PAGE_W - m, s
-        assert y0 >= m / 2 - 6 and y1 <= report_pdf.PAGE_H - m, s
+    for s, x0, x1, y0, y1, width, height in seen:  # on a portrait or a landscape page
+        assert x0 >= m and x1 <= width - m, s
+        assert y0 >= m / 2 - 6 and y1 <= height - m, s
     assert not list(tmp_path.glob(".*"))
 
 

@@ -1,4 +1,5 @@
-"""The calibration report as a PDF (matplotlib's PdfPages, A4 portrait), to send on with or
+"""The calibration report as a PDF (matplotlib's PdfPages, A4 portrait; a wide figure on a
+landscape page), to send on with or
 instead of ``report.html``, in the page's order and with its sections: the verdict first
 (frequency errors, MAC and misfit before and after, what moved, what to doubt), the
 parameters, the held-out validation, the model form tested, each configuration's test,
@@ -150,15 +151,19 @@ class _Document:
         self.fig = None
         self.kinds: list[str] = []
         self.y = MARGIN
-        self.width = PAGE_W - 2 * MARGIN
+        self.page_w, self.page_h = PAGE_W, PAGE_H
+        self.width = self.page_w - 2 * MARGIN
 
     # -- pages
-    def new_page(self, kind: str) -> None:
+    def new_page(self, kind: str, *, landscape: bool = False) -> None:
+        """A new page, A4 portrait (``landscape``: turned, for a wide picture)."""
         self.close_page()
-        self.fig = self.plt.figure(figsize=(PAGE_W / 72, PAGE_H / 72), dpi=72)
+        self.page_w, self.page_h = (PAGE_H, PAGE_W) if landscape else (PAGE_W, PAGE_H)
+        self.width = self.page_w - 2 * MARGIN
+        self.fig = self.plt.figure(figsize=(self.page_w / 72, self.page_h / 72), dpi=72)
         self.kinds.append(kind)
         self.y = MARGIN
-        self._text(MARGIN, PAGE_H - MARGIN / 2, f"{self.footer}, page {len(self.kinds)}",
+        self._text(MARGIN, self.page_h - MARGIN / 2, f"{self.footer}, page {len(self.kinds)}",
                    FOOT, color="0.4", va="baseline")  # fmt: skip
 
     def close_page(self) -> None:
@@ -169,13 +174,13 @@ class _Document:
 
     def room(self) -> float:
         """Points left above the bottom margin."""
-        return PAGE_H - MARGIN - self.y
+        return self.page_h - MARGIN - self.y
 
     # -- drawing (x, y in points from the top left)
     def _text(self, x: float, y_top: float, s: str, size: float, *, weight: str = "normal",
               family: str = "sans-serif", color: str = "k", ha: str = "left",
               va: str = "top") -> None:  # fmt: skip
-        self.fig.text(x / PAGE_W, 1 - y_top / PAGE_H, s, fontsize=size, weight=weight,
+        self.fig.text(x / self.page_w, 1 - y_top / self.page_h, s, fontsize=size, weight=weight,
                       family=family, color=color, ha=ha, va=va, parse_math=False,
                       **self.options)  # fmt: skip
 
@@ -272,19 +277,27 @@ class _Document:
         out = np.where(fixed, need_a, share if not fixed.all() else need_a)
         return list(out * min(1.0, self.width / out.sum()))
 
+    def _box(self, x: float, y_top: float, w: float, h: float
+             ) -> tuple[float, float, float, float]:  # fmt: skip
+        """A box in points from the page's top left as figure fractions (left, bottom,
+        width, height)."""
+        return (x / self.page_w, 1 - (y_top + h) / self.page_h, w / self.page_w,
+                h / self.page_h)  # fmt: skip
+
     def _rect(self, x: float, y_top: float, w: float, h: float, color: str):
         from matplotlib.patches import Rectangle
 
-        return Rectangle((x / PAGE_W, 1 - (y_top + h) / PAGE_H), w / PAGE_W, h / PAGE_H,
-                         transform=self.fig.transFigure, facecolor=color, edgecolor="none",
-                         zorder=-1)  # fmt: skip
+        left, bottom, width, height = self._box(x, y_top, w, h)
+        return Rectangle((left, bottom), width, height, transform=self.fig.transFigure,
+                         facecolor=color, edgecolor="none", zorder=-1)  # fmt: skip
 
     def _hline(self, y_top: float) -> None:
         from matplotlib.lines import Line2D
 
-        y = 1 - y_top / PAGE_H
-        self.fig.lines.append(Line2D([MARGIN / PAGE_W, 1 - MARGIN / PAGE_W], [y, y], lw=0.4,
-                                     color="0.55", transform=self.fig.transFigure))  # fmt: skip
+        y = 1 - y_top / self.page_h
+        edge = MARGIN / self.page_w
+        self.fig.lines.append(Line2D([edge, 1 - edge], [y, y], lw=0.4, color="0.55",
+                                     transform=self.fig.transFigure))  # fmt: skip
 
     def picture(self, png: str | os.PathLike[str], height: float) -> None:
         """A PNG scaled to fit the text width and ``height`` points (its aspect kept),
@@ -301,7 +314,7 @@ class _Document:
         s = min(self.width / cols, height / rows)
         w, h = cols * s, rows * s
         x = MARGIN + (self.width - w) / 2
-        ax = self.fig.add_axes((x / PAGE_W, 1 - (self.y + h) / PAGE_H, w / PAGE_W, h / PAGE_H))
+        ax = self.fig.add_axes(self._box(x, self.y, w, h))
         ax.imshow(img, interpolation="none", aspect="auto")
         ax.set_axis_off()
         self.y += h + 8
@@ -491,9 +504,24 @@ def _mode_table(doc: _Document, c: dict, several: bool) -> None:
               "(femcal.correlate).", 7.5)
 
 
+def _landscape(doc: _Document, png: str | os.PathLike[str], caption: str) -> bool:
+    """Whether a picture is drawn at least a fifth larger on a landscape page than on a
+    portrait one (a wide figure: rows of panels, a long channel axis)."""
+    import matplotlib.image as mpimg
+
+    rows, cols = mpimg.imread(str(png)).shape[:2]
+
+    def scale(width: float, height: float) -> float:
+        lines = len(doc.measure.wrap(caption, width, BODY)) + 3  # caption and titles
+        return min(width / cols, (height - 2 * MARGIN - lines * _LEADING * HEADING) / rows)
+
+    text_w = PAGE_W - 2 * MARGIN
+    return scale(PAGE_H - 2 * MARGIN, PAGE_W) > 1.2 * scale(text_w, PAGE_H)
+
+
 def _figure_page(doc: _Document, number: int, title: str, png: str | os.PathLike[str],
                  caption: str, heading: str = "") -> None:  # fmt: skip
-    doc.new_page(f"figure {number}")
+    doc.new_page(f"figure {number}", landscape=_landscape(doc, png, caption))
     if heading:
         doc.lines(heading, HEADING, weight="bold", after=0.25)
     doc.lines(f"Figure {number}. {title}", HEADING, weight="bold", after=0.5)
