@@ -124,8 +124,16 @@ def main(argv: list[str] | None = None) -> int:
         print(f"  ({browser}, both runs {t_browser:.1f} s)")
         check("the script ran and drew", r.status == "ok" and r.ink > 0,
               f"status {r.status!r}, {r.ink} dark pixels, {r.edges} lines, {r.modes} modes")
-        check("self-test (modes, drag, wheel, double-click, scale, colour)",
-              r.selftest == "pass", r.selftest or "did not run")  # fmt: skip
+        check("self-test (modes, drag, wheel, double-click, a click names a grid, the triad, "
+              "scale, colour, wireframe)", r.selftest == "pass",
+              r.selftest or "did not run")  # fmt: skip
+        rigid = [m["mode"] for m in d["modes"] if m["rigid"]]
+        check("opens on the first flexible mode", r.start == (rigid[-1] + 1 if rigid else 1),
+              f"mode {r.start}; rigid-body modes {rigid or 'none'}; {r.faces} faces")
+        times = _drawing_ms(page, browser)
+        results.update(draw_ms=times)
+        print(f"  one drawing of the mode (headless, software): {times['surfaces']:.0f} ms "
+              f"shaded, {times['wireframe']:.0f} ms wireframe")  # fmt: skip
         check("no console messages", not r.console, "; ".join(r.console[:3]))
         if r.screenshot is None:
             check("screenshot", False, "the browser wrote none")
@@ -143,6 +151,43 @@ def main(argv: list[str] | None = None) -> int:
     (args.out / "webview_check.json").write_text(json.dumps(results, indent=1))
     print("all checks passed" if not failures else f"{len(failures)} check(s) failed")
     return 1 if failures else 0
+
+
+_TIMER = """<script>
+(function () {
+  var box = document.querySelector(".femcal-viewer"), sel = box.querySelector(".fv-mode");
+  function time() {
+    var t = performance.now();
+    for (var i = 0; i < 10; i++) {
+      sel.value = String(i % sel.options.length); sel.dispatchEvent(new Event("change"));
+    }
+    return (performance.now() - t) / 10;
+  }
+  var shaded = time();
+  box.querySelector(".fv-surf").checked = false;
+  document.documentElement.setAttribute("data-draw-ms", shaded + " " + time());
+})();
+</script></body>"""
+
+
+def _drawing_ms(page: Path, browser: str) -> dict[str, float]:
+    """Milliseconds per drawing of a mode (animation off, ten drawings), shaded and as a
+    wireframe, in the headless browser (software rendering: a desktop's is faster)."""
+    import re
+    import tempfile
+
+    from femcal.viz.webview import _run_browser
+
+    with tempfile.TemporaryDirectory() as tmp:
+        timed = Path(tmp) / "timed.html"
+        timed.write_text(page.read_text(encoding="utf-8").replace("</body>", _TIMER, 1),
+                         encoding="utf-8")  # fmt: skip
+        dom, _ = _run_browser(browser, ["--window-size=1200,800", "--dump-dom",
+                                        timed.resolve().as_uri() + "#still"], 120.0)  # fmt: skip
+    m = re.search(r'data-draw-ms="([\d.]+) ([\d.]+)"', dom)
+    if m is None:
+        return {"surfaces": float("nan"), "wireframe": float("nan")}
+    return {"surfaces": float(m.group(1)), "wireframe": float(m.group(2))}
 
 
 if __name__ == "__main__":

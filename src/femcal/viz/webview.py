@@ -1,36 +1,46 @@
-"""An interactive 3-D page of mode shapes: one self-contained HTML file, no server.
+"""An interactive 3-D viewer of mode shapes: one self-contained HTML file, no server.
 
 :func:`write_webview` writes a page that any current browser opens from disk: no external
 script, style sheet, font or network request; the model and its modes are in the file, drawn
-by a few hundred lines of vanilla JavaScript on a ``<canvas>`` (an orthographic projection of
-the model's lines). The page has:
+by vanilla JavaScript on a ``<canvas>`` (an orthographic projection). The viewer is also a
+block other pages embed (:func:`viewer_block` and, once per page, :func:`viewer_assets`): the
+correlation and calibration pages show their paired modes in it, the test shape at the sensors
+over the FE shape (:mod:`femcal.viz.pair_view`). It has:
 
-- the element edges (those of :func:`femcal.io.uff_shapes.mesh_edges`: solids' corner edges,
-  shell sides, bars), rigid elements' legs (RBE2, RBAR, RBE3; dashed red) and springs
-  between two grids (CELAS1/2, CBUSH; orange) as lines; masses (CONM1/2) and springs to
-  ground as small squares;
-- a mode selector with each mode's frequency, animation on or off (one period in 2 s:
-  the shape times sin(2 pi t / 2 s)), a scale slider (the largest displacement as a fraction
-  of the model's size, 0.08 to start, as :func:`femcal.viz.render.render_modes` draws it),
-  colouring by displacement magnitude (viridis) on or off, the undeformed edges faint;
-- mouse drag to rotate, shift-drag (or the right button) to pan, the wheel to zoom,
-  double-click to return to the isometric view.
+- the shells' faces and the solids' outer faces, shaded by their angle to the view and drawn
+  far to near (the painter's order, sorted when the view turns), so what lies behind a
+  surface is hidden; their edges outlined where the elements are large enough on screen;
+  bars, rigid elements' legs (RBE2, RBAR, RBE3; dashed red) and springs between two grids
+  (CELAS1/2, CBUSH; orange) as lines in the same order; masses (CONM1/2) and springs to
+  ground as small squares; with the surfaces off, the wireframe of every edge;
+- a mode selector with each mode's frequency, rigid-body modes marked (a rigid motion explains
+  at least :data:`femcal.correlate.shapes.RIGID_SHARE` of the shape), opening on the first
+  flexible mode; animation on or off (one period in 2 s: the shape times sin(2 pi t / 2 s)),
+  a scale slider (the largest deflection drawn, in the model's length unit, 8 % of the
+  model's size to start), colouring by the deflection drawn with its legend in that unit,
+  the undeformed edges faint;
+- an axis triad; mouse drag to rotate, shift-drag (or the right button) to pan, the wheel to
+  zoom, double-click to return to the isometric view; a click names the grid (or sensor)
+  under the pointer, nearest the eye, with its position and its motion in the mode.
 
-The data are one JSON block (``<script type="application/json" id="femcal-data">``) whose
-arrays are base64 of little-endian binary: grid coordinates in basic (float32, the model's
-units), grid ids (int32), edges (uint32 pairs of grid rows), each mode's translations in
-basic at every grid (float32, divided by the mode's largest translation, ``modes[i].max``,
-so each mode's largest is 1). :func:`read_webview` decodes them. The page sets
-``data-femcal="ok"`` on its ``<html>`` element once it has drawn (``"error: ..."`` on a
-script error); ``#still`` after the file name starts it with the animation off, and
-``#selftest`` (or ``#still-selftest``) also steps through the modes,
-drives the mouse handlers and sets ``data-femcal-selftest`` to ``pass`` or
-``fail: <reasons>``. :func:`browser_check` opens a page so in a headless Chromium and reports
-both, the console's messages and a screenshot (``benchmarks/webview_check.py``).
+The data are one JSON block per viewer (``<script type="application/json"
+class="femcal-data">``) whose arrays are base64 of little-endian binary: grid coordinates in
+basic (float32, the model's units), grid ids (int32), edges (uint32 pairs of grid rows) and
+their kinds, faces (uint32 quadruples, a triangle repeating its third corner), each mode's
+translations in basic at every grid (float32, divided by the mode's largest translation,
+``modes[i].max``, so each mode's largest is 1), and optionally the test overlay.
+:func:`read_webview` decodes them. The page sets ``data-femcal="ok"`` on its ``<html>``
+element once every viewer has drawn (``"error: ..."`` on a script error); ``#still`` after
+the file name starts it with the animation off, and ``#selftest`` (or ``#still-selftest``)
+also steps through the modes, drives the mouse handlers (drag, wheel, double-click, a click
+on the grid nearest the eye), toggles scale, colour and surfaces and sets
+``data-femcal-selftest`` to ``pass`` or ``fail: <reasons>``. :func:`browser_check` opens a
+page so in a headless Chromium and reports both, the console's messages and a screenshot
+(``benchmarks/webview_check.py``).
 
-Size: 16 bytes per grid and mode (float32 x 3 in base64) plus the grids and edges: the hammer
-frame (16 059 grids, 32 239 lines, its 14 modes to 150 Hz) makes a page of 4.3 MB, written in
-0.1 s; 20 modes would make 5.9 MB.
+Size: 16 bytes per grid and mode (float32 x 3 in base64) plus the grids, edges and faces: the
+hammer frame (16 059 grids, 32 239 lines, 14 964 faces, its 14 modes to 150 Hz) makes a page
+of 4.7 MB, written in 0.1 s.
 """
 
 from __future__ import annotations
