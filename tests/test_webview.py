@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from femcal.cli import main
+from femcal.correlate.shapes import RIGID_SHARE, rigid_share
 from femcal.io.modes import basic_translations
 from femcal.io.uff_shapes import mesh_edges
 from femcal.model.build import load_model
@@ -27,6 +28,7 @@ from femcal.viz.webview import (
     browser_check,
     external_references,
     find_browser,
+    free_rigid_motions,
     read_webview,
     render_page,
     viewer_mesh,
@@ -34,6 +36,7 @@ from femcal.viz.webview import (
     write_webview,
 )
 
+from .conftest import solve_cantilever
 from .test_punch import LADDER
 
 BROWSER = find_browser()
@@ -127,12 +130,27 @@ def test_the_page_starts_on_the_first_flexible_mode(tmp_path, ladder):
     modes, _ = solve_normal_modes(model)
     d = webview_data(modes, model)
     assert [m["rigid"] for m in d["modes"]] == [True] * 6 + [False] * 4  # a free body
-    assert d["start"] == 6 and d["n_faces"] == 17 and d["shape_unit"] == "mm/\u221at"
+    assert d["start"] == 6 and d["n_faces"] == 17 and free_rigid_motions(modes, model) == 6 and d["shape_unit"] == "mm/\u221at"
     # the ladder frame on four soft springs: its five lowest modes swing it rigidly
     model, modes = ladder
     d = webview_data(modes, model)
     assert [m["rigid"] for m in d["modes"]][:6] == [True] * 5 + [False]
     assert d["start"] == 5 and d["unit"] == "mm"
+    # springs hold it; the one support (SPC1 1 at grid 201, the front cross member held
+    # fore and aft) fixes one rigid motion
+    assert free_rigid_motions(modes, model) == 5
+
+
+def test_a_clamped_model_has_no_rigid_body_mode():
+    # the cantilever's first bending mode is nearly a turn about its root (a rigid motion
+    # explains over 95 % of it), but the clamp leaves no rigid motion free
+    model, _, modes, _ = solve_cantilever(coupled_mass=True, n_modes=4)
+    grids = np.flatnonzero(model.is_grid)
+    shapes = np.moveaxis(basic_translations(modes, model)[grids], 2, 0)
+    assert rigid_share(model.xyz[grids], shapes)[0] > RIGID_SHARE
+    assert free_rigid_motions(modes, model) == 0
+    d = webview_data(modes, model)
+    assert not any(m["rigid"] for m in d["modes"]) and d["start"] == 0
 
 
 @needs_browser

@@ -822,7 +822,7 @@ def paired_viewer(case: CaseResult, n: int = 0) -> str:
     without pairs."""
     from ..response.frf import channel_matrix
     from ..viz.pair_view import ShapePair, paired_modes_block
-    from ..viz.webview import viewer_mesh
+    from ..viz.webview import free_rigid_motions, viewer_mesh
     from .modes import basic_translations
 
     paired = [m for m in case.modes if m.fe_after is not None]
@@ -841,7 +841,8 @@ def paired_viewer(case: CaseResult, n: int = 0) -> str:
 
     return paired_modes_block(viewer_mesh(model), model.cd_frames[grids], translations,
                               modes.frequencies_hz, case.outputs, pairs, case.channel_names,
-                              title=f"calibrated model ({case.name})", n=n)  # fmt: skip
+                              title=f"calibrated model ({case.name})", n=n,
+                              free_rigid=free_rigid_motions(modes, model))  # fmt: skip
 
 
 def _before_after(c: dict) -> list[list[str]]:

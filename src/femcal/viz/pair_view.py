@@ -129,13 +129,14 @@ def paired_modes_block(mesh: ViewerMesh, frames: np.ndarray,
                        translations: Callable[[list[int]], np.ndarray],
                        frequencies_hz: np.ndarray, channels: Sequence[Channel],
                        pairs: Sequence[ShapePair], names: Mapping[str, str] | None = None, *,
-                       title: str = "", n: int = 0) -> str:  # fmt: skip
+                       title: str = "", n: int = 0, free_rigid: int = 6) -> str:  # fmt: skip
     """The viewer (:func:`femcal.viz.webview.viewer_block`, the ``n``-th of its page) of
     ``pairs``: each paired FE mode animated on ``mesh`` (``translations(columns)``: (k, P, 3)
     the FE modes' translations in basic at the mesh's grids, for 0-based ``columns``;
     ``frequencies_hz`` of every FE mode), the test shape at the sensors over the FE shape as
     the same ``channels`` see it. The test shape is made real in the FE shape's phase and
-    scale (the modal scale factor)."""
+    scale (the modal scale factor). ``free_rigid``: the rigid motions the model's supports
+    leave free (:func:`femcal.viz.webview.free_rigid_motions`; 6 when not known)."""
     from ..correlate.shapes import in_scale_of
     from .webview import viewer_block, viewer_data
 
@@ -148,5 +149,6 @@ def paired_modes_block(mesh: ViewerMesh, frames: np.ndarray,
         for p in pairs], names)  # fmt: skip
     freqs = np.asarray(frequencies_hz)[columns]
     data = viewer_data(mesh, translations(columns), freqs, title=title,
-                       mode_numbers=np.array(columns) + 1, overlay=overlay)  # fmt: skip
+                       mode_numbers=np.array(columns) + 1, overlay=overlay,
+                       free_rigid=free_rigid)  # fmt: skip
     return viewer_block(data, n=n)

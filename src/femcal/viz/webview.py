@@ -256,14 +256,17 @@ def viewer_data(
     title: str = "",
     mode_numbers: np.ndarray | None = None,
     overlay: PairOverlay | None = None,
+    free_rigid: int = 6,
 ) -> dict:
     """A viewer's data block as a JSON-ready dict (see the module's description).
 
     ``translations`` (m, P, 3) each mode's translations at the mesh's grids in basic
     (mass-normalised shapes); ``frequencies_hz`` (m,); ``mode_numbers`` (m,) their numbers
-    as solved (default 1 .. m). Rigid-body modes (:func:`femcal.correlate.rigid_share` at
-    least :data:`~femcal.correlate.shapes.RIGID_SHARE`) are marked, and the page starts on
-    the first mode that is not one (or on the first pair of an ``overlay``)."""
+    as solved (default 1 .. m). Rigid-body modes are marked: the lowest ``free_rigid`` (the
+    rigid motions the supports leave free, :func:`free_rigid_motions`) of those a rigid
+    motion explains (:func:`femcal.correlate.rigid_share` at least
+    :data:`~femcal.correlate.shapes.RIGID_SHARE`); the page starts on the first mode that
+    is not one (or on the first pair of an ``overlay``)."""
     from ..correlate.shapes import RIGID_SHARE, rigid_share
 
     disp = np.asarray(translations, float)
@@ -276,6 +279,7 @@ def viewer_data(
     rigid = np.zeros(n_modes, bool)
     if n_modes and p >= 3:
         rigid = rigid_share(mesh.xyz, disp) >= RIGID_SHARE
+        rigid[np.flatnonzero(rigid)[max(free_rigid, 0):]] = False
     flexible = np.flatnonzero(~rigid)
     numbers = np.arange(1, n_modes + 1) if mode_numbers is None else np.asarray(mode_numbers)
     xyz = mesh.xyz
@@ -333,6 +337,27 @@ def viewer_data(
     return data
 
 
+def free_rigid_motions(modes: Modes, model: Model) -> int:
+    """How many independent rigid-body motions a model's supports leave free: 6 less the rank
+    of the rigid motions at the DOFs its constraints hold (those no solved mode moves, less
+    the empty DOFs AUTOSPC fixed, which hold nothing). 6 for a free body or one on springs,
+    0 for a clamped one."""
+    from ..assembly.weight import rigid_body_vectors
+
+    held = (modes.shapes == 0).all(axis=1)
+    if len(modes.autospc):
+        rows = model.node_index(modes.autospc[:, 0])
+        held[model.dof_start[rows] + modes.autospc[:, 1] - 1] = False
+    if not held.any():
+        return 6
+    grids = model.xyz[model.is_grid]
+    centre = (grids.min(axis=0) + grids.max(axis=0)) / 2
+    size = float(np.ptp(grids, axis=0).max()) or 1.0
+    basis = rigid_body_vectors(model, centre)[held]
+    basis[:, 3:] /= size  # turns of one radian over the model's size: all columns alike
+    return 6 - int(np.linalg.matrix_rank(basis, tol=1e-8 * max(np.abs(basis).max(), 1e-300)))
+
+
 def webview_data(
     modes: Modes, model: Model, *, title: str = "", max_modes: int | None = MAX_MODES
 ) -> dict:
@@ -343,7 +368,7 @@ def webview_data(
     grids = np.flatnonzero(model.is_grid)
     disp = basic_translations(modes, model)[grids][:, :, :n_modes]  # (P, 3, m)
     return viewer_data(mesh, np.moveaxis(disp, 2, 0), modes.frequencies_hz[:n_modes],
-                       title=title)  # fmt: skip
+                       title=title, free_rigid=free_rigid_motions(modes, model))  # fmt: skip
 
 
 def _edge_list(kind: str) -> list[tuple[int, int]]:
