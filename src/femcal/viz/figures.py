@@ -68,7 +68,7 @@ _UNIT_ALONE = re.compile(r"^[A-Za-z\u00b5\u00b0]{1,5}([/*^.][A-Za-z0-9\u00b5\u00
 _UNIT_MARKS = ("(", "[", "Hz", "%", "dB", "no unit")
 
 
-def _shows_ticks(axis) -> bool:
+def shows_ticks(axis) -> bool:
     """Whether an axis shows tick labels (shared axes hide theirs on inner panels)."""
     kw = axis._major_tick_kw  # what set_tick_params / label_outer set
     return axis.get_visible() and (kw.get("label1On", True) or kw.get("label2On", False))
@@ -90,7 +90,7 @@ def unlabelled_axes(fig) -> list[str]:
         if hasattr(ax, "zaxis"):
             axes.append(("z", ax.zaxis))
         for which, axis in axes:
-            if not _shows_ticks(axis) or not len(axis.get_ticklocs()):
+            if not shows_ticks(axis) or not len(axis.get_ticklocs()):
                 continue
             label = axis.get_label_text().strip()
             if not label:

@@ -11,7 +11,7 @@ import numpy as np
 import scipy.signal as ss
 
 from ..testdata.signal import cross_spectra
-from .figures import pyplot, save_figure
+from .figures import pyplot, save_figure, shows_ticks
 
 #: Most channels drawn in one picture.
 MAX_PANELS = 12
@@ -144,7 +144,7 @@ def _hide_spare(axes: np.ndarray, used: int) -> None:
 def _xlabel(axes, text: str) -> None:
     """The x label on every panel that shows its x ticks (the lowest of each column)."""
     for ax in np.ravel(axes):
-        if ax.axison and ax.xaxis._major_tick_kw.get("label1On", True):
+        if ax.axison and shows_ticks(ax.xaxis):
             ax.set_xlabel(text)
 
 
