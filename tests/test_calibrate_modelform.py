@@ -186,3 +186,51 @@ def test_bands_and_robust_weights():
     e = np.array([0.01, -0.01, 0.012, -0.009, 1.0])
     w = robust_weights(e)
     assert w[:4].tolist() == [1.0] * 4 and w[4] < 0.05
+
+
+def test_noise_alone_points_at_no_element_and_the_report_says_so(frf):
+    """Where the misfit is noise, the best candidate removes little: the diagnosis and the
+    report's table say that none stands out instead of listing candidates as findings, and
+    each size carries its unit."""
+    from femcal.calibrate.modelform import USEFUL_FALL
+    from femcal.io.calibration import model_form_tables
+    from femcal.model.units import element_unit, length_unit
+
+    f = np.geomspace(10.0, 400.0, 300)
+    model, modes, H_model = frf(plate_deck(), f)
+    rng = np.random.default_rng(4)
+    H_test = H_model * (1 + 0.01 * (rng.standard_normal(H_model.shape)
+                                    + 1j * rng.standard_normal(H_model.shape)))  # fmt: skip
+    eps = residuals(H_model, H_test, "complex-log")
+    test_hz = modes.frequencies_hz[(modes.frequencies_hz > 10) & (modes.frequencies_hz < 400)]
+    form = diagnose(model, modes, OUTS, INS, f, ZETA, (10.0, 400.0), test_hz, eps, eps,
+                    H_model, H_test, "complex-log", 1.0)  # fmt: skip
+    assert not form.warning and form.candidates
+    assert form.candidates[0].fall < USEFUL_FALL
+    assert any("finds none that stands out" in s for s in form.suggestions)
+    assert not any("Were something missing" in s for s in form.suggestions)
+    length = length_unit(model)
+    for c in form.candidates:
+        kind = ("mass" if c.kind == "point mass" else
+                "translation" if c.component <= 3 else "rotation")  # fmt: skip
+        assert c.unit == element_unit(length, kind)
+        assert (c.unit in c.describe()) and (c.unit in c.size)
+    table = {"warning": False, "noise_sigma": 0.01, "length_unit": length, "bands": [],
+             "outputs": [], "candidates": [
+                 {"kind": c.kind, "grid": c.grid, "component": c.component,
+                  "xyz": list(c.xyz), "fall": c.fall, "value": c.value, "unit": c.unit}
+                 for c in form.candidates]}  # fmt: skip
+    text, head, rows = model_form_tables(table)[-1]
+    assert text.startswith("For reference only") and "none stands out" in text
+    assert f"x, y, z ({length})" in head
+    assert all(r[4].endswith(c.unit) for r, c in zip(rows, form.candidates, strict=True))
+
+
+def test_element_units_follow_the_unit_system():
+    from femcal.model.units import element_unit
+
+    assert [element_unit("mm", k) for k in ("translation", "rotation", "mass")] == [
+        "N/mm", "N mm/rad", "t"]
+    assert [element_unit("m", k) for k in ("translation", "rotation", "mass")] == [
+        "N/m", "N m/rad", "kg"]
+    assert element_unit(None, "mass") == ""

@@ -426,19 +426,23 @@ def test_the_paired_modes_are_drawn_in_the_3d_viewer(report):
 
 
 def test_the_runs_table_sets_like_beside_like(report):
-    """Each start's objective (deviation + prior) at its first and last point side by side,
-    the second never above the first, and the data's part apart (541 beside 1281.86 read as
-    a start that got worse: two different quantities)."""
+    """Each start's objective at its first and last point side by side, the second never
+    above the first, and the deviation apart (541 beside 1281.86 read as a start that got
+    worse: two different quantities); the caption says what the objective is, so that an
+    objective (Huber's loss) below the deviation (the plain sum of squares) is explained."""
     from femcal.io.calibration import report_dict
 
     _d, result, page = report
     text = page.read_text()
-    for head in ("deviation + prior: first point", "deviation + prior: last point",
-                 "deviation (data) at the last point"):  # fmt: skip
+    for head in ("objective: first point", "objective: last point",
+                 "deviation at the last point"):  # fmt: skip
         assert f"<th>{head}</th>" in text
-    for s in report_dict(result)["starts"]:
+    rep = report_dict(result)
+    loss = "Huber loss" if rep["loss"] == "huber" else "the deviation plus the prior"
+    assert loss in text.split("objective: first point")[0].rsplit("<table", 1)[0][-900:]
+    for s in rep["starts"]:
         assert s["history"][-1] <= s["history"][0]
-        table = text.split("deviation + prior: first point")[1]
+        table = text.split("objective: first point")[1]
         row = re.search(rf"<tr><td>{s['start'] + 1}</td><td>([^<]*)</td><td>([^<]*)</td>", table)
         assert row is not None and float(row[2]) == pytest.approx(s["history"][-1], rel=1e-5)
 
@@ -446,8 +450,9 @@ def test_the_runs_table_sets_like_beside_like(report):
 def test_the_paired_shapes_name_their_three_farthest_components(report, tmp_path,
                                                                   monkeypatch):  # fmt: skip
     """The caption promises the three components farthest from the diagonal named by their
-    sensor: each panel carries three names, however well the shapes agree."""
-    from matplotlib.text import Annotation
+    sensor: each panel numbers three points, however well the shapes agree, and names them
+    in its corner."""
+    from matplotlib.text import Annotation, Text
 
     from femcal.viz import calibration as pictures
 
@@ -461,5 +466,11 @@ def test_the_paired_shapes_name_their_three_farthest_components(report, tmp_path
     names = set(case.channel_names.values()) | {c.label for c in case.outputs}
     for ax in panels:
         notes = [c for c in ax.get_children() if isinstance(c, Annotation)]
-        assert len(notes) == min(3, len(case.outputs)), ax.get_title()
-        assert all(n.get_text() in names for n in notes)
+        n = min(3, len(case.outputs))
+        assert [a.get_text() for a in notes] == [str(k) for k in range(1, n + 1)], ax.get_title()
+        key = [t.get_text() for t in ax.texts if (type(t) is Text and "\n" in t.get_text())
+               or (type(t) is Text and t.get_text()[:2] == "1 ")]  # fmt: skip
+        assert len(key) == 1, ax.get_title()
+        lines = key[0].split("\n")
+        assert [x.split(" ", 1)[0] for x in lines] == [str(k) for k in range(1, n + 1)]
+        assert all(x.split(" ", 1)[1] in names for x in lines)

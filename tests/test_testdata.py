@@ -435,3 +435,19 @@ def test_uff_multiple_coherence_is_said_to_be_left_out_and_unknown_quantity_is_s
     with pytest.warns(FemcalWarning, match=r"ordinate data type 0 \(record 8\) names no "
                       "response per force"):
         assert read_uff(tmp_path / "q.uff").quantity == "receptance"
+
+
+def test_channel_names_cover_the_other_directions_of_a_listed_point(tmp_path):
+    """A test often measures three directions where the file lists one: the others take
+    the point's name with their own direction; a listed direction keeps its own point's."""
+    from femcal.testdata.points import channel_names
+
+    path = tmp_path / "s.csv"
+    path.write_text("label,grid,x,y,z,directions\nS_V,17006,0,0,0,3\nS_L,17006,0,0,0,2\n"
+                    "S_X,1970,0,0,0,-1\n")  # fmt: skip
+    names = channel_names(path)
+    assert names["17006:3"] == names["17006:+Z"] == "S_V +Z"
+    assert names["17006:2"] == "S_L +Y"  # listed: its own point's name
+    assert names["17006:1"] == "S_V +X"  # not listed: the grid's first point
+    assert names["1970:-1"] == "S_X -X" and names["1970:1"] == "S_X +X"
+    assert "55:1" not in names

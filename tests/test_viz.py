@@ -70,3 +70,10 @@ def test_unreadable_axes_are_found_and_readable_ones_pass():
     ax.set(xlabel="mode", ylabel="frequency error (%)")  # a count needs no unit
     assert unlabelled_axes(fig) == []
     plt.close(fig)
+
+
+def test_a_mac_is_never_rounded_up_to_one():
+    from femcal.correlate import mac_text
+
+    assert mac_text(0.9995) == "0.999" and mac_text(1.0) == "1.000"
+    assert mac_text(0.7424) == "0.742" and mac_text(0.31, 2) == "0.31"

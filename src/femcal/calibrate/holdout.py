@@ -121,7 +121,9 @@ def fold_plan(cases: Sequence[Case], kind: str, n_sensor_folds: int, metric: str
                 raise ValueError(f"holdout = \"inputs\" needs two inputs or more; configuration "
                                  f"{c.name} has one ({c.inputs[0].label})")  # fmt: skip
             for i, ch in enumerate(c.inputs):
-                plan.append((f"{at}input {ch.label}", k, residual_rows(c, metric, inputs=[i])))
+                own = c.setup.channel_names.get(ch.label)
+                name = f"{own} ({ch.label})" if own else ch.label
+                plan.append((f"{at}input {name}", k, residual_rows(c, metric, inputs=[i])))
             continue
         positions = list(dict.fromkeys(ch.grid if ch.grid is not None else ch.label
                                        for ch in c.outputs))  # fmt: skip
@@ -132,7 +134,8 @@ def fold_plan(cases: Sequence[Case], kind: str, n_sensor_folds: int, metric: str
             keys = {positions[g] for g in group}
             outs = [o for o, ch in enumerate(c.outputs)
                     if (ch.grid if ch.grid is not None else ch.label) in keys]  # fmt: skip
-            first, last = c.outputs[outs[0]].label, c.outputs[outs[-1]].label
+            first, last = (c.setup.channel_names.get(c.outputs[o].label, c.outputs[o].label)
+                           for o in (outs[0], outs[-1]))  # fmt: skip
             plan.append((f"{at}sensors {first} to {last} ({len(keys)} positions)", k,
                          residual_rows(c, metric, outputs=outs)))  # fmt: skip
     return kind, plan

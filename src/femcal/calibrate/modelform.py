@@ -42,12 +42,13 @@ prediction and a second configuration are the checks for that. Three views say w
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..identify import IdentifiedModel
 from ..model.model import Model
+from ..model.units import element_unit, length_unit
 from ..response.frf import channel_matrix
 from ..solve.normal_modes import Modes
 from ..testdata.data import Channel, FRFData
@@ -62,6 +63,10 @@ _LN10 = np.log(10.0)
 #: benchmarks/calibration_trust.py; the test side is the identified, smooth model), so twice
 #: the noise is a systematic misfit.
 NOISE_FACTOR = 2.0
+
+#: A missing-element candidate that removes at least this fraction of the remaining
+#: (robustly weighed) deviation points at something; below it, none stands out.
+USEFUL_FALL = 0.05
 
 #: The sizes every candidate is tried at before the best are refined, relative to its DOF's
 #: dynamic stiffness in the band: from a thousandth of it (a small change, where the first
@@ -87,6 +92,8 @@ class Candidate:
     fall : the fraction of the configuration's deviation that the best-sized element
         removes.
     value : that size, in the model's units (force / length, moment / radian, mass).
+    unit : that unit's name (``N/mm``, ``N mm/rad``, ``t`` in mm-tonne-s; "" when the deck's
+        materials do not tell the unit system, :func:`femcal.model.units.length_unit`).
     """
 
     kind: str
@@ -95,23 +102,29 @@ class Candidate:
     xyz: np.ndarray
     fall: float
     value: float
+    unit: str = ""
+
+    @property
+    def size(self) -> str:
+        """The size with its unit: ``2.1e+08 N mm/rad``."""
+        return f"{self.value:.3g}" + (f" {self.unit}" if self.unit else "")
 
     def describe(self) -> str:
         """``a spring to ground at GRID 455 (800, 430, 127.5), component 5 (RY), 2.1e+08``."""
         at = f"GRID {self.grid} ({', '.join(f'{x:.6g}' for x in self.xyz)})"
         if self.kind == "point mass":
-            return f"a point mass of {self.value:.3g} at {at}"
+            return f"a point mass of {self.size} at {at}"
         name = ("X", "Y", "Z", "RX", "RY", "RZ")[self.component - 1]
-        return (f"a spring to ground of {self.value:.3g} at {at}, component {self.component} "
+        return (f"a spring to ground of {self.size} at {at}, component {self.component} "
                 f"({name})")  # fmt: skip
 
     def how_to_add(self) -> str:
         """The cards that add it to a deck, with the field a calibration parameter takes."""
         if self.kind == "point mass":
-            return (f"a CONM2 of mass {self.value:.3g} on GRID {self.grid}, with a parameter on "
+            return (f"a CONM2 of mass {self.size} on GRID {self.grid}, with a parameter on "
                     "its M")  # fmt: skip
         return (f"a CELAS1 on GRID {self.grid}, component {self.component}, and its PELAS of "
-                f"K = {self.value:.3g}, with a parameter on the PELAS's K")  # fmt: skip
+                f"K = {self.size}, with a parameter on the PELAS's K")  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -370,6 +383,12 @@ def missing_elements(model: Model, modes: Modes, outputs: Sequence[Channel],
                 best[sl] = np.where(better, size, best[sl])
         return fall, best
 
+    length = length_unit(model)
+
+    def unit(kind: str, component: int) -> str:
+        return element_unit(length, "mass" if kind == "point mass"
+                            else "translation" if component <= 3 else "rotation")  # fmt: skip
+
     def candidates(nodes: np.ndarray, fsel: np.ndarray) -> list[Candidate]:
         out = []
         start = model.dof_start[nodes]
@@ -379,10 +398,10 @@ def missing_elements(model: Model, modes: Modes, outputs: Sequence[Channel],
             fall, size = screen(dofs, kind == "point mass", fsel)
             for k in np.flatnonzero(fall > 0):
                 node, comp = model.dof_owner(dofs[k, 0])
-                out.append(Candidate(kind, int(model.node_ids[node[0]]),
-                                     int(comp[0]) if kind == "spring to ground" else 0,
+                component = int(comp[0]) if kind == "spring to ground" else 0
+                out.append(Candidate(kind, int(model.node_ids[node[0]]), component,
                                      np.asarray(model.xyz[node[0]], float), float(fall[k]),
-                                     float(size[k])))  # fmt: skip
+                                     float(size[k]), unit(kind, component)))  # fmt: skip
         return out
 
     size = float(np.ptp(model.xyz[grids], axis=0).max()) or 1.0
@@ -445,8 +464,7 @@ def missing_elements(model: Model, modes: Modes, outputs: Sequence[Channel],
             if hi - lo < 1e-3:
                 break
         size, dev = (np.exp(a), fa) if fa < fb else (np.exp(b), fb)
-        return Candidate(c.kind, c.grid, c.component, c.xyz, max(1.0 - dev / total, 0.0),
-                         float(size))  # fmt: skip
+        return replace(c, fall=max(1.0 - dev / total, 0.0), value=float(size))
 
     # refined: the best few overall and the best at each of a few distinct places
     spread: list[Candidate] = []
@@ -498,7 +516,7 @@ def diagnose(model: Model, modes: Modes, outputs: Sequence[Channel],
     warning = noise_sigma is not None and typ_a > NOISE_FACTOR * noise_sigma
     candidates = missing_elements(model, modes, outputs, inputs, freq, zeta, eps_after,
                                   H_after, H_test, metric, weights=robust_weights(eps_after))
-    useful = [c for c in candidates if c.fall >= 0.05]
+    useful = [c for c in candidates if c.fall >= USEFUL_FALL]
     say = []
     levels = (f"The typical misfit after calibration (robust standard deviation {typ_a:.3g} "
               f"in log10, {typ_b:.3g} before)")  # fmt: skip
@@ -513,6 +531,12 @@ def diagnose(model: Model, modes: Modes, outputs: Sequence[Channel],
             say.append(f"Were something missing, the likeliest is {c.describe()}: it would "
                        f"remove about {100 * c.fall:.0f} % of the remaining deviation "
                        "(robustly weighed).")  # fmt: skip
+        elif candidates:
+            say.append("The search for a missing element finds none that stands out: the "
+                       "best single spring to ground or point mass removes "
+                       f"{100 * candidates[0].fall:.1f} % of the remaining deviation "
+                       f"(robustly weighed), less than the {100 * USEFUL_FALL:g} % that would "
+                       "point at one.")
     else:
         if noise_sigma is not None:
             say.append(f"{levels} stays {typ_a / noise_sigma:.3g} times the test's noise "
@@ -548,8 +572,9 @@ def diagnose(model: Model, modes: Modes, outputs: Sequence[Channel],
                            f"{d.describe()} ({100 * d.fall:.0f} %)" for d in useful[1:3])
                           + "."))  # fmt: skip
         elif candidates:
-            say.append("No single spring to ground or point mass removes more than 5 % of the "
-                       "remaining deviation: what the model lacks is spread out (damping, a "
+            say.append("No single spring to ground or point mass removes more than "
+                       f"{100 * USEFUL_FALL:g} % of the remaining deviation: what the model "
+                       "lacks is spread out (damping, a "
                        "joint's flexibility along a line, the test's own errors).")  # fmt: skip
     if bound_names:
         say.append(f"{', '.join(bound_names)} ended on a bound: each stands for something "

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..correlate import mac_text
 from ..errors import FemcalWarning, message
 from ..identify import Layout, Settings, identify
 from ..identify.compare import pair_models
@@ -240,7 +241,7 @@ def print_comparison(rows, methods) -> None:
         (f1, f2), (z1, z2) = r.frequency_hz, r.damping_ratio
         diff = None if f1 is None or f2 is None else 100 * (f2 / f1 - 1)
         print(f"{num(f1):>14} {num(z1, 100):>10} {num(f2):>14} {num(z2, 100):>10} "
-              f"{num(diff, fmt='{:+.3f}'):>8} {num(r.mac, fmt='{:.3f}'):>6}")
+              f"{num(diff, fmt='{:+.3f}'):>8} {'-' if r.mac is None else mac_text(r.mac):>6}")
 
 
 def write_comparison(path: Path, rows, methods) -> None:

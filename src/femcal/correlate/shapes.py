@@ -170,3 +170,10 @@ def rigid_share(xyz: np.ndarray, translations: np.ndarray) -> np.ndarray:
     total = np.einsum("ij,ij->j", b, b)
     left = np.einsum("ij,ij->j", b - fit, b - fit)
     return np.where(total > 0, 1.0 - left / np.where(total > 0, total, 1.0), 1.0)
+
+
+def mac_text(value: float, digits: int = 3) -> str:
+    """A MAC (or another 0-1 correlation) to ``digits`` decimals, rounded down so that
+    0.9995 reads 0.999: "1.000" is kept for shapes that agree exactly."""
+    scale = 10.0**digits
+    return f"{np.floor(value * scale + 1e-9) / scale:.{digits}f}"

@@ -22,9 +22,11 @@ from ..atomic import write_atomic, write_lines
 from ..calibrate.augment import AddedElement
 from ..calibrate.channels import STANDOUT_FACTOR, SuspectChannel
 from ..calibrate.config import Config, Configuration
-from ..calibrate.modelform import NOISE_FACTOR
+from ..calibrate.modelform import NOISE_FACTOR, USEFUL_FALL
 from ..calibrate.parameters import Parameter
 from ..calibrate.result import CalibrationResult, CaseResult, Cycle
+from ..correlate import mac_text
+from ..model.units import length_unit
 from .html import (
     PAGE_STYLE,
     embedded_figure,
@@ -112,8 +114,8 @@ def verdict_lines(result: CalibrationResult) -> list[str]:
         if wb and wa and lb and la:
             lines.append(f"{at}Frequencies: the worst error {wb[0]:.2f} % before (test mode "
                          f"{wb[1]}), {wa[0]:.2f} % after (test mode {wa[1]}); MAC: the lowest "
-                         f"{lb[0]:.3f} before, {la[0]:.3f} after; {paired} of {len(modes)} "
-                         "test modes paired.")  # fmt: skip
+                         f"{mac_text(lb[0])} before, {mac_text(la[0])} after; {paired} of "
+                         f"{len(modes)} test modes paired.")  # fmt: skip
         elif not modes:
             lines.append(f"{at}No identified test modes: the FRFs alone were compared.")
         m = _misfit(case)
@@ -171,7 +173,7 @@ def summary_lines(result: CalibrationResult) -> list[str]:
                          f"{form.typical_after / noise:.3g} times the test's noise "
                          f"({noise:.2g}): the model lacks something the structure has, which "
                          "the parameters cannot stand for without bias.")  # fmt: skip
-            useful = [c for c in form.candidates if c.fall >= 0.05]
+            useful = [c for c in form.candidates if c.fall >= USEFUL_FALL]
             if useful:
                 lines.append(f"{at}Where: {useful[0].describe()} would remove about "
                              f"{100 * useful[0].fall:.0f} % of it (see the model-form "
@@ -182,7 +184,11 @@ def summary_lines(result: CalibrationResult) -> list[str]:
                          f"times the test's noise ({noise:.2g}): within {NOISE_FACTOR:g} times, "
                          "no sign of a feature the model lacks (one the parameters can mimic "
                          "does not show in the misfit; the held-out prediction tests for "
-                         "that).")  # fmt: skip
+                         "that)."
+                         + (f" No missing element stands out either: the best removes "
+                            f"{100 * form.candidates[0].fall:.1f} % of the remaining "
+                            "deviation." if form.candidates
+                            and form.candidates[0].fall < USEFUL_FALL else ""))  # fmt: skip
     ho = result.holdout
     if ho is not None:
         what = {"inputs": "each input's FRFs", "sensors": "each group of sensors",
@@ -262,6 +268,7 @@ def _model_form(case: CaseResult) -> dict | None:
         return None
     edges = form.band_edges_hz
     return {
+        "length_unit": length_unit(case.model),
         "noise_sigma": form.noise_sigma, "misfit_before": form.misfit_before,
         "misfit_after": form.misfit_after, "typical_misfit_before": form.typical_before,
         "typical_misfit_after": form.typical_after, "warning": form.warning,
@@ -280,7 +287,7 @@ def _model_form(case: CaseResult) -> dict | None:
                   for k in range(len(edges) - 1)],
         "candidates": [{"kind": c.kind, "grid": c.grid, "component": c.component,
                         "xyz": [float(x) for x in c.xyz], "fall": c.fall, "value": c.value,
-                        "text": c.describe()} for c in form.candidates],
+                        "unit": c.unit, "text": c.describe()} for c in form.candidates],
     }  # fmt: skip
 
 
@@ -626,7 +633,8 @@ def model_form_tables(form: dict) -> list[tuple[str, list[str], list[list[str]]]
     outs = [[o["name"] or o["channel"], o["channel"], f"{o['typical_before']:.3g}",
              f"{o['typical_after']:.3g}", f"{o['rms_after']:.3g}"] for o in worst]  # fmt: skip
     cands = [[c["kind"], str(c["grid"]), str(c["component"] or "1-3"),
-              ", ".join(f"{x:.6g}" for x in c["xyz"]), f"{c['value']:.3g}",
+              ", ".join(f"{x:.6g}" for x in c["xyz"]),
+              f"{c['value']:.3g}" + (f" {c['unit']}" if c.get("unit") else ""),
               f"{100 * c['fall']:.1f}"] for c in form["candidates"]]  # fmt: skip
     out = [("The residual (log10) by band: its typical size (robust standard deviation) before "
             "and after calibration, what the warning sets against the test's noise "
@@ -636,10 +644,17 @@ def model_form_tables(form: dict) -> list[tuple[str, list[str], list[list[str]]]
            ("The channels that fit worst after calibration (by the typical residual):",
             ["sensor", "channel", "typical before", "typical after", "RMS after"], outs)]
     if cands:
-        out.append(("Missing elements the misfit asks for most (first order, on Huber-weighted "
-                    "residuals; sizes in the model's units):",
-                    ["element", "grid", "component", "x, y, z", "size", "misfit removed %"],
-                    cands))  # fmt: skip
+        stands_out = form["candidates"][0]["fall"] >= USEFUL_FALL
+        what = ("Missing elements the misfit asks for most" if form["warning"] and stands_out
+                else "For reference only: the single elements that would lower the misfit "
+                "most" + ("; none stands out" if not stands_out else "; with no model-form "
+                          "warning they are no evidence of a missing feature"))  # fmt: skip
+        out.append((f"{what} (each added exactly to the calibrated model and sized to lower "
+                    f"the Huber-weighted deviation most; below {100 * USEFUL_FALL:g} % removed "
+                    "none stands out):",
+                    ["element", "grid", "component",
+                     "x, y, z" + (f" ({form['length_unit']})" if form.get("length_unit") else ""),
+                     "size", "misfit removed %"], cands))  # fmt: skip
     return out
 
 
@@ -855,7 +870,7 @@ def _before_after(c: dict) -> list[list[str]]:
 
     def lowest(key: str) -> str:
         low = _lowest(modes, key)
-        return "-" if low is None else f"{low[0]:.3f} (test mode {low[1]})"
+        return "-" if low is None else f"{mac_text(low[0])} (test mode {low[1]})"
 
     def paired(key: str) -> str:
         return f"{sum(m[f'fe_{key}_mode'] is not None for m in modes)} of {len(modes)}"
@@ -899,6 +914,18 @@ def _is_warning(line: str) -> bool:
     return line.startswith("Warning") or "warning" in line.split(":")[0]
 
 
+#: The verdict names at most this many parameters in a list; the parameters table has all.
+VERDICT_NAMES = 5
+
+
+def _some(names: list[str]) -> str:
+    """The first few names, and how many more the parameters table lists."""
+    if len(names) <= VERDICT_NAMES + 1:
+        return ", ".join(names)
+    return (", ".join(names[:VERDICT_NAMES]) + f" and {len(names) - VERDICT_NAMES} more (the "
+            "parameters table lists them)")
+
+
 def verdict_of(report: dict) -> Verdict:
     """:class:`Verdict` of ``report`` (:func:`report_dict`)."""
     confs = report["configurations"]
@@ -919,10 +946,10 @@ def verdict_of(report: dict) -> Verdict:
         doubts.append(f"{len(weak)} calibrated parameter{'s' * (len(weak) > 1)} the test "
                       f"informs only weakly (posterior standard deviation over "
                       f"{100 * report['posterior']['identifiable_below']:g} % of the prior's): "
-                      f"{', '.join(weak)}; their values lean on the prior.")  # fmt: skip
+                      f"{_some(weak)}; their values lean on the prior.")  # fmt: skip
     if held:
         doubts.append(f"{len(held)} parameter{'s' * (len(held) > 1)} the test cannot inform, "
-                      f"held at the nominal: {', '.join(held)}.")  # fmt: skip
+                      f"held at the nominal: {_some(held)}.")  # fmt: skip
     trust = report.get("trust", [])
     doubts += [x for x in trust if _is_warning(x)]
     return Verdict([(c["name"], _before_after(c)) for c in confs], moved_text,
@@ -958,7 +985,7 @@ def verdict_html(report: dict) -> str:
     return (f"<section id='verdict' class='verdict'><h2>Verdict</h2>{tables}"
             f"<p>{html.escape(v.moved)}</p><p><b>What to doubt</b></p><ul class='doubt'>"
             + "".join(f"<li>{html.escape(d)}</li>" for d in v.doubts)
-            + "</ul><ul class='summary'>"
+            + "</ul><p><b>What holds</b></p><ul class='summary'>"
             + "".join(f"<li>{html.escape(x)}</li>" for x in v.rest)
             + "</ul></section>")  # fmt: skip
 
@@ -967,8 +994,8 @@ def verdict_html(report: dict) -> str:
 CYCLES_HEAD = ["cycle", "step", "full-model deviation at the candidate",
                "actual / predicted fall", "trust radius", "largest change (informed parameters)",
                "search again: best deviation (surrogate)"]  # fmt: skip
-STARTS_HEAD = ["start", "deviation + prior: first point", "deviation + prior: last point",
-               "deviation (data) at the last point", "iterations", "seconds", "stop"]
+STARTS_HEAD = ["start", "objective: first point", "objective: last point",
+               "deviation at the last point", "iterations", "seconds", "stop"]
 
 
 def runs_tables(report: dict) -> list[tuple[str, list[str], list[list[str]]]]:
@@ -982,16 +1009,22 @@ def runs_tables(report: dict) -> list[tuple[str, list[str], list[list[str]]]]:
             _f(c.get("moved_informed", c.get("moved")), ".2e"),
             _f(c.get("search_best_deviation"), ".6g") if c.get("searched") else ""]
            for c in report["cycles"]]  # fmt: skip
-    # like beside like: the objective (deviation + prior) at each start's first and last
-    # point, then the data's part of it at the last
+    # like beside like: the objective at each start's first and last point, then the
+    # deviation there
     starts = [[s["start"] + 1, f"{s['history'][0]:.6g}", f"{s['history'][-1]:.6g}",
                f"{s['deviation']:.6g}", s["iterations"], f"{s['seconds']:.1f}", s["message"]]
               for s in report["starts"]]  # fmt: skip
     return [("Each cycle: its step, the full model's deviation at the candidate, the trust "
              "region's ratio and radius.", CYCLES_HEAD, [[str(x) for x in r] for r in cyc]),
-            ("Each start of cycle 1 on the surrogate: the objective it minimises (the "
-             "deviation plus the prior's term) where it started and where it stopped, and the "
-             "deviation alone (the data's part) there.", STARTS_HEAD,
+            ("Each start of cycle 1 on the surrogate: the objective it minimises where it "
+             "started and where it stopped, and the deviation there. The objective is "
+             + ("the data's Huber loss (the squared residuals within "
+                f"{report['huber_c']:g} robust standard deviations, growing linearly beyond) "
+                if report.get("loss") == "huber" else "the deviation ")
+             + "plus the prior's term; the deviation is the plain sum of the squared "
+             "residuals" + (", which counts the few large ones near antiresonances in full, "
+                            "so it can exceed the objective" if report.get("loss") == "huber"
+                            else "") + ".", STARTS_HEAD,
              [[str(x) for x in r] for r in starts])]
 
 
@@ -1028,7 +1061,7 @@ def write_html(path: Path, report: dict, figures: list[ReportFigure],
         prm_head += ["true", "error %", "|error| / posterior std"]
     why = "".join(f"<li><b>{html.escape(p['name'])}</b>: {html.escape(p['reason'])}</li>"
                   for p in report["parameters"])  # fmt: skip
-    (_, cyc_head, cyc), (_, starts_head, starts) = runs_tables(report)
+    (_, cyc_head, cyc), (starts_text, starts_head, starts) = runs_tables(report)
     dev = report["deviation"]
     confs = report["configurations"]
     several = len(confs) > 1
@@ -1079,9 +1112,7 @@ trust radius. When a kept step lowers the cost by less than {
 100 * report.get('restart_fall', 0):g} %, or the cycles settle, the multi-start search runs again
 on the current surrogate ({report.get('restarts', 0)} times here); a lower minimum elsewhere is
 the next candidate.</p>{_table(cyc, cyc_head)}
-<p>Each start of cycle 1 on the surrogate: the objective it minimises (the deviation plus the
-prior's term) where it started and where it stopped, and the deviation alone (the data's part)
-there.</p>
+<p>{html.escape(starts_text)}</p>
 {_table(starts, starts_head)}
 <h2 id='provenance'>Provenance</h2>
 {html_header(head) if head is not None else ''}

@@ -45,7 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from ..atomic import write_atomic, write_lines
-from ..correlate import comac, in_scale_of, mac, pair_modes, sign_agreement
+from ..correlate import comac, in_scale_of, mac, mac_text, pair_modes, sign_agreement
 from ..errors import FemcalError, message
 from ..identify.layout import Layout
 from ..identify.workflow import IdentifiedModel, Settings, identify
@@ -811,7 +811,7 @@ def summary_lines(result: Correlation) -> list[str]:
         if r.test_mode is not None and r.fe_mode is not None:
             lines.append(f"{r.test_mode:4d} {r.test_hz:9.3f} {100 * r.damping_ratio:7.3f} ~ "
                          f"{r.fe_mode:4d} {r.fe_hz:9.3f} {r.frequency_difference:+8.2f} "
-                         f"{r.mac:6.3f}")  # fmt: skip
+                         f"{mac_text(r.mac):>6}")  # fmt: skip
         elif r.test_mode is not None:
             lines.append(f"{r.test_mode:4d} {r.test_hz:9.3f} {100 * r.damping_ratio:7.3f}   "
                          "no FE mode pairs with it")  # fmt: skip
@@ -825,7 +825,7 @@ def summary_lines(result: Correlation) -> list[str]:
         lines.append(f"{len(pairs)} of {len(result.test.frequency_hz)} test modes in "
                      f"{f1:g}-{f2:g} Hz paired; frequency difference mean {diffs.mean():.2f} "
                      f"%, worst {diffs.max():.2f} %; lowest MAC "
-                     f"{min(p.mac for p in pairs):.3f}")  # fmt: skip
+                     f"{mac_text(min(p.mac for p in pairs))}")  # fmt: skip
     else:
         lines.append(f"none of the {len(result.test.frequency_hz)} test modes in {f1:g}-{f2:g} "
                      "Hz pairs with an FE mode")  # fmt: skip
@@ -861,7 +861,8 @@ def correlation_html(result: Correlation, *, deck: str = "", test: str = "",
     rows = [[html_number(r.test_mode, "d"), html_number(r.test_hz, ".3f"),
              html_number(None if r.damping_ratio is None else 100 * r.damping_ratio, ".3f"),
              html_number(r.fe_mode, "d"), html_number(r.fe_hz, ".3f"),
-             html_number(r.frequency_difference, "+.2f"), html_number(r.mac, ".3f")]
+             html_number(r.frequency_difference, "+.2f"),
+             "-" if r.mac is None else mac_text(r.mac)]
             for r in result.rows]  # fmt: skip
     head = ["test mode", "test Hz", "damping %", "FE mode", "FE Hz", "frequency difference %",
             "MAC"]  # fmt: skip
@@ -911,8 +912,8 @@ def correlation_html(result: Correlation, *, deck: str = "", test: str = "",
                ["frequency difference, mean |.|", f"{d.mean():.2f} %"],
                ["frequency difference, worst", f"{worst.frequency_difference:+.2f} % (test "
                                                 f"mode {worst.test_mode})"],
-               ["MAC, lowest", f"{low.mac:.3f} (test mode {low.test_mode})"],
-               ["MAC, mean", f"{np.mean(macs):.3f}"]]  # fmt: skip
+               ["MAC, lowest", f"{mac_text(low.mac)} (test mode {low.test_mode})"],
+               ["MAC, mean", mac_text(float(np.mean(macs)))]]  # fmt: skip
     else:
         key = [["test modes paired", f"0 of {len(result.test.frequency_hz)}"]]
     if np.isfinite(checks.comac).any():
@@ -1130,7 +1131,7 @@ def vector_figure(result: Correlation):
         t, a = _pair_shapes(result, r)
         shape_scatter(ax, a, t)
         ax.set_title(f"test {r.test_mode} ({r.test_hz:.1f} Hz) / FE {r.fe_mode} "
-                     f"({r.fe_hz:.1f} Hz)\nMAC {r.mac:.3f}", fontsize=8)  # fmt: skip
+                     f"({r.fe_hz:.1f} Hz)\nMAC {mac_text(r.mac)}", fontsize=8)  # fmt: skip
         ax.set_xlabel("FE shape (mass-normalised)", fontsize=8)
         ax.set_ylabel("test shape, scaled by the MSF", fontsize=8)
     for n in range(len(pairs), rows * cols):

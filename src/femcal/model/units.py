@@ -26,3 +26,15 @@ def length_unit(model: Model) -> str | None:
         if ((c >= 1e3) & (c <= 1.2e4) & (pa >= 1e8) & (pa <= 1e12)).all():
             return unit
     return None
+
+
+def element_unit(length: str | None, kind: str) -> str:
+    """The unit of an element's size in the model's unit system (``length`` from
+    :func:`length_unit`): ``kind`` ``"translation"`` (a spring's force per length),
+    ``"rotation"`` (moment per radian) or ``"mass"``; "" when the length unit is unknown."""
+    force_length = {"mm": ("N", "mm", "t"), "m": ("N", "m", "kg")}.get(length or "")
+    if force_length is None:
+        return ""
+    force, metre, mass = force_length
+    return {"translation": f"{force}/{metre}", "rotation": f"{force} {metre}/rad",
+            "mass": mass}[kind]

@@ -76,7 +76,8 @@ def point_label(grid: int, code: int) -> str:
 def channel_names(path: str | Path) -> dict[str, str]:
     """Each channel label the file's points make, in both spellings (``455:+Z`` and
     ``455:3``, as FRF files label a component), and its sensor's name with the direction
-    (``L03 +Z``).
+    (``L03 +Z``); the other directions at a listed grid take its first point's name with
+    their own direction.
 
     Raises
     ------
@@ -84,9 +85,18 @@ def channel_names(path: str | Path) -> dict[str, str]:
         As :func:`read_points`.
     """
     out = {}
-    for label, grid, code in read_points(path):
+    points = read_points(path)
+    for label, grid, code in points:
         channel = point_label(grid, code)
         name = f"{label} {channel.split(':', 1)[1]}"
         out[channel] = name
         out[f"{grid}:{code}"] = name
+    # a test often measures more directions at a point than the file lists (a triaxial
+    # sensor where a uniaxial one was planned): they take the point's name too
+    for label, grid, _ in points:
+        for code in (*range(1, 7), *range(-6, 0)):
+            channel = point_label(grid, code)
+            name = f"{label} {channel.split(':', 1)[1]}"
+            out.setdefault(channel, name)
+            out.setdefault(f"{grid}:{code}", name)
     return out

@@ -21,7 +21,7 @@ from ..atomic import write_atomic
 from ..io.modes import basic_translations
 from ..model.model import Model
 from ..solve.normal_modes import Modes
-from .render import _grid
+from .render import SCALAR_BAR, _grid, mode_scale, structure_nodes
 
 
 def phases(n_frames: int) -> np.ndarray:
@@ -72,20 +72,21 @@ def animate_modes(
     count = len(modes.eigenvalues) if max_modes is None else min(max_modes, len(modes.eigenvalues))
     s = phases(n_frames)
     paths: list[Path] = []
+    structure = structure_nodes(model)
     for i in range(count) if which is None else which:
         u = disp[:, :, i]
-        mag = np.linalg.norm(u, axis=1)
-        umax = float(mag.max()) or 1.0
+        umax = mode_scale(u, structure)
+        mag = np.minimum(np.linalg.norm(u, axis=1) / umax, 1.0)
         d = u * (scale * size / umax)
         grid = base.copy()
         grid.points = xyz + d
-        grid.point_data["|u|"] = mag / umax
+        grid.point_data["|u|"] = mag
         pl = pv.Plotter(off_screen=True, window_size=list(window))
         try:
             pl.add_mesh(base, style="wireframe", color="grey", opacity=0.35, line_width=1)
             pl.add_mesh(grid, scalars="|u|", cmap="viridis", clim=[0.0, 1.0], show_edges=False,
                         line_width=4, point_size=8,
-                        scalar_bar_args={"title": "|u| (normalised)"})  # fmt: skip
+                        scalar_bar_args=SCALAR_BAR)  # fmt: skip
             label = f"Mode {i + 1}: {modes.frequencies_hz[i]:.3f} Hz"
             pl.add_text(f"{title}  {label}" if title else label, font_size=12)
             both = np.vstack([xyz + d, xyz - d])
@@ -94,7 +95,7 @@ def animate_modes(
             frames = []
             for f in s:
                 grid.points = xyz + f * d
-                grid.point_data["|u|"] = abs(f) * mag / umax
+                grid.point_data["|u|"] = abs(f) * mag
                 pl.render()
                 frames.append(np.asarray(pl.screenshot(return_img=True)))
         finally:

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..calibrate.result import CalibrationResult, CaseResult
-from ..correlate import in_scale_of
+from ..correlate import in_scale_of, mac_text
 from ..response.frf import channel_matrix
 from .figures import mac_image, pyplot, save_figure, shape_scatter
 
@@ -76,12 +76,18 @@ def mac_matrices(path: Path, outcome: CaseResult) -> Path:
     """MAC between test modes and FE modes near the band, before and after."""
     plt = pyplot()
     band = outcome.band
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
+    in_band = [np.flatnonzero((m.frequencies_hz >= 0.7 * band[0])
+                              & (m.frequencies_hz <= 1.3 * band[1]))
+               for m in (outcome.modes_before, outcome.modes_after)]  # fmt: skip
+    columns = max(len(c) for c in in_band)
+    rows = len(outcome.test_hz)
+    # cells wide enough for "0.38" at 9 pt
+    fig, axes = plt.subplots(1, 2, figsize=(max(11.0, 2 * (0.4 * columns + 1.6)),
+                                            max(4.5, 0.3 * rows + 1.6)))  # fmt: skip
     panels = ((axes[0], outcome.mac_before, outcome.modes_before, "before"),
               (axes[1], outcome.mac_after, outcome.modes_after, "after"))
-    for ax, M, modes, title in panels:
+    for (ax, M, modes, title), cols in zip(panels, in_band, strict=True):
         fe_hz = modes.frequencies_hz
-        cols = np.flatnonzero((fe_hz >= 0.7 * band[0]) & (fe_hz <= 1.3 * band[1]))
         im = mac_image(ax, M[:, cols], printed_above=0.3, fontsize=9)
         ax.set_xticks(range(len(cols)), [f"{fe_hz[j]:.1f}" for j in cols], rotation=90,
                       fontsize=9)  # fmt: skip
@@ -147,9 +153,12 @@ def history_plot(path: Path, outcome: CalibrationResult) -> Path:
     for s in outcome.cycles[0].starts:
         axes[0].semilogy(s.history, marker=".", lw=0.8, label=f"start {s.start + 1}")
     axes[0].set_xlabel("Levenberg-Marquardt iteration")
-    axes[0].set_ylabel("deviation + prior term\n(surrogate; dimensionless)")
-    axes[0].set_title("starts of the first cycle")
-    axes[0].legend(fontsize=9, ncol=2)
+    loss = "Huber loss" if outcome.config.loss == "huber" else "deviation"
+    axes[0].set_ylabel(f"objective: {loss} + prior\n(surrogate; no unit)")
+    starts = len(outcome.cycles[0].starts)
+    axes[0].set_title(f"the {starts} starts of the first cycle")
+    if starts <= 8:  # more would hide the lines
+        axes[0].legend(fontsize=9, ncol=2)
     axes[0].grid(True, which="both", alpha=0.3)
     dev = [c.deviation for c in outcome.cycles]
     axes[1].semilogy(range(1, len(dev) + 1), dev, "o-", label="best of each cycle (surrogate)")
@@ -201,11 +210,16 @@ def vector_plot(path: Path, outcome: CaseResult) -> Path | None:
         t_r = in_scale_of(outcome.test_shapes[:, pr.test_mode - 1], a)
         shape_scatter(ax, a, t_r)
         ax.set_title(f"test {pr.test_hz:.1f} Hz / FE {pr.fe_after_hz:.1f} Hz\n"
-                     f"MAC {pr.mac_after:.3f}", fontsize=9)  # fmt: skip
-        for o in np.argsort(np.abs(t_r - a))[::-1][:3]:  # the three farthest, by name
+                     f"MAC {mac_text(pr.mac_after)}", fontsize=9)  # fmt: skip
+        # the three farthest from the diagonal numbered, their names in the empty corner
+        key = []
+        for n, o in enumerate(np.argsort(np.abs(t_r - a))[::-1][:3], start=1):
             ch = outcome.outputs[o]
-            ax.annotate(outcome.channel_names.get(ch.label, ch.label), (a[o], t_r[o]),
-                        fontsize=9, xytext=(3, 3), textcoords="offset points")  # fmt: skip
+            ax.annotate(str(n), (a[o], t_r[o]), fontsize=8, color="tab:red",
+                        xytext=(2, 2), textcoords="offset points")  # fmt: skip
+            key.append(f"{n} {outcome.channel_names.get(ch.label, ch.label)}")
+        ax.text(0.97, 0.03, "\n".join(key), transform=ax.transAxes, ha="right", va="bottom",
+                fontsize=7.5, color="tab:red")  # fmt: skip
         ax.set_xlabel(f"FE shape after calibration\n({unit})", fontsize=9)
         ax.set_ylabel(f"test shape x MSF\n({unit})", fontsize=9)
     return _save(fig, path)

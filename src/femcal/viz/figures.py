@@ -49,12 +49,19 @@ def shape_scatter(ax, fe_shape: np.ndarray, test_shape: np.ndarray) -> float:
 def mac_image(ax, M: np.ndarray, *, printed_above: float, fontsize: float,
               aspect: str = "auto"):  # fmt: skip
     """A MAC-like matrix (values 0-1) drawn on ``ax`` (viridis), each value over
-    ``printed_above`` printed in its cell (dark on bright cells); returns the image, for its
-    colour bar."""
+    ``printed_above`` printed in its cell (dark on bright cells) at ``fontsize`` or smaller,
+    as the cell's width allows; returns the image, for its colour bar."""
     im = ax.imshow(M, vmin=0, vmax=1, cmap="viridis", aspect=aspect)
+    # a value must fit its cell: "0.38" is about 2.4 font sizes wide
+    fig = ax.figure
+    cell_pt = 72 * fig.get_size_inches()[0] * ax.get_position().width / max(M.shape[1], 1)
+    if aspect != "auto":
+        cell_pt = min(cell_pt, 72 * fig.get_size_inches()[1] * ax.get_position().height
+                      / max(M.shape[0], 1))  # fmt: skip
+    size = min(fontsize, 0.85 * cell_pt / 2.4)
     for (r, c), v in np.ndenumerate(M):
         if v > printed_above:
-            ax.text(c, r, f"{v:.2f}", ha="center", va="center", fontsize=fontsize,
+            ax.text(c, r, f"{v:.2f}", ha="center", va="center", fontsize=size,
                     color="k" if v > 0.6 else "w")  # fmt: skip
     return im
 

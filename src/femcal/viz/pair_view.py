@@ -137,14 +137,14 @@ def paired_modes_block(mesh: ViewerMesh, frames: np.ndarray,
     the same ``channels`` see it. The test shape is made real in the FE shape's phase and
     scale (the modal scale factor). ``free_rigid``: the rigid motions the model's supports
     leave free (:func:`femcal.viz.webview.free_rigid_motions`; 6 when not known)."""
-    from ..correlate.shapes import in_scale_of
+    from ..correlate.shapes import in_scale_of, mac_text
     from .webview import viewer_block, viewer_data
 
     columns = sorted({p.fe_mode - 1 for p in pairs})
     row = {c: k for k, c in enumerate(columns)}
     overlay = pair_overlay(mesh, frames, channels, [
         OverlayPair(f"test {p.test_mode} ({p.test_hz:.2f} Hz) / FE {p.fe_mode} "
-                    f"({p.fe_hz:.2f} Hz), MAC {p.mac:.2f}", row[p.fe_mode - 1],
+                    f"({p.fe_hz:.2f} Hz), MAC {mac_text(p.mac, 2)}", row[p.fe_mode - 1],
                     in_scale_of(p.test, p.fe), np.real(p.fe), p.mac)
         for p in pairs], names)  # fmt: skip
     freqs = np.asarray(frequencies_hz)[columns]

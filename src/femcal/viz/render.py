@@ -32,6 +32,45 @@ def _grid(model: Model):
     return pv.UnstructuredGrid(np.concatenate(cells), np.concatenate(types), model.xyz)
 
 
+#: A mode's colour and drawn deflection are scaled to the largest motion of the structure's
+#: surfaces (shells, solids); bars, springs and rigid legs that move more are drawn at most
+#: this many times that scale, their colour at the scale's top.
+OUTLIER_DRAWN = 3.0
+
+
+def structure_nodes(model: Model) -> np.ndarray:
+    """The nodes a mode picture is scaled by: those of shells and solids, else those of the
+    bars and beams, else every grid (indices into the model's nodes)."""
+    surface, lines = [], []
+    for kind, nodes in mesh_cells(model):
+        if kind not in ("line", "vertex"):
+            surface.append(nodes.ravel())
+        elif kind == "line":
+            lines.append(nodes.ravel())
+    for found in (surface, lines):
+        if found:
+            return np.unique(np.concatenate(found))
+    return np.flatnonzero(model.is_grid)
+
+
+#: The colour bar of a mode picture: deflection over the scale of :func:`mode_scale`.
+SCALAR_BAR = {"title": "deflection / largest", "vertical": True, "position_x": 0.84,
+              "position_y": 0.15, "height": 0.6, "fmt": "%.2f"}
+
+
+def mode_scale(u: np.ndarray, structure: np.ndarray) -> float:
+    """The deflection a mode picture calls 1 (colour's top, drawn at the picture's scale):
+    the largest on the ``structure`` nodes (:func:`structure_nodes`), or a third of the
+    overall largest if that is more (so a bar or spring that moves far more is drawn at
+    most ``OUTLIER_DRAWN`` times the scale). ``u`` (n_nodes, 3)."""
+    mag = np.linalg.norm(u, axis=1)
+    top = float(mag.max())
+    if top == 0:
+        return 1.0
+    ref = float(mag[structure].max()) if len(structure) else 0.0
+    return max(ref, top / OUTLIER_DRAWN)
+
+
 def render_modes(
     modes: Modes,
     model: Model,
@@ -44,7 +83,10 @@ def render_modes(
     which: Sequence[int] | None = None,
 ) -> list[Path]:
     """Render each mode: deformed shape coloured by displacement magnitude over the
-    undeformed edges, with the mode number and frequency in the title.
+    undeformed edges, with the mode number and frequency in the title. Colour and deflection
+    are scaled to the largest motion of the structure's surfaces (:func:`structure_nodes`),
+    so a mode whose largest motion is in a bracket's bar or a mount's spring still shows the
+    frame's shape; those parts are drawn at most ``OUTLIER_DRAWN`` times that scale.
 
     Parameters
     ----------
@@ -65,18 +107,21 @@ def render_modes(
     base = _grid(model)
     size = float(np.ptp(model.xyz, axis=0).max()) or 1.0
     disp = basic_translations(modes, model)
+    structure = structure_nodes(model)
     paths: list[Path] = []
     count = len(modes.eigenvalues) if max_modes is None else min(max_modes, len(modes.eigenvalues))
     for i in range(count) if which is None else which:
         u = disp[:, :, i]
-        umax = float(np.linalg.norm(u, axis=1).max()) or 1.0
+        mag = np.linalg.norm(u, axis=1)
+        ref = mode_scale(u, structure)
         grid = base.copy()
-        grid.points = model.xyz + u * (scale * size / umax)
-        grid.point_data["|u|"] = np.linalg.norm(u, axis=1) / umax
+        grid.points = model.xyz + u * (scale * size / ref)
+        grid.point_data["|u|"] = np.minimum(mag / ref, 1.0)
         pl = pv.Plotter(off_screen=True, window_size=list(window))
         pl.add_mesh(base, style="wireframe", color="grey", opacity=0.35, line_width=1)
-        pl.add_mesh(grid, scalars="|u|", cmap="viridis", show_edges=False, line_width=4,
-                    point_size=8, scalar_bar_args={"title": "|u| (normalised)"})  # fmt: skip
+        pl.add_mesh(grid, scalars="|u|", cmap="viridis", clim=(0.0, 1.0), show_edges=False,
+                    line_width=4, point_size=8,
+                    scalar_bar_args=SCALAR_BAR)  # fmt: skip
         label = f"Mode {i + 1}: {modes.frequencies_hz[i]:.3f} Hz"
         pl.add_text(f"{title}  {label}" if title else label, font_size=12)
         pl.view_isometric()

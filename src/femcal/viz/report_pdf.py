@@ -342,6 +342,7 @@ def _title_pages(doc: _Document, report: dict, head: dict, v: ReportTexts) -> No
     doc.lines("What to doubt", BODY, weight="bold", after=0.2)
     for line in v.doubts:
         doc.lines(line, BODY, indent=12, bullet="-")
+    doc.lines("What holds", BODY, weight="bold", after=0.2)
     for line in v.rest:
         doc.lines(line, BODY, indent=12, bullet="-")
     confs = report["configurations"]
