@@ -322,3 +322,38 @@ def test_a_test_handed_over_transposed_pairs_the_same_modes(tmp_path, deck_run):
     assert [r["fe_mode"] for r in a] == [r["fe_mode"] for r in b]
     np.testing.assert_allclose([float(r["test_hz"]) for r in b],
                                [float(r["test_hz"]) for r in a], rtol=1e-6)
+
+
+def test_a_pair_with_a_better_mac_elsewhere_and_a_channel_left_out_are_doubted(saved,
+                                                                              tmp_path):
+    """Test mode 2 made alike FE mode 3 (but less than test mode 3 is): it still pairs with
+    FE mode 2, and the verdict says its MAC with FE mode 3 is higher. A channel the
+    identification calls suspect is left out with its reason and the band it was found
+    in."""
+    ident = read_model(saved / "model.npz")
+    sel = np.flatnonzero((ident.frequency_hz >= BAND[0]) & (ident.frequency_hz <= BAND[1]))
+    shapes = ident.shapes.copy()
+    a, b = (shapes[:, k] / np.linalg.norm(shapes[:, k]) for k in sel[1:3])
+    shapes[:, sel[1]] = 0.66 * a + 0.75 * b * np.exp(-1j * np.angle(np.vdot(b, a)))
+    suspect = np.zeros(len(ident.suspect), bool)
+    suspect[0] = True
+    write_model(tmp_path / "mixed.npz", replace(ident, shapes=shapes, suspect=suspect))
+    status, stdout, stderr = run(saved / "modes.npz", tmp_path / "mixed.npz", "--band", *BAND,
+                                 "--out", tmp_path / "o")  # fmt: skip
+    assert status == 0, stderr
+    rows = read_table(tmp_path / "o" / "correlation.csv")
+    fe2, fe3 = int(rows[1]["fe_mode"]), int(rows[2]["fe_mode"])
+    assert fe3 != fe2
+    doubt = [x for x in stdout.splitlines() if x.startswith("Test mode 2 ")]
+    assert len(doubt) == 1, stdout
+    assert f"pairs with FE mode {fe2}" in doubt[0]
+    assert f"its MAC with FE mode {fe3}" in doubt[0] and "which pairs with test mode 3" in doubt[0]
+    left = [x for x in stdout.splitlines() if "is left out: the identification over" in x]
+    label = ident.shape_channels[0].label
+    assert len(left) == 1 and left[0].startswith(f"Channel {label} ")
+    lo, hi = ident.band
+    assert f"over {lo:g}-{hi:g} Hz calls it suspect" in left[0] and "times the median" in left[0]
+    page = (tmp_path / "o" / "correlation.html").read_text()
+    verdict = page[page.index("id='verdict'"):page.index("</section>")]
+    assert "class='sentence'" in verdict and "Test mode 2 (" in verdict
+    assert f"identified over {lo:g}-{hi:g} Hz" in page

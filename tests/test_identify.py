@@ -219,7 +219,8 @@ def test_cli_writes_the_model_summary_and_pictures(tmp_path, capsys):
                "--json", str(tmp_path / "id.json"), "--out", str(out)])  # fmt: skip
     assert rc == 0
     printed = capsys.readouterr().out
-    assert "suspect channel 4:3" in printed
+    assert "doubt: Channel 4:3 is suspect: the identified model misses its FRFs" in printed
+    assert "verdict: " in printed and "1 suspect channel;" in printed
     summary = json.loads((tmp_path / "id.json").read_text())
     got = [p["frequency_hz"] for p in summary["poles"]]
     np.testing.assert_allclose(got, FN[IN_BAND], rtol=0.005)

@@ -270,7 +270,17 @@ def test_the_verdict_doubts_complex_edge_damped_and_alike_modes():
     v = identification_verdict(bad)
     assert [d.split(":")[0].split(" lies")[0] for d in v.doubts] == [
         "Mode 1 at 252.00 Hz", "Mode 1 at 252.00 Hz", "Mode 2 at 596.37 Hz",
-        "Modes 1 and 2 (252.00 and 596.37 Hz) are alike at the sensors (AutoMAC 1.00)"]
+        "Modes the sensors can hardly tell apart (AutoMAC over 0.5)"]
     assert "MPC 0.50, MPD 40 deg" in v.doubts[0] and "edge of the band" in v.doubts[1]
-    assert "damping 20.0 %" in v.doubts[2]
+    assert "damping 20.0 %" in v.doubts[2] and "1 and 2 (1.00)" in v.doubts[3]
+    assert not any("found twice" in d for d in v.doubts)  # 252 and 596 Hz: two modes
     assert len(v.channel_doubts) == 1 and v.channel_doubts[0].startswith("Channel 4:+X")
+    ratio = bad.fit_error[3] / np.median(bad.fit_error)
+    assert f"{ratio:.1f} times the median channel's" in v.channel_doubts[0]
+    assert v.sentence.startswith("2 modes identified in 250-650 Hz")
+    assert "1 suspect channel;" in v.sentence and "5 points to doubt" in v.sentence
+    # alike and close: possibly one mode found twice
+    f2 = f.copy()
+    f2[1] = 1.02 * f2[0]
+    twice = identification_verdict(replace(bad, frequency_hz=f2))
+    assert any("possibly one mode found twice" in d for d in twice.doubts)

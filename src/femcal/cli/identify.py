@@ -208,7 +208,9 @@ def run(args: argparse.Namespace) -> int:
     print_modes(model)
     from ..io.identify_page import identification_verdict
 
-    for line in identification_verdict(model).doubts:
+    verdict = identification_verdict(model)
+    print(f"verdict: {verdict.sentence}")
+    for line in verdict.all_doubts:
         print(f"doubt: {line}")
     rows = None
     if len(models) > 1:
@@ -257,7 +259,8 @@ def write_comparison(path: Path, rows, methods) -> None:
 
 
 def print_modes(model) -> None:
-    """The modes table (frequency, damping, MPC, MPD) and the channels' fit on stdout."""
+    """The modes table (frequency, damping, MPC, MPD) and the channels' fit on stdout (the
+    suspect channels are among the verdict's doubts)."""
     print(f"{'mode':>5} {'frequency (Hz)':>15} {'damping (%)':>12} {'MPC':>6} {'MPD (deg)':>9}")
     for k, (f, z) in enumerate(zip(model.frequency_hz, model.damping_ratio, strict=True)):
         print(f"{k + 1:5d} {f:15.4f} {100 * z:12.4f} {model.mpc[k]:6.3f} {model.mpd[k]:9.1f}")
@@ -266,10 +269,6 @@ def print_modes(model) -> None:
     print(f"fit error per channel: median {np.median(model.fit_error):.4f}, worst "
           f"{model.fit_error.max():.4f} ({chans[worst].label}); FRF correlation: median "
           f"{np.median(model.frf_correlation):.4f}, lowest {model.frf_correlation.min():.4f}")
-    for i in np.flatnonzero(model.suspect):
-        cons = "" if model.consistency is None else f", consistency {model.consistency[i]:.3f}"
-        print(f"suspect channel {chans[i].label}: fit error {model.fit_error[i]:.3f}"
-              f"{cons}")  # fmt: skip
 
 
 #: The universal file of the identified shapes that ``--out`` writes.
@@ -324,11 +323,11 @@ def _write_out(out: Path, data, model, progress, geometry=None, *, source: Path,
     order = np.argsort(model.fit_error)[::-1]
     chans = list(dict.fromkeys([*order[:4], *np.linspace(0, len(order) - 1, 4).astype(int)]))
     n_ref = len(model.reference_channels)
-    pairs = [(int(o), i) for o in chans[:6] for i in range(min(2, n_ref))][:12]
+    pairs = [(int(o), i) for o in chans[:4] for i in range(min(2, n_ref))][:8]
     if model.layout is not None and model.layout.transposed:  # (roving, reference) -> (out, in)
         pairs = [(i, o) for o, i in pairs]
     title = "test (black) and identified model (red), worst-fitting channels first"
-    frf_overlay(out / "overlay.png", test, fitted, pairs=pairs, title=title)
+    frf_overlay(out / "overlay.png", test, fitted, pairs=pairs, title=title, columns=2)
     indicator_plot(out / "indicators.png", test, model.band, model.frequency_hz,
                    model.peaks_hz)  # fmt: skip
     figures = [
@@ -344,10 +343,10 @@ def _write_out(out: Path, data, model, progress, geometry=None, *, source: Path,
             stabilization_diagram(path, part.diagram, test)
             figures.append((f"Stabilisation diagram, {part.band[0]:g}-{part.band[1]:g} Hz",
                             path, "The poles of every model order (vertical) against "
-                            "frequency (Hz): filled, stable in frequency, damping and shape; "
-                            "half, in frequency only; dots, new. Each chosen mode a vertical "
-                            "line with the number of orders it was stable in; the CMIF in "
-                            "grey on the right-hand axis."))  # fmt: skip
+                            "frequency (Hz): filled blue, stable in frequency, damping and "
+                            "shape; hollow green, in frequency only; red dots, new. Each "
+                            "chosen mode a vertical line with the number of orders it was "
+                            "stable in; the CMIF in grey on the right-hand axis."))  # fmt: skip
     inputs = [file_facts("FRFs", source)] + ([file_facts("geometry", geometry_path)]
                                              if geometry_path else [])  # fmt: skip
     page = write_identification_page(out / "identification.html", model, figures,

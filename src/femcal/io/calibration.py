@@ -338,6 +338,8 @@ def _configuration(conf: Configuration, case: CaseResult, cfg: Config) -> dict:
         "test": str(conf.test_frf or conf.test_model),
         "truth": str(conf.test_truth) if conf.test_truth is not None else None,
         "band_hz": list(case.band), "zeta0": case.zeta0, "n_frequencies": len(case.freq),
+        "identify_band_hz": ([float(x) for x in case.identified.band]
+                             if case.identified is not None else None),
         "outputs": [c.label for c in case.outputs], "inputs": [c.label for c in case.inputs],
         "excluded_channels": [c.label for c in case.excluded],
         "parameters": [int(i) for i in case.index], "modes": _modes(case),
@@ -733,7 +735,12 @@ def test_text(c: dict) -> str:
             f"{c['band_hz'][1]:g} Hz at {c['n_frequencies']} frequencies; damping equalised "
             f"to zeta0 = {c['zeta0']:.4f}; {len(c['outputs'])} outputs x {len(c['inputs'])} "
             f"inputs; channels left out: {', '.join(c['excluded_channels']) or 'none'}. "
-            f"Calibrated deck: {c['calibrated_deck']} (beside this report).")  # fmt: skip
+            + (f"The test's modes and suspect channels come from its identification over "
+               f"{c['identify_band_hz'][0]:g}-{c['identify_band_hz'][1]:g} Hz; `femcal "
+               "identify` and `femcal correlate` identify over their own bands, so their "
+               "frequencies can differ in the last digits and their suspect channels can "
+               "differ. " if c.get("identify_band_hz") else "")
+            + f"Calibrated deck: {c['calibrated_deck']} (beside this report).")  # fmt: skip
 
 
 def misfit_text(c: dict) -> str:

@@ -142,6 +142,8 @@ PAGE_STYLE = ("body{font-family:sans-serif;margin:1.5em;max-width:1400px;overflo
               ".verdict{background:#f3f6fa;border:2px solid #4a6d94;padding:0.3em 1.2em;"
               "margin:0 0 1.5em 0}.verdict h2{margin:0.4em 0}.verdict td{background:#fff}"
               "ul.doubt li{margin:0.3em 0}ul.summary{padding-left:1.5em}"
+              ".verdict p.sentence{font-size:1.1em;font-weight:600}"
+              ".matrix table{font-size:0.78em}.matrix th{font-weight:normal}"
               "p.nav{font-size:0.95em;color:#333}"
               + HEADER_STYLE)  # fmt: skip
 

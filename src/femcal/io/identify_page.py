@@ -12,8 +12,10 @@ What it doubts, each with its reason:
 - a mode near an edge of the band (within :data:`EDGE` of its width), where fewer data
   bound it;
 - a damping ratio above :data:`DAMPING_HIGH` (a structural mode rarely has it);
-- two modes the sensors can hardly tell apart (AutoMAC above :data:`ALIKE`);
-- the channels the identification left out as suspect, with their fit errors.
+- modes the sensors can hardly tell apart (AutoMAC above :data:`ALIKE`), and of those the
+  ones within :data:`TWICE` in frequency, possibly one mode found twice;
+- the channels the identification left out as suspect, with their fit errors against the
+  median channel's (:func:`suspect_reason`).
 """
 
 from __future__ import annotations
@@ -43,15 +45,21 @@ DAMPING_HIGH = 0.10
 ALIKE = 0.5
 
 
+#: Two alike modes closer than this (relative frequency difference) may be one mode found
+#: twice.
+TWICE = 0.05
+
+
 @dataclass(frozen=True)
 class IdentificationVerdict:
-    """What an engineer decides from: ``key`` rows of (measure, value); ``doubts`` about the
-    modes and ``channel_doubts`` about the suspect channels, one sentence each (empty when
-    nothing stands out)."""
+    """What an engineer decides from: ``sentence``, the verdict in one plain sentence;
+    ``key`` rows of (measure, value); ``doubts`` about the modes and ``channel_doubts``
+    about the suspect channels, one sentence each (empty when nothing stands out)."""
 
     key: tuple[tuple[str, str], ...]
     doubts: tuple[str, ...]
     channel_doubts: tuple[str, ...] = ()
+    sentence: str = ""
 
     @property
     def all_doubts(self) -> tuple[str, ...]:
@@ -107,21 +115,56 @@ def identification_verdict(model: IdentifiedModel) -> IdentificationVerdict:
                           "modes the estimator merged).")
     if k > 1:
         auto = mac(model.shapes, model.shapes)
-        for a in range(k):
-            for b in range(a + 1, k):
-                if auto[a, b] > ALIKE:
-                    doubts.append(f"Modes {a + 1} and {b + 1} ({f[a]:.2f} and {f[b]:.2f} Hz) "
-                                  f"are alike at the sensors (AutoMAC {auto[a, b]:.2f}): the "
-                                  "sensors can hardly tell them apart, or one mode was found "
-                                  "twice.")  # fmt: skip
-    channels = []
-    for i in np.flatnonzero(model.suspect):
-        cons = ("" if model.consistency is None
-                else f", consistency error {model.consistency[i]:.3f}")  # fmt: skip
-        channels.append(f"Channel {chans[i].label} is suspect (fit error "
-                      f"{model.fit_error[i]:.3f}{cons}): the other channels do not explain "
-                      "it; it is left out of correlations and calibrations.")
-    return IdentificationVerdict(tuple(key), tuple(doubts), tuple(channels))
+        alike = [(a, b) for a in range(k) for b in range(a + 1, k) if auto[a, b] > ALIKE]
+        near = [(a, b) for a, b in alike if abs(f[b] - f[a]) < TWICE * max(f[a], f[b])]
+        if alike:
+            doubts.append(f"Modes the sensors can hardly tell apart (AutoMAC over {ALIKE:g}): "
+                          + ", ".join(f"{a + 1} and {b + 1} ({auto[a, b]:.2f})"
+                                      for a, b in alike)
+                          + ": too few or badly placed sensors for these shapes.")  # fmt: skip
+        for a, b in near:
+            doubts.append(f"Modes {a + 1} and {b + 1} ({f[a]:.2f} and {f[b]:.2f} Hz) are close "
+                          f"and alike (AutoMAC {auto[a, b]:.2f}): possibly one mode found "
+                          "twice.")  # fmt: skip
+    channels = [f"Channel {chans[i].label} is suspect: {suspect_reason(model, i)}; it is left "
+                "out of correlations and calibrations." for i in np.flatnonzero(model.suspect)]
+    return IdentificationVerdict(tuple(key), tuple(doubts), tuple(channels),
+                                 _sentence(model, len(doubts) + len(channels)))
+
+
+def suspect_reason(model: IdentifiedModel, i: int) -> str:
+    """Why roving channel ``i`` of ``model`` is suspect, in its numbers: its fit error
+    against the median channel's (and its leave-one-out consistency error)."""
+    err = np.asarray(model.fit_error, float)
+    median = float(np.median(err))
+    ratio = f", {err[i] / median:.1f} times the median channel's {median:.3f}" if median > 0 \
+        else ""
+    cons = ("" if model.consistency is None
+            else f"; leave-one-out consistency error {model.consistency[i]:.3f}")  # fmt: skip
+    return (f"the identified model misses its FRFs by {err[i]:.3f} (fit error{ratio}"
+            f"{cons}): the other channels do not explain it (a loose or misoriented sensor, "
+            "a wrong calibration factor, or a channel from another measurement)")
+
+
+def _sentence(model: IdentifiedModel, n_doubts: int) -> str:
+    """The verdict in one sentence: how many modes, how well the model reproduces the FRFs,
+    how many doubts."""
+    lo, hi = model.band
+    k = len(model.frequency_hz)
+    if not k:
+        return f"No mode identified in {lo:g}-{hi:g} Hz: see what to doubt."
+    fit = ""
+    if model.frf_correlation is not None and len(model.frf_correlation):
+        fit = (f"; the identified model reproduces the measured FRFs with a median FRF "
+               f"correlation of {np.median(model.frf_correlation):.3f}")
+    elif len(model.fit_error):
+        fit = (f"; the identified model reproduces the measured FRFs to a median fit error of "
+               f"{np.median(model.fit_error):.3f}")
+    said = ("nothing stands out" if not n_doubts
+            else f"{n_doubts} point{'s' * (n_doubts > 1)} to doubt, below")
+    return (f"{k} mode{'s' * (k > 1)} identified in {lo:g}-{hi:g} Hz{fit}; "
+            f"{int(np.sum(model.suspect))} suspect channel"
+            f"{'s' * (int(np.sum(model.suspect)) != 1)}; {said}.")
 
 
 def modes_rows(model: IdentifiedModel) -> list[list[str]]:
@@ -140,7 +183,7 @@ def channel_rows(model: IdentifiedModel) -> list[list[str]]:
     for i, c in enumerate(model.shape_channels):
         corr = "-" if model.frf_correlation is None else f"{model.frf_correlation[i]:.4f}"
         rows.append([c.label, f"{model.fit_error[i]:.4f}", corr,
-                     "suspect" if model.suspect[i] else ""])  # fmt: skip
+                     "suspect" if model.suspect[i] else "ok"])  # fmt: skip
     return rows
 
 
@@ -160,6 +203,7 @@ def identification_html(model: IdentifiedModel, figures: Sequence[tuple[str, Pat
 <title>femcal identification</title><style>{PAGE_STYLE}</style></head><body>
 <h1>Identification</h1>
 <section id='verdict' class='verdict'><h2>Verdict</h2>
+<p class='sentence'>{esc(v.sentence)}</p>
 {html_table([list(r) for r in v.key], ["measure", "value"])}
 <p><b>What to doubt</b></p><ul class='doubt'>{"".join(f"<li>{esc(x)}</li>" for x in doubts)}</ul>
 </section>

@@ -284,9 +284,75 @@ def checks_of(result: Correlation) -> Checks:
     return Checks(co, sg, auto, alike, tuple(sorted(suspects, key=lambda v: v.comac)))
 
 
+#: A pair is doubted when its test mode's MAC with another FE mode is higher by this much.
+BETTER_ELSEWHERE = 0.02
+
+
+def _better_elsewhere(result: Correlation) -> list[str]:
+    """Pairs whose test mode correlates better with another FE mode (which the pairing
+    gave to a test mode it correlates with better still): close FE modes whose shapes the
+    test mixes, or an order the model has wrong."""
+    out = []
+    for r in result.pairs:
+        row = result.mac[r.test_mode - 1]
+        col = int(np.argmax(row))
+        j = int(result.fe_index[col]) + 1
+        if j == r.fe_mode or row[col] <= r.mac + BETTER_ELSEWHERE:
+            continue
+        other = next((p for p in result.pairs if p.fe_mode == j), None)
+        out.append(f"Test mode {r.test_mode} ({r.test_hz:.2f} Hz) pairs with FE mode "
+                   f"{r.fe_mode} (MAC {mac_text(r.mac)}), though its MAC with FE mode {j} "
+                   f"({result.fe.frequencies_hz[j - 1]:.2f} Hz) is higher "
+                   f"({mac_text(float(row[col]))})"
+                   + (f", which pairs with test mode {other.test_mode} (MAC "
+                      f"{mac_text(other.mac)})" if other else "")
+                   + ": the test may mix the shapes of close modes, or the model orders them "
+                   "differently; look at both in the shapes' viewer.")  # fmt: skip
+    return out
+
+
+def _left_out(result: Correlation) -> list[str]:
+    """Each channel left out as suspect, with the identification's reason and its band."""
+    from ..io.identify_page import suspect_reason
+
+    ident = result.test.identified
+    out = []
+    for c in result.excluded:
+        name = result.names.get(c.label)
+        who = f"{c.label} ({name})" if name and name != c.label else c.label
+        labels = [x.label for x in ident.shape_channels] if ident is not None else []
+        if c.label in labels:
+            lo, hi = ident.band
+            out.append(f"Channel {who} is left out: the identification over {lo:g}-{hi:g} Hz "
+                       f"calls it suspect: {suspect_reason(ident, labels.index(c.label))}.")
+        else:
+            out.append(f"Channel {who} is left out: the test's modes mark it suspect.")
+    return out
+
+
+def verdict_sentence(result: Correlation, n_doubts: int) -> str:
+    """The verdict in one plain sentence: how many test modes pair, how close their
+    frequencies and shapes are, how many points to doubt."""
+    f1, f2 = result.band
+    n = len(result.test.frequency_hz)
+    pairs = result.pairs
+    said = ("nothing stands out" if not n_doubts
+            else f"{n_doubts} point{'s' * (n_doubts > 1)} to doubt, below")
+    if not pairs:
+        return f"None of the {n} test modes in {f1:g}-{f2:g} Hz pairs with an FE mode; {said}."
+    d = np.abs([p.frequency_difference for p in pairs])
+    macs = [p.mac for p in pairs]
+    return (f"{len(pairs)} of {n} test modes in {f1:g}-{f2:g} Hz pair with FE modes: "
+            f"frequencies within {d.max():.2f} % (mean {d.mean():.2f} %), shapes with MAC "
+            f"{mac_text(min(macs))} or more (mean {mac_text(float(np.mean(macs)))}); "
+            f"{said}.")
+
+
 def verdict_lines(result: Correlation, checks: Checks | None = None) -> list[str]:
     """What to doubt, in sentences: FE modes in the band without a test partner, test modes
-    without an FE partner, test modes the sensors can hardly tell apart, suspect channels."""
+    without an FE partner, test modes the sensors can hardly tell apart, pairs whose test
+    mode correlates better with another FE mode, the channels left out as suspect and why,
+    suspect channels by CoMAC."""
     checks = checks or checks_of(result)
     out = []
     if result.unpaired_fe:
@@ -304,6 +370,8 @@ def verdict_lines(result: Correlation, checks: Checks | None = None) -> list[str
                                                for i, j, v in checks.alike)
                    + ": too few or badly placed sensors for these shapes; their MAC with the "
                    "FE modes is weaker evidence.")  # fmt: skip
+    out += _better_elsewhere(result)
+    out += _left_out(result)
     out += [f"Suspect channel: {v.describe()}." for v in checks.suspects]
     if len(result.pairs) < MIN_PAIRS:
         out.append(f"CoMAC is not judged: fewer than {MIN_PAIRS} pairs.")
@@ -868,7 +936,9 @@ def correlation_html(result: Correlation, *, deck: str = "", test: str = "",
             "MAC"]  # fmt: skip
     mac_rows = [[f"{k + 1} ({f:.2f} Hz)", *(f"{v:.2f}" for v in result.mac[k])]
                 for k, f in enumerate(result.test.frequency_hz)]  # fmt: skip
-    mac_head = ["test \\ FE", *(fe_label(result, c) for c in range(len(result.fe_index)))]
+    # short headers that wrap ("FE 9 83.3 Hz"), so that many FE modes fit the page's width
+    mac_head = ["test \\ FE", *(f"FE {j + 1} {result.fe.frequencies_hz[j]:.1f} Hz"
+                                 for j in result.fe_index)]  # fmt: skip
     figures = [html_figure(
         "MAC matrix", _png(mac_figure(result)),
         f"MAC of each test mode (rows) against each FE mode within {f1 / FE_RATIO:.3g}-"
@@ -925,7 +995,15 @@ def correlation_html(result: Correlation, *, deck: str = "", test: str = "",
         i, j = np.unravel_index(int(np.argmax(off)), off.shape)
         key.append(["AutoMAC, largest off-diagonal", f"{off[i, j]:.2f} (test modes {i + 1} "
                                                      f"and {j + 1})"])
-    doubts = verdict_lines(result, checks) or ["Nothing stands out."]
+    found = verdict_lines(result, checks)
+    sentence = verdict_sentence(result, len(found))
+    doubts = found or ["Nothing stands out."]
+    ident = result.test.identified
+    identified = ("" if ident is None else
+                  f", identified over {ident.band[0]:g}-{ident.band[1]:g} Hz (each command "
+                  "identifies over its own band: `femcal identify` or a calibration over "
+                  "another gives frequencies that differ in the last digits and can mark "
+                  "other channels suspect)")  # fmt: skip
     from ..io.html import PAGE_STYLE, file_facts, html_header, provenance
     from ..viz.webview import viewer_assets
 
@@ -948,13 +1026,15 @@ def correlation_html(result: Correlation, *, deck: str = "", test: str = "",
 <title>femcal correlation</title><style>{PAGE_STYLE}</style></head><body>
 <h1>Test-FE correlation</h1>
 <section id='verdict' class='verdict'><h2>Verdict</h2>
+<p class='sentence'>{esc(sentence)}</p>
 {html_table(key, ["measure", "value"])}
 <p><b>What to doubt</b></p><ul class='doubt'>{"".join(f"<li>{esc(x)}</li>" for x in doubts)}</ul>
 </section>
 <p>FE modes of <code>{esc(deck or result.fe.source)}</code>
 ({len(result.fe.frequencies_hz)} solved, {len(result.fe_index)} within
 {f1 / FE_RATIO:.3g}-{f2 * FE_RATIO:.3g} Hz); test modes of <code>{esc(test or
-result.test.source)}</code> in {f1:g}-{f2:g} Hz ({len(result.test.frequency_hz)});
+result.test.source)}</code> in {f1:g}-{f2:g} Hz ({len(result.test.frequency_hz)}){
+esc(identified)};
 {len(result.channels)} test channels{
 f" placed by <code>{esc(sensors)}</code>" if sensors else ""}{
 f"; suspect channels left out: {esc(excluded)}" if excluded else ""}.
@@ -967,7 +1047,7 @@ FE modes in {f1:g}-{f2:g} Hz no test mode pairs with: {esc(unpaired_f) or "none"
 {extra[0]}
 <h2>MAC matrix</h2>
 {figures[0]}
-{html_table(mac_rows, mac_head)}
+<div class='matrix'>{html_table(mac_rows, mac_head)}</div>
 <h2>AutoMAC and CoMAC</h2>
 {''.join(extra[1:])}
 <h2>Shapes</h2>
@@ -1062,12 +1142,12 @@ def mac_figure(result: Correlation):
     M = result.mac
     kt, kf = M.shape
     fig, ax = plt.subplots(figsize=(max(5.0, 0.55 * kf + 2.5), max(3.5, 0.45 * kt + 1.8)))
-    im = mac_image(ax, M, printed_above=0.3, fontsize=6)
+    im = mac_image(ax, M, printed_above=0.3, fontsize=9)
     f_fe = result.fe.frequencies_hz
     ax.set_xticks(range(kf), [f"{j + 1}: {f_fe[j]:.1f}" for j in result.fe_index],
-                  rotation=90, fontsize=7)  # fmt: skip
+                  rotation=90, fontsize=9)  # fmt: skip
     ax.set_yticks(range(kt), [f"{k + 1}: {f:.1f}" for k, f in
-                              enumerate(result.test.frequency_hz)], fontsize=8)  # fmt: skip
+                              enumerate(result.test.frequency_hz)], fontsize=9)  # fmt: skip
     ax.set_xlabel("FE mode: frequency (Hz)")
     ax.set_ylabel("test mode: frequency (Hz)")
     ax.set_title("MAC")

@@ -27,6 +27,7 @@ def frf_overlay(
     pairs: list[tuple[int, int]] | None = None,
     max_panels: int = 12,
     title: str = "",
+    columns: int = 4,
 ):
     """Grid of magnitude (log) and phase panels, one column per output/input pair: the test
     FRFs and, if given, the model's on top (same channels by label). The test's phase is
@@ -37,6 +38,7 @@ def frf_overlay(
     ----------
     pairs : (output index, input index) of ``test`` to draw; default the first ``max_panels``
         pairs in output-major order.
+    columns : panels side by side at most (fewer and larger read better on a page).
 
     Returns
     -------
@@ -51,7 +53,7 @@ def frf_overlay(
     if pairs is None:
         pairs = [(o, i) for o in range(len(test.outputs)) for i in range(len(test.inputs))]
         pairs = pairs[:max_panels]
-    cols = min(len(pairs), 4)
+    cols = min(len(pairs), max(columns, 1))
     rows = -(-len(pairs) // cols)
     fig, axes = plt.subplots(2 * rows, cols, figsize=(4.2 * cols, 4.4 * rows), squeeze=False,
                              sharex=True)  # fmt: skip

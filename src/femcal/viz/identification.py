@@ -68,7 +68,9 @@ def stabilization_diagram(path: str | os.PathLike[str], diagram: Stabilization,
     ax.plot([], [], "o", color="tab:green", ms=3.5, mfc="none", label="stable in frequency")
     ax.plot([], [], ".", color="tab:red", ms=2.5, label="new")
     ax.plot([], [], "-", color="k", lw=0.8, label="chosen: stable in N of its M orders")
-    ax.legend(loc="upper left", fontsize=7, ncol=2, framealpha=0.9)
+    # below the axes: inside, it would cover the modes' labels or the poles
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), fontsize=8, ncol=4,
+              frameon=False)  # fmt: skip
     name = {"plscf": "pLSCF (PolyMAX)", "subspace": "subspace"}.get(diagram.method,
                                                                     diagram.method)
     ax.set_title(title or f"{name} stabilisation {lo:g}-{hi:g} Hz: {len(diagram.modes)} "
@@ -106,7 +108,7 @@ def indicator_plot(path: str | os.PathLike[str], data: FRFData, band: tuple[floa
     a1.plot([], [], color="tab:red", lw=0.7, label="identified mode")
     a1.set_ylabel(f"singular values of H ({_units(data)})")
     a1.grid(True, which="both", alpha=0.3)
-    a1.legend(fontsize=7, loc="upper right")
+    a1.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # beside the peaks
     a1.set_title(f"mode indicators {band[0]:g}-{band[1]:g} Hz: CMIF (peaks at modes) and MIF "
                  "(dips at modes)", fontsize=9)  # fmt: skip
     M = mif(f[sel], H, data.quantity)
