@@ -153,6 +153,26 @@ def test_a_clamped_model_has_no_rigid_body_mode():
     assert not any(m["rigid"] for m in d["modes"]) and d["start"] == 0
 
 
+def test_zero_frequency_modes_are_not_opened_on_whatever_their_shape(ladder):
+    """A mechanism (or a rigid-body mode a rigid motion does not explain, a hair below zero)
+    is marked as at zero frequency and the page opens after it."""
+    from femcal.viz.webview import near_zero, viewer_data, viewer_mesh
+
+    assert near_zero(np.array([-1e-5, 2e-4, 0.5, 2.0, 100.0])).tolist() == [
+        True, True, False, False, False]
+    assert near_zero(np.array([-0.004, 0.09, 0.2, 1e3])).tolist() == [True, True, False, False]
+    model, modes = ladder
+    mesh = viewer_mesh(model)
+    grids = np.flatnonzero(model.is_grid)
+    disp = np.moveaxis(basic_translations(modes, model)[grids], 2, 0)
+    # modes 6 and 7 (flexible shapes) given zero frequencies, one of them a hair below zero
+    f = np.array(modes.frequencies_hz, float)
+    f[5], f[6] = -1e-5, 2e-5
+    d = viewer_data(mesh, disp, f, free_rigid=5)
+    assert [m["zero"] for m in d["modes"]][:8] == [False] * 5 + [True, True, False]
+    assert d["start"] == 7
+
+
 @needs_browser
 def test_shaded_surfaces_a_triad_and_picking_in_a_headless_browser(tmp_path):
     from PIL import Image

@@ -14,11 +14,12 @@ over the FE shape (:mod:`femcal.viz.pair_view`). It has:
   (CELAS1/2, CBUSH; orange) as lines in the same order; masses (CONM1/2) and springs to
   ground as small squares; with the surfaces off, the wireframe of every edge;
 - a mode selector with each mode's frequency, rigid-body modes marked (a rigid motion explains
-  at least :data:`femcal.correlate.shapes.RIGID_SHARE` of the shape), opening on the first
-  flexible mode; animation on or off (one period in 2 s: the shape times sin(2 pi t / 2 s)),
-  a scale slider (the largest deflection drawn, in the model's length unit, 8 % of the
-  model's size to start), colouring by the deflection drawn with its legend in that unit,
-  the undeformed edges faint;
+  at least :data:`femcal.correlate.shapes.RIGID_SHARE` of the shape) and the other modes at
+  zero frequency too (:func:`near_zero`: mechanisms), opening on the first flexible mode;
+  animation on or off (one period in 2 s: the shape times sin(2 pi t / 2 s)), a "drawn
+  scale" slider (the largest deflection as drawn, in the model's length unit, 8 % of the
+  model's size to start: a mode shape has no size of its own), colouring by the deflection
+  drawn with its legend in that unit, the undeformed edges faint;
 - an axis triad; mouse drag to rotate, shift-drag (or the right button) to pan, the wheel to
   zoom, double-click to return to the isometric view; a click names the grid (or sensor)
   under the pointer, nearest the eye, with its position and its motion in the mode.
@@ -280,7 +281,8 @@ def viewer_data(
     if n_modes and p >= 3:
         rigid = rigid_share(mesh.xyz, disp) >= RIGID_SHARE
         rigid[np.flatnonzero(rigid)[max(free_rigid, 0):]] = False
-    flexible = np.flatnonzero(~rigid)
+    zero = near_zero(np.asarray(frequencies_hz, float))
+    flexible = np.flatnonzero(~rigid & ~zero)
     numbers = np.arange(1, n_modes + 1) if mode_numbers is None else np.asarray(mode_numbers)
     xyz = mesh.xyz
     lo, hi = xyz.min(axis=0), xyz.max(axis=0)
@@ -311,6 +313,7 @@ def viewer_data(
                 "frequency_hz": float(frequencies_hz[i]),
                 "max": float(umax[i]),
                 "rigid": bool(rigid[i]),
+                "zero": bool(zero[i] and not rigid[i]),
             }
             for i in range(n_modes)
         ],
@@ -335,6 +338,20 @@ def viewer_data(
         }
         data["start"] = 0
     return data
+
+
+#: A frequency at most this (Hz), or this share of the highest solved, is zero: a rigid-body
+#: or mechanism mode whatever its shape (roundoff leaves it a hair off zero, either side).
+ZERO_HZ, ZERO_SHARE = 1e-3, 1e-4
+
+
+def near_zero(frequencies_hz: np.ndarray) -> np.ndarray:
+    """(m,) True for the modes whose frequency is zero to the solution's precision
+    (:data:`ZERO_HZ`, :data:`ZERO_SHARE`)."""
+    f = np.abs(np.asarray(frequencies_hz, float))
+    if not len(f):
+        return np.zeros(0, bool)
+    return f <= max(ZERO_HZ, ZERO_SHARE * float(f.max()))
 
 
 def free_rigid_motions(modes: Modes, model: Model) -> int:
@@ -400,7 +417,8 @@ def viewer_block(data: dict, *, n: int = 0, full: bool = False) -> str:
         '<div class="fv-bar"><b class="fv-name"></b>\n'
         f'<label>{what} <select class="fv-mode"></select></label>\n'
         '<label><input type="checkbox" class="fv-anim" checked> animate</label>\n'
-        '<label>scale <input type="range" class="fv-scale" min="0" max="0.3" step="0.005"'
+        '<label title="the largest deflection as drawn: a mode shape has no size of its own">'
+        'drawn scale <input type="range" class="fv-scale" min="0" max="0.3" step="0.005"'
         ' value="0.08"> <span class="fv-scaleval"></span></label>\n'
         '<label><input type="checkbox" class="fv-surf" checked> surfaces</label>\n'
         '<label><input type="checkbox" class="fv-colour" checked> colour</label>\n'
@@ -632,9 +650,14 @@ _STYLE = """
 .femcal-viewer.fv-full { position: fixed; top: 0; left: 0; right: 0; bottom: 0; height: auto;
   margin: 0; border: 0; }
 .femcal-viewer .fv-bar { position: absolute; top: 0; left: 0; right: 0; z-index: 1;
-  display: flex; flex-wrap: wrap; gap: 4px 14px; align-items: center; padding: 6px 10px;
+  display: flex; flex-wrap: wrap; gap: 4px 9px; align-items: center; padding: 6px 10px;
+  font-size: 12px;
   background: rgba(255, 255, 255, 0.92); border-bottom: 1px solid #ddd; }
-.femcal-viewer .fv-bar b { font-weight: 600; }
+.femcal-viewer .fv-bar b { font-weight: 600; max-width: 16em; overflow: hidden;
+  text-overflow: ellipsis; white-space: nowrap; }
+.femcal-viewer .fv-bar label { white-space: nowrap; }
+.femcal-viewer .fv-scale { width: 80px; vertical-align: middle; }
+.femcal-viewer .fv-mode { max-width: 12em; font-size: 12px; }
 .femcal-viewer .fv-view { position: absolute; top: 0; left: 0; width: 100%; height: 100%;
   display: block; cursor: grab; touch-action: none; }
 .femcal-viewer .fv-info { position: absolute; right: 10px; top: 48px; z-index: 1;
@@ -659,6 +682,13 @@ _SCRIPT = r"""
     var bin = atob(s), n = bin.length, u = new Uint8Array(n);
     for (var i = 0; i < n; i++) { u[i] = bin.charCodeAt(i); }
     return u.buffer;
+  }
+  function hz(md) {  // a zero frequency a hair below zero reads 0.000, not -0.000
+    var f = md.frequency_hz;
+    return (md.zero || Math.abs(f) < 5e-4 ? 0 : f).toFixed(3);
+  }
+  function note(md) {
+    return md.rigid ? " (rigid body)" : md.zero ? " (zero frequency)" : "";
   }
   function fmt(v, d) {
     var a = Math.abs(v);
@@ -746,7 +776,7 @@ _SCRIPT = r"""
       }
     }
     var C = D.center, SIZE = D.size, PERIOD = 2000, UNIT = D.unit || "";
-    var UNITS = UNIT ? " " + UNIT : " (model length unit)";
+    var UNITS = UNIT ? " " + UNIT : " (model units)";
     var testing = /selftest/.test(location.hash), full = box.classList.contains("fv-full");
     var canvas = q("fv-view");
     var ctx = canvas.getContext("2d", testing ? { willReadFrequently: true } : {});
@@ -760,8 +790,7 @@ _SCRIPT = r"""
       var o = document.createElement("option");
       o.value = String(m);
       if (O) { o.textContent = O.pairs[m].label; } else {
-        o.textContent = D.modes[m].mode + ": " + D.modes[m].frequency_hz.toFixed(3) + " Hz" +
-          (D.modes[m].rigid ? " (rigid body)" : "");
+        o.textContent = D.modes[m].mode + ": " + hz(D.modes[m]) + " Hz" + note(D.modes[m]);
       }
       sel.appendChild(o);
     }
@@ -1002,7 +1031,7 @@ _SCRIPT = r"""
       size();
       var pair = choice(), m = modeOf(), frac = Number(scale.value), off = 3 * NP * m;
       var amp = NM ? frac * SIZE * phase : 0, thick = NE > 5000 ? 1 : 2;
-      scaleval.textContent = "largest " + length(frac * SIZE) + UNITS;
+      scaleval.textContent = length(frac * SIZE) + UNITS;
       ctx.setTransform(DPR, 0, 0, DPR, 0, 0);
       ctx.fillStyle = "#fff"; ctx.fillRect(0, 0, W, H);
       ctx.lineCap = "round";
@@ -1082,7 +1111,7 @@ _SCRIPT = r"""
     function describe() {
       if (!picked) { info.textContent = ""; return; }
       var m = modeOf(), md = D.modes[m], i = picked.i, t;
-      var head = "mode " + md.mode + ", " + md.frequency_hz.toFixed(3) + " Hz";
+      var head = "mode " + md.mode + ", " + hz(md) + " Hz";
       if (picked.sensor) {
         var off = 3 * NS * choice() + 3 * i;
         t = "sensor " + O.sensor_names[i] + " at (" + fmt(SP[3 * i], 1) + ", " +
@@ -1093,7 +1122,7 @@ _SCRIPT = r"""
         var so = 3 * NP * m + 3 * i, mag = magnitudes(m)[i];
         t = "grid " + IDS[i] + " at (" + fmt(P[3 * i], 1) + ", " + fmt(P[3 * i + 1], 1) +
           ", " + fmt(P[3 * i + 2], 1) + ")" + UNITS + "\n" + head +
-          (md.rigid ? " (rigid body)" : "") + "\nmotion " + vec(S, so) + ", |u| " + fmt(mag) +
+          note(md) + "\nmotion " + vec(S, so) + ", |u| " + fmt(mag) +
           "\n(x, y, z in basic, as a fraction of the mode's largest translation; " +
           "mass-normalised: times " + fmt(md.max) +
           (D.shape_unit ? " " + D.shape_unit : "") + ")";
@@ -1224,6 +1253,11 @@ _SCRIPT = r"""
         surf.checked = true; surf.dispatchEvent(new Event("change"));
       }
       anim.checked = wasAnim; anim.dispatchEvent(new Event("change"));
+      var bar = box.querySelector(".fv-bar");
+      if (box.clientWidth >= 900 && bar && bar.offsetHeight > 44) {
+        bad.push("the toolbar wraps (" + bar.offsetHeight + " px high at " + box.clientWidth +
+                 " px wide)");
+      }
       return bad;
     }
 
