@@ -120,6 +120,11 @@ def test_command_writes_rpc_files_that_read_back(tmp_path, capsys):
     assert (np.abs(first - drive.values) < 0.02 * 0.2 * 6 + step).all()  # noise 2 % of RMS
     values, _ = read_truth(out / "rig_test.truth.toml")
     assert len(values) == 30
+    # the console says what the hidden frame has that the deck lacks
+    said = capsys.readouterr().out
+    assert "the hidden frame: 30 parameters drawn within 50 % of their bounds" in said
+    assert "a cross support the deck lacks, 2e+08 N mm/rad about X and Z at each rail at " \
+           "x = 2475 mm" in said
     assert main(["synth-rig-test", str(DECK), "--params", str(PARAMS), "--actuators",
                  str(ACTUATORS), "--sensors", str(SENSORS), "--period", "0.001",
                  "--out", str(out)]) == 2  # fmt: skip

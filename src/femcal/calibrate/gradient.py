@@ -60,6 +60,8 @@ class CentreDerivatives:
         None without the residual.
     terms : series terms taken; tail : bound on the relative truncation of the series for
         the highest FRF mode (0 when converged to SERIES_TOL).
+    exact_to_hz : the FRF modes up to this frequency (Hz) have converged series (every
+        mode when ``tail`` is 0): ``modal_hz`` at most this makes every derivative exact.
     """
 
     lam: np.ndarray
@@ -72,6 +74,7 @@ class CentreDerivatives:
     d_R: np.ndarray | None  # noqa: N815
     terms: int
     tail: float
+    exact_to_hz: float = float("inf")
 
     def frf_and_jacobian(self, freq_hz: np.ndarray, zeta: float, quantity: str
                          ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
@@ -190,7 +193,11 @@ def centre_derivatives(polys: list[GroupPolynomial], center: np.ndarray, M: sp.s
             static = -(XC[rows].T @ dKXB[rows]) if rows.size else 0.0
             dR[i] = (static - (dS[i] / lm) @ P.T - (S / lm) @ dP[i].T
                      + (S * (dlam[i] / lm**2)) @ P.T)  # fmt: skip
-    return CentreDerivatives(lm, S, P, dlam, dS, dP, R, dR, terms, tail)
+    converged = np.flatnonzero(need <= MAX_TERMS)
+    exact_to = (float("inf") if tail == 0.0 else
+                float(np.sqrt(max(lm[converged].max(), 0.0)) / (2 * np.pi))
+                if len(converged) else 0.0)  # fmt: skip
+    return CentreDerivatives(lm, S, P, dlam, dS, dP, R, dR, terms, tail, exact_to)
 
 
 def first_order_correction(sur: Surrogate, exact: CentreDerivatives, freq: np.ndarray,

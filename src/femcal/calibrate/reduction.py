@@ -339,6 +339,8 @@ def build_surrogate(model: Model, params: list[Parameter], p_center: np.ndarray,
         sur = replace(sur, exact=exact)
         say(f"the full model's exact FRF derivatives at the centre ({exact.terms} series terms "
             "for the modes above the basis" + (")" if exact.tail == 0.0 else
-            f"; capped, the top FRF modes' part is approximate: set modal_hz below the "
-            f"basis's top, {modes.frequencies_hz[-1]:.0f} Hz)"))  # fmt: skip
+            f"; exact for the FRF modes up to {exact.exact_to_hz:.0f} Hz, approximate for the "
+            f"few above, near the basis's top ({modes.frequencies_hz[-1]:.0f} Hz): of little "
+            "weight in a band far below them; modal_hz = "
+            f"{np.floor(exact.exact_to_hz):.0f} in [calibration] makes every one exact)"))
     return sur, modes

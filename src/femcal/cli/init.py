@@ -60,9 +60,10 @@ def run(args: argparse.Namespace) -> int:
         kinds[k] = kinds.get(k, 0) + 1
     print(f"wrote {files.parameters}: {len(proposal.parameters)} parameters "
           f"({', '.join(f'{n} {k}' for k, n in kinds.items())})")
-    splits = f", split at {', '.join(f'{s:g}' for s in b.splits)} Hz" if b.splits else ""
+    # the config leaves the parts to the test's CMIF peaks; the FE modes' gaps are offered,
+    # commented out
     print(f"wrote {files.config}: band {b.band[0]:g}-{b.band[1]:g} Hz "
           f"({len(b.band_modes_hz)} FE modes), identified over {b.identify_band[0]:g}-"
-          f"{b.identify_band[1]:g} Hz{splits}")  # fmt: skip
+          f"{b.identify_band[1]:g} Hz in parts chosen from the test's CMIF peaks")  # fmt: skip
     print(f"next: {files.next_command}")
     return 0

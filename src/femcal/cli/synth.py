@@ -69,4 +69,29 @@ def run(args: argparse.Namespace) -> int:
     f0, f1 = d.frequency_hz[0], d.frequency_hz[-1]
     print(f"{n_o} outputs x {n_i} inputs x {n_f} frequencies ({f0:g}-{f1:g} Hz), "
           f"{d.quantity} in {d.units}")  # fmt: skip
+    s = test.settings
+    print(hidden_differences(len(test.parameters), s.spread, s.seed, s.support_x,
+                             s.support_stiffness, s.added_mass, s.added_mass_at)
+          + f"; noise {100 * s.noise:g} % of each FRF; the truth in "
+          f"{stem.with_suffix('.truth.toml').name}")  # fmt: skip
     return 0
+
+
+def hidden_differences(n_parameters: int, spread: float, seed: int, support_x: float,
+                       support_stiffness: float, added_mass: float = 0.0,
+                       added_mass_at: tuple[float, float, float] | None = None, *,
+                       truth: Path | None = None) -> str:
+    """What the hidden frame has that the deck has not, in one line, with the option that
+    changes each (a calibration is judged against what it could know); ``truth``: the
+    values came from that file."""
+    parts = [f"the hidden frame: {n_parameters} parameters from {truth}" if truth else
+             f"the hidden frame: {n_parameters} parameters drawn within {100 * spread:g} % of "
+             f"their bounds (--seed {seed})"]  # fmt: skip
+    option = "" if truth else " (--support-stiffness 0: none)"
+    parts.append(f"a cross support the deck lacks, {support_stiffness:g} N mm/rad about X and Z "
+                 f"at each rail at x = {support_x:g} mm{option}" if support_stiffness
+                 else "no cross support")  # fmt: skip
+    if added_mass and added_mass_at is not None:
+        parts.append(f"a mass the deck lacks, {added_mass:g} at the grid nearest "
+                     f"({', '.join(f'{x:g}' for x in added_mass_at)})")
+    return "; ".join(parts)

@@ -15,6 +15,7 @@ from ..jobs.synthetic_rig_test import RigTestSettings, make_rig_test, rig_truth_
 from ..testdata.formats.rpc3 import write_rpc3
 from ..testdata.timedata import TimeData
 from .paths import output_folder
+from .synth import hidden_differences
 
 _D = RigTestSettings()
 
@@ -102,4 +103,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"{d.n_channels} channels x {d.n_samples} samples at {1 / d.dt:g} Hz "
           f"({settings.cycles} periods of {settings.period_s:g} s); {test.plant.n_modes} modes "
           f"up to {settings.modes_to:g} Hz")  # fmt: skip
+    print(hidden_differences(len(test.parameters), settings.spread, settings.seed,
+                             test.support_x, test.support_stiffness, truth=args.truth)
+          + f"; the truth in {stem.with_suffix('.truth.toml').name}")  # fmt: skip
     return 0

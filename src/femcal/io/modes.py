@@ -105,13 +105,22 @@ def basic_rotations(modes: Modes, model: Model) -> np.ndarray:
     return _basic(modes, model, 3)
 
 
+def grid_motions(shapes: np.ndarray, is_grid: np.ndarray, dof_start: np.ndarray,
+                 cd_frames: np.ndarray, first: int = 0) -> np.ndarray:
+    """(n_grids, 3, k) the components ``first`` + 1..3 (translations from 0, rotations from
+    3) of g-set ``shapes`` (n_dof, k) at every grid, turned from each grid's displacement
+    frame to basic; the grids in node order. The layout arrays are a model's (or a modes
+    file's without its model): ``is_grid`` (n_nodes,), ``dof_start`` (n_nodes,), ``cd_frames``
+    (n_nodes, 3, 3)."""
+    g = np.flatnonzero(is_grid)
+    local = shapes[dof_start[g][:, None] + first + np.arange(3)]  # (n_g, 3, k)
+    return np.einsum("nij,njk->nik", cd_frames[g], local)
+
+
 def _basic(modes: Modes, model: Model, first: int) -> np.ndarray:
-    n = model.n_nodes
-    k = modes.shapes.shape[1]
-    out = np.zeros((n, 3, k))
-    g = np.flatnonzero(model.is_grid)
-    local = modes.shapes[model.dof_start[g][:, None] + first + np.arange(3)]  # (n_g, 3, k)
-    out[g] = np.einsum("nij,njk->nik", model.cd_frames[g], local)
+    out = np.zeros((model.n_nodes, 3, modes.shapes.shape[1]))
+    out[model.is_grid] = grid_motions(modes.shapes, model.is_grid, model.dof_start,
+                                      model.cd_frames, first)  # fmt: skip
     return out
 
 

@@ -1171,9 +1171,10 @@ def _pair_shapes(result: Correlation, r: PairedMode) -> tuple[np.ndarray, np.nda
 def fe_translations(fe: FEModes, columns: Sequence[int]) -> np.ndarray:
     """(k, P, 3) the translations in basic of the FE modes ``columns`` (0-based) at every
     grid, in the order of ``fe.node_ids``' grids."""
-    g = np.flatnonzero(fe.is_grid)
-    local = fe.shapes[fe.dof_start[g][:, None] + np.arange(3)][:, :, list(columns)]
-    return np.einsum("nij,njk->kni", fe.cd_frames[g], local)
+    from ..io.modes import grid_motions
+
+    moved = grid_motions(fe.shapes[:, list(columns)], fe.is_grid, fe.dof_start, fe.cd_frames)
+    return np.transpose(moved, (2, 0, 1))
 
 
 def shape_viewer(result: Correlation, model=None) -> str:
