@@ -558,3 +558,28 @@ def test_hostile_inputs_found_in_review_give_clear_answers(tmp_path, capsys):
     assert "--split 40 40: expected increasing frequencies, each once" in capsys.readouterr().err
     assert main(["identify", str(src), "--band", "15", "100", "--max-order", "150"]) == 2
     assert "expected at most 120 for plscf" in capsys.readouterr().err
+
+
+def test_a_mode_the_band_cuts_is_fitted_and_a_mode_past_the_data_is_said():
+    """A band ending 2 % below the 130 Hz mode: the band is widened to the CMIF's valley
+    beyond it, the mode identified, the fit as good as with a band ending in a valley, and
+    the model says so. Data ending 1.5 % below that mode: the rise to the end is said, with
+    a valley to end in instead."""
+    from femcal.identify.workflow import EDGE_REACH, edge_modes
+
+    data, _ = modal_set(noise=0.01, seed=3)
+    cut = identify(data, (15.0, 127.4))
+    assert cut.band[1] > 130.0 and cut.band[1] < 130.0 * (1 + 2 * EDGE_REACH) + 1
+    assert np.min(np.abs(cut.frequency_hz - 130.0)) < 0.2
+    assert any("a mode at 130" in w and "widened" in w for w in cut.warnings)
+    valley = identify(data, (15.0, 100.0))
+    assert np.median(cut.fit_error) < 2 * np.median(valley.fit_error)
+    assert edge_modes(data, (15.0, 100.0)) == ((15.0, 100.0), [])  # 100 Hz: a valley
+    short = FRFData(data.frequency_hz[data.frequency_hz <= 128.05],
+                    data.H[..., data.frequency_hz <= 128.05], data.outputs, data.inputs,
+                    data.quantity, data.units)  # fmt: skip
+    band, notes = edge_modes(short, (15.0, float(short.frequency_hz[-1])))
+    assert band[1] == pytest.approx(short.frequency_hz[-1])
+    assert len(notes) == 1 and "a mode lies just above the data" in notes[0]
+    end = float(re.search(r"valley at ([0-9.]+) Hz", notes[0]).group(1))
+    assert 100.0 < end < 128.0

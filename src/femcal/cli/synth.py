@@ -92,6 +92,7 @@ def hidden_differences(n_parameters: int, spread: float, seed: int, support_x: f
                  f"at each rail at x = {support_x:g} mm{option}" if support_stiffness
                  else "no cross support")  # fmt: skip
     if added_mass and added_mass_at is not None:
-        parts.append(f"a mass the deck lacks, {added_mass:g} at the grid nearest "
+        parts.append(f"a mass the deck lacks, {added_mass:g} (the deck's mass unit) at the grid "
+                     "nearest "
                      f"({', '.join(f'{x:g}' for x in added_mass_at)})")
     return "; ".join(parts)

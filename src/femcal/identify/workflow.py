@@ -393,6 +393,71 @@ def fit_band(frequency_hz: np.ndarray, band: tuple[float, float],
     return lo, hi
 
 
+#: A CMIF peak at most this share of the edge's frequency outside the band is a mode the
+#: edge cuts (:func:`edge_modes`).
+EDGE_REACH = 0.05
+#: The CMIF rising by this factor over the last :data:`EDGE_REACH` of a band that ends with
+#: the data: a mode lies just above the data.
+EDGE_RISE = 1.5
+
+
+def edge_modes(data: FRFData, band: tuple[float, float]
+               ) -> tuple[tuple[float, float], list[str]]:  # fmt: skip
+    """The band moved out past the modes its edges cut, and what was done, in words.
+
+    A mode just outside the band (a CMIF peak within :data:`EDGE_REACH` of an edge) reaches
+    into it with its flank, which the residual poles stand for poorly: the fit suffers at
+    the channels that see that mode most, which then look suspect, and a band a little
+    different gives other numbers. Such an edge is moved out to the CMIF's valley beyond the
+    peak, so the mode is fitted with the others. A band that ends with the data where the
+    CMIF still rises (by :data:`EDGE_RISE` over its last :data:`EDGE_REACH` share) has
+    a mode just above the data, which cannot be fitted: that is said, with the valley to end
+    the band in instead."""
+    f_all = np.asarray(data.frequency_hz, float)
+    lo, hi = band
+    span = (f_all >= lo * (1 - 2 * EDGE_REACH)) & (f_all <= hi * (1 + 2 * EDGE_REACH)) \
+        & (f_all > 0)
+    if span.sum() < 64:
+        return band, []
+    f = f_all[span]
+    H = Layout.of(data.outputs, data.inputs).canonical(np.asarray(data.H)[:, :, span])
+    so, si = _scales(H)
+    S0 = cmif(H / so[:, None, None] / si[None, :, None])[0]
+    peaks = find_cmif_peaks(f, S0[None, :]).frequency_hz
+    notes = []
+    new_lo, new_hi = lo, hi
+    above = [p for p in peaks if hi < p <= hi * (1 + EDGE_REACH)]
+    if above:
+        beyond = f > max(above)
+        if beyond.any():
+            new_hi = float(f[beyond][np.argmin(S0[beyond])])
+            notes.append(f"a mode at {max(above):.2f} Hz lies just above the band's top "
+                         f"({hi:g} Hz): the band is widened to {new_hi:.4g} Hz, the CMIF's "
+                         "valley beyond it, so that it is fitted rather than left to the "
+                         "residual terms")  # fmt: skip
+    below = [p for p in peaks if lo * (1 - EDGE_REACH) <= p < lo]
+    if below:
+        before = f < min(below)
+        if before.any():
+            new_lo = float(f[before][np.argmin(S0[before])])
+            notes.append(f"a mode at {min(below):.2f} Hz lies just below the band's bottom "
+                         f"({lo:g} Hz): the band is widened to {new_lo:.4g} Hz, the CMIF's "
+                         "valley below it")  # fmt: skip
+    step = float(np.median(np.diff(f)))
+    top = (f >= hi * (1 - EDGE_REACH)) & (f <= hi + 0.5 * step)
+    if not above and hi >= f_all[-1] - 0.5 * step and top.sum() > 8:
+        k = np.argmin(S0[top])
+        if S0[top][-1] > EDGE_RISE * S0[top][k] and f[top][k] < f[top][-1]:
+            near = (f >= hi * (1 - 2 * EDGE_REACH)) & (f <= hi)  # where to end instead
+            valley = float(f[near][np.argmin(S0[near])])
+            notes.append(f"the CMIF rises {S0[top][-1] / S0[top][k]:.2g} times over the band's "
+                         f"last {100 * EDGE_REACH:g} %, to the data's end ({hi:g} Hz): a mode "
+                         "lies just above the data, where it cannot be fitted, and the "
+                         "channels that see it most fit worse; end the band in the valley at "
+                         f"{valley:.4g} Hz")  # fmt: skip
+    return (new_lo, new_hi), notes
+
+
 def coherence_weights(coherence: np.ndarray | None) -> np.ndarray | None:
     """Per channel and frequency weights ``sqrt(coh / (1 - coh))`` (capped at
     :data:`MAX_COHERENCE_WEIGHT`), normalised to a median of 1 over the lines with a
@@ -494,6 +559,10 @@ def identify(data: FRFData, band: tuple[float, float], *,
         lo = float(above[0])
         say(f"the band starts at {lo:g} Hz, the first line above 0 Hz (the DC line is not "
             "used)")  # fmt: skip
+    check_band_data(data, (lo, hi))  # before any use of the data
+    (lo, hi), edge_notes = edge_modes(data, (lo, hi))
+    for note in edge_notes:
+        say(note)
     prep = _prepare(data, (lo, hi), s)
     lo = max(lo, float(prep.f[0]))
     if splits is None:
@@ -556,7 +625,7 @@ def identify(data: FRFData, band: tuple[float, float], *,
                              suspect=again.suspect | result.suspect)  # fmt: skip
         else:
             say("the other channels fit better with them: the first model kept")
-    return _with_warnings(result, prep, s)
+    return _with_warnings(result, prep, s, edge_notes)
 
 
 def _prepare(data: FRFData, band: tuple[float, float], s: Settings) -> _Prepared:
@@ -863,10 +932,12 @@ def _result(data: FRFData, prep: _Prepared, model: FixedPoleModel, band: tuple[f
                            peaks_hz=prep.peaks.frequency_hz)  # fmt: skip
 
 
-def _with_warnings(model: IdentifiedModel, prep: _Prepared, s: Settings) -> IdentifiedModel:
+def _with_warnings(model: IdentifiedModel, prep: _Prepared, s: Settings,
+                   edge_notes: Sequence[str] = ()) -> IdentifiedModel:  # fmt: skip
     """The model with what it could not do said in words: CMIF peaks without a mode near
-    them, a median fit error above :attr:`Settings.poor_fit`, no mode at all."""
-    said: list[str] = []
+    them, a median fit error above :attr:`Settings.poor_fit`, no mode at all; and what
+    :func:`edge_modes` did or found at the band's edges."""
+    said: list[str] = list(edge_notes)
     resolution = float(np.median(np.diff(prep.f)))
     lost = [fp for fp in prep.peaks.frequency_hz if not _near(fp, model.poles, resolution)]
     if lost:

@@ -143,7 +143,8 @@ def suspect_reason(model: IdentifiedModel, i: int) -> str:
             else f"; leave-one-out consistency error {model.consistency[i]:.3f}")  # fmt: skip
     return (f"the identified model misses its FRFs by {err[i]:.3f} (fit error{ratio}"
             f"{cons}): the other channels do not explain it (a loose or misoriented sensor, "
-            "a wrong calibration factor, or a channel from another measurement)")
+            "a wrong calibration factor, a channel from another measurement, or a mode just "
+            "outside the band that it sees most)")
 
 
 def _sentence(model: IdentifiedModel, n_doubts: int) -> str:
