@@ -653,11 +653,11 @@ _STYLE = """
   display: flex; flex-wrap: wrap; gap: 4px 9px; align-items: center; padding: 6px 10px;
   font-size: 12px;
   background: rgba(255, 255, 255, 0.92); border-bottom: 1px solid #ddd; }
-.femcal-viewer .fv-bar b { font-weight: 600; max-width: 16em; overflow: hidden;
+.femcal-viewer .fv-bar b { font-weight: 600; max-width: 10em; overflow: hidden;
   text-overflow: ellipsis; white-space: nowrap; }
 .femcal-viewer .fv-bar label { white-space: nowrap; }
 .femcal-viewer .fv-scale { width: 80px; vertical-align: middle; }
-.femcal-viewer .fv-mode { max-width: 12em; font-size: 12px; }
+.femcal-viewer .fv-mode { max-width: 10em; font-size: 12px; }
 .femcal-viewer .fv-view { position: absolute; top: 0; left: 0; width: 100%; height: 100%;
   display: block; cursor: grab; touch-action: none; }
 .femcal-viewer .fv-info { position: absolute; right: 10px; top: 48px; z-index: 1;
@@ -783,7 +783,7 @@ _SCRIPT = r"""
     var sel = q("fv-mode"), anim = q("fv-anim"), scale = q("fv-scale");
     var scaleval = q("fv-scaleval"), colour = q("fv-colour"), undef = q("fv-undef");
     var surf = q("fv-surf"), info = q("fv-info"), showTest = q("fv-test");
-    q("fv-name").textContent = D.title || "";
+    q("fv-name").textContent = q("fv-name").title = D.title || "";
     if (!NF) { surf.checked = false; surf.parentNode.style.display = "none"; }
     var choices = O ? O.n_pairs : NM;
     for (var m = 0; m < choices; m++) {
