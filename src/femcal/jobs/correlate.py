@@ -1098,10 +1098,10 @@ def automac_figure(result: Correlation, checks: Checks):
     M = checks.automac
     k = len(M)
     fig, ax = plt.subplots(figsize=(max(4.5, 0.5 * k + 2.5), max(4.0, 0.45 * k + 2.0)))
-    im = mac_image(ax, M, printed_above=0.1, fontsize=7, aspect="equal")
+    im = mac_image(ax, M, printed_above=0.1, fontsize=9, aspect="equal")
     ticks = [f"{i + 1}: {f:.1f}" for i, f in enumerate(result.test.frequency_hz)]
-    ax.set_xticks(range(k), ticks, rotation=90, fontsize=8)
-    ax.set_yticks(range(k), ticks, fontsize=8)
+    ax.set_xticks(range(k), ticks, rotation=90, fontsize=9)
+    ax.set_yticks(range(k), ticks, fontsize=9)
     ax.set_xlabel("test mode: frequency (Hz)")
     ax.set_ylabel("test mode: frequency (Hz)")
     fig.colorbar(im, ax=ax, fraction=0.04, label="MAC (no unit)")
