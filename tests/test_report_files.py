@@ -474,3 +474,13 @@ def test_the_paired_shapes_name_their_three_farthest_components(report, tmp_path
         lines = key[0].split("\n")
         assert [x.split(" ", 1)[0] for x in lines] == [str(k) for k in range(1, n + 1)]
         assert all(x.split(" ", 1)[1] in names for x in lines)
+
+
+def test_where_the_model_form_warning_points_is_a_doubt_not_a_reassurance():
+    from femcal.io.calibration import _is_warning
+
+    assert _is_warning("Model-form warning: the typical misfit after calibration ...")
+    assert _is_warning("Where: a point mass of 0.00602 t at GRID 5442 would remove 27 %")
+    assert _is_warning("rig: Where: a spring to ground of 2e+08 N mm/rad at GRID 7 ...")
+    assert not _is_warning("Held-out prediction: calibrated without each input's FRFs ...")
+    assert not _is_warning("The search settled: the identifiable parameters stopped moving.")

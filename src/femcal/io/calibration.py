@@ -11,6 +11,7 @@ from __future__ import annotations
 import html
 import json
 import os
+import re
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -918,7 +919,10 @@ VERDICT_HEAD = ["", "before calibration", "after calibration"]
 
 
 def _is_warning(line: str) -> bool:
-    return line.startswith("Warning") or "warning" in line.split(":")[0]
+    """A summary line that belongs with the doubts: a warning, or where the model-form
+    warning points (``Where: ...``, after a configuration's name where there are several)."""
+    return (line.startswith("Warning") or "warning" in line.split(":")[0]
+            or re.match(r"^(?:[^:]+: )?Where: ", line) is not None)
 
 
 #: The verdict names at most this many parameters in a list; the parameters table has all.
