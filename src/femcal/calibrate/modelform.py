@@ -574,8 +574,8 @@ def diagnose(model: Model, modes: Modes, outputs: Sequence[Channel],
         elif candidates:
             say.append("No single spring to ground or point mass removes more than "
                        f"{100 * USEFUL_FALL:g} % of the remaining deviation: what the model "
-                       "lacks is spread out (damping, a "
-                       "joint's flexibility along a line, the test's own errors).")  # fmt: skip
+                       "lacks is spread out (damping, a joint's flexibility along a line, the "
+                       "test's own errors).")  # fmt: skip
     if bound_names:
         say.append(f"{', '.join(bound_names)} ended on a bound: each stands for something "
                    "beyond its range; widen the bound only if the physics allows it, else "

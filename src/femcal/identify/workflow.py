@@ -432,7 +432,7 @@ def edge_modes(data: FRFData, band: tuple[float, float]
         if beyond.any():
             new_hi = float(f[beyond][np.argmin(S0[beyond])])
             notes.append(f"a mode at {max(above):.2f} Hz lies just above the band's top "
-                         f"({hi:g} Hz): the band is widened to {new_hi:.4g} Hz, the CMIF's "
+                         f"({hi:g} Hz): the band is widened to {new_hi:g} Hz, the CMIF's "
                          "valley beyond it, so that it is fitted rather than left to the "
                          "residual terms")  # fmt: skip
     below = [p for p in peaks if lo * (1 - EDGE_REACH) <= p < lo]
@@ -441,7 +441,7 @@ def edge_modes(data: FRFData, band: tuple[float, float]
         if before.any():
             new_lo = float(f[before][np.argmin(S0[before])])
             notes.append(f"a mode at {min(below):.2f} Hz lies just below the band's bottom "
-                         f"({lo:g} Hz): the band is widened to {new_lo:.4g} Hz, the CMIF's "
+                         f"({lo:g} Hz): the band is widened to {new_lo:g} Hz, the CMIF's "
                          "valley below it")  # fmt: skip
     step = float(np.median(np.diff(f)))
     top = (f >= hi * (1 - EDGE_REACH)) & (f <= hi + 0.5 * step)

@@ -37,6 +37,7 @@ from .html import (
     html_table,
     provenance,
 )
+from .identify_page import OWN_BANDS
 
 if TYPE_CHECKING:
     from ..deck.deck import Deck
@@ -653,8 +654,8 @@ def model_form_tables(form: dict) -> list[tuple[str, list[str], list[list[str]]]
                 "most" + ("; none stands out" if not stands_out else "; with no model-form "
                           "warning they are no evidence of a missing feature"))  # fmt: skip
         out.append((f"{what} (each added exactly to the calibrated model and sized to lower "
-                    f"the Huber-weighted deviation most; below {100 * USEFUL_FALL:g} % removed "
-                    "none stands out):",
+                    "the Huber-weighted deviation most; one that removes less than "
+                    f"{100 * USEFUL_FALL:g} % points at nothing):",
                     ["element", "grid", "component",
                      "x, y, z" + (f" ({form['length_unit']})" if form.get("length_unit") else ""),
                      "size", "misfit removed %"], cands))  # fmt: skip
@@ -737,10 +738,8 @@ def test_text(c: dict) -> str:
             f"to zeta0 = {c['zeta0']:.4f}; {len(c['outputs'])} outputs x {len(c['inputs'])} "
             f"inputs; channels left out: {', '.join(c['excluded_channels']) or 'none'}. "
             + (f"The test's modes and suspect channels come from its identification over "
-               f"{c['identify_band_hz'][0]:g}-{c['identify_band_hz'][1]:g} Hz; `femcal "
-               "identify` and `femcal correlate` identify over their own bands, so their "
-               "frequencies can differ in the last digits and their suspect channels can "
-               "differ. " if c.get("identify_band_hz") else "")
+               f"{c['identify_band_hz'][0]:g}-{c['identify_band_hz'][1]:g} Hz ({OWN_BANDS}). "
+               if c.get("identify_band_hz") else "")
             + f"Calibrated deck: {c['calibrated_deck']} (beside this report).")  # fmt: skip
 
 

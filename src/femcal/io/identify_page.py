@@ -45,6 +45,11 @@ DAMPING_HIGH = 0.10
 ALIKE = 0.5
 
 
+#: Why pages of one test can differ a little: each names its identification band with this.
+OWN_BANDS = ("each command identifies over its own band, so `femcal identify`, `femcal "
+             "correlate` and a calibration can differ in the last digits of the frequencies "
+             "and in the suspect channels")
+
 #: Two alike modes closer than this (relative frequency difference) may be one mode found
 #: twice.
 TWICE = 0.05

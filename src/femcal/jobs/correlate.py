@@ -924,6 +924,7 @@ def correlation_html(result: Correlation, *, deck: str = "", test: str = "",
     CoMAC, the paired shapes in the 3-D viewer on ``model`` (:func:`shape_viewer`) and the
     provenance; every picture embedded (no external reference)."""
     from ..io.html import html_figure, html_number, html_table
+    from ..io.identify_page import OWN_BANDS
 
     f1, f2 = result.band
     rows = [[html_number(r.test_mode, "d"), html_number(r.test_hz, ".3f"),
@@ -1000,10 +1001,7 @@ def correlation_html(result: Correlation, *, deck: str = "", test: str = "",
     doubts = found or ["Nothing stands out."]
     ident = result.test.identified
     identified = ("" if ident is None else
-                  f", identified over {ident.band[0]:g}-{ident.band[1]:g} Hz (each command "
-                  "identifies over its own band: `femcal identify` or a calibration over "
-                  "another gives frequencies that differ in the last digits and can mark "
-                  "other channels suspect)")  # fmt: skip
+                  f", identified over {ident.band[0]:g}-{ident.band[1]:g} Hz ({OWN_BANDS})")
     from ..io.html import PAGE_STYLE, file_facts, html_header, provenance
     from ..viz.webview import viewer_assets
 

@@ -313,7 +313,7 @@ def viewer_data(
                 "frequency_hz": float(frequencies_hz[i]),
                 "max": float(umax[i]),
                 "rigid": bool(rigid[i]),
-                "zero": bool(zero[i] and not rigid[i]),
+                "zero": bool(zero[i]),
             }
             for i in range(n_modes)
         ],
@@ -684,8 +684,7 @@ _SCRIPT = r"""
     return u.buffer;
   }
   function hz(md) {  // a zero frequency a hair below zero reads 0.000, not -0.000
-    var f = md.frequency_hz;
-    return (md.zero || Math.abs(f) < 5e-4 ? 0 : f).toFixed(3);
+    return (md.zero ? 0 : md.frequency_hz).toFixed(3);
   }
   function note(md) {
     return md.rigid ? " (rigid body)" : md.zero ? " (zero frequency)" : "";
