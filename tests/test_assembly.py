@@ -260,3 +260,76 @@ def test_a_bar_along_its_orientation_vector_is_named_not_a_traceback(write):
         "ENDDATA\n"))  # fmt: skip
     with pytest.raises(ModelError, match=r"CBAR: .*parallel.*element ids \[8\]"):
         assemble(model)
+
+
+@pytest.mark.parametrize("nodes_per_pass", [1, 3, 4096])
+def test_pattern_of_a_few_nodes_holds_their_rows_only(monkeypatch, nodes_per_pass):
+    """A pattern with the diagonal blocks of some nodes only (a few elements of a large
+    model): the rows of the other nodes are empty, the rest as the reference pattern."""
+    import femcal.assembly.pattern
+
+    monkeypatch.setattr(femcal.assembly.pattern, "_EXPAND_NODES", nodes_per_pass)
+    rng = np.random.default_rng(11)
+    ndof = rng.choice([1, 6], size=30, p=[0.3, 0.7])
+    dof_start = np.concatenate([[0], np.cumsum(ndof)[:-1]])
+    pairs = np.array([[3, 8], [8, 17], [17, 3], [25, 26]])
+    touched = np.unique(pairs)
+    pattern = Pattern.build(dof_start, ndof, [pairs], diagonal=touched)
+    full = reference_pattern(dof_start, ndof, pairs).toarray()
+    own = np.zeros(len(ndof), bool)
+    own[touched] = True
+    rows = np.repeat(own, ndof)
+    full[~rows] = False  # the untouched nodes' rows (and so columns) hold nothing
+    full[:, ~rows] = False
+    import scipy.sparse as sp
+
+    ref = sp.csr_matrix(full)
+    assert np.array_equal(pattern.indptr, ref.indptr)
+    assert np.array_equal(pattern.indices, ref.indices)
+
+
+def test_a_part_assembled_again_is_its_share_of_the_whole(write):
+    """RepeatedAssembly: a flat and a curved shell strip, each of its own property, assembled
+    apart with the whole model's grid normals, add up to the whole model's K and M, at
+    every assembly of the same data (the positions kept from the first). With the flat
+    part's own normals its drilling rotations along the common edge are not tied (that
+    edge is curved in the whole), and its K differs."""
+    from femcal.assembly import assemble
+    from femcal.assembly.repeated import RepeatedAssembly
+    from femcal.calibrate.parameters import subset
+    from femcal.model.build import load_model
+
+    lines = ["SOL 103", "CEND", "BEGIN BULK", "MAT1,1,210000.,,.3,7.85-9",
+             "PSHELL,1,1,2.,1,,1", "PSHELL,2,1,3.,1,,1"]  # fmt: skip
+    n_flat, n_arc, n_along, radius = 6, 6, 4, 200.0
+    profile = [(-radius * (n_flat - i) / n_flat, 0.0) for i in range(n_flat)]
+    profile += [(radius * np.sin(a), radius * (1.0 - np.cos(a)))
+                for a in np.radians(np.linspace(0.0, 60.0, n_arc + 1))]  # fmt: skip
+    for j in range(n_along + 1):
+        for i, (x, z) in enumerate(profile):
+            lines.append(f"GRID,{1 + i + 100 * j},,{float(x)!r},{50.0 * j!r},{float(z)!r}")
+    eid = 1
+    for j in range(n_along):
+        for i in range(len(profile) - 1):
+            g = 1 + i + 100 * j
+            lines.append(f"CQUAD4,{eid},{1 + (i >= n_flat)},{g},{g + 1},{g + 101},{g + 100}")
+            eid += 1
+    lines.append("ENDDATA")
+    model = load_model(write("\n".join(lines) + "\n", "curved.bdf"))
+    whole = assemble(model)
+    block = model.elements["CQUAD4"]
+    K, M = 0.0, 0.0
+    for pid in (1, 2):
+        part = subset(model, {"CQUAD4": np.flatnonzero(block.pids == pid)})
+        repeated = RepeatedAssembly(part, whole=model)
+        Kd, Md = repeated.data(part)
+        Kd2, _ = repeated.data(part)
+        assert np.array_equal(Kd, Kd2)
+        K = K + repeated.matrix(Kd)
+        M = M + repeated.matrix(Md)
+        if pid == 1:
+            own = RepeatedAssembly(part).data(part)[0]
+            assert np.abs(own - Kd).max() > 1e-6 * np.abs(Kd).max()
+    scale = np.abs(whole.K.data).max()
+    assert np.abs((K - whole.K).toarray()).max() < 1e-12 * scale
+    assert np.abs((M - whole.M).toarray()).max() < 1e-12 * np.abs(whole.M.data).max()

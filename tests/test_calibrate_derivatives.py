@@ -171,3 +171,39 @@ def test_calibrated_deck_carries_the_new_values(plate, tmp_path):
     back = build_model(read_deck(files[0]))
     for p, v in zip(params, values, strict=True):  # the digits of an 8-character free field
         assert current_value(back, p.card, p.id, p.field) == pytest.approx(v, rel=5e-5)
+
+
+@pytest.mark.parametrize("shear_modulus", ["", "81000."])
+def test_group_polynomials_reproduce_the_groups_matrices(tmp_path, shear_modulus):
+    """Each group's polynomial (its constant term included) equals the group's matrices
+    assembled alone at points of the parameter box, for every kind of parameter: the
+    plate's thickness (rational: a raised degree), E (which scales the plate's K when G is
+    derived from it; with G given it does not, and the tensor grid takes it) and density,
+    the bar's, rod's, bush's, spring's and mass's."""
+    from femcal.calibrate.derivatives import element_groups, group_polynomials
+    from femcal.calibrate.parameters import subset
+
+    deck = plate_deck().replace("MAT1,1,210000.,,", f"MAT1,1,210000.,{shear_modulus},")
+    (tmp_path / "d.bdf").write_text(deck)
+    (tmp_path / "p.toml").write_text(PARAMS_TOML)
+    model = build_model(read_deck(tmp_path / "d.bdf"))
+    params = read_parameters(tmp_path / "p.toml", model)
+    polys = group_polynomials(model, params, np.zeros(len(params)), constant=True)
+    groups = element_groups(model, params)
+    assert [g.params for g in polys] == list(groups)
+    plate = next(g for g in polys if "CQUAD4" in groups[g.params])
+    assert plate.exponents[:, 0].max() >= 5  # the thickness's degree was raised
+    rng = np.random.default_rng(4)
+    for g in polys:
+        sub = subset(model, groups[g.params])
+        pars = [params[i] for i in g.params]
+        for _ in range(3):
+            d = rng.uniform([p.p_lower for p in pars], [p.p_upper for p in pars])
+            exact = assemble(with_values(sub, pars, [p.value(x) for p, x in zip(pars, d,
+                                                                               strict=True)]))
+            weights = [float(np.prod(d ** a)) for a in g.exponents]
+            K = sum(w * X for w, X in zip(weights, g.K, strict=True))
+            M = sum(w * X for w, X in zip(weights, g.M, strict=True))
+            assert _rel(K, exact.K) < 1e-8, [p.name for p in pars]
+            if exact.M.nnz:
+                assert _rel(M, exact.M) < 1e-8, [p.name for p in pars]

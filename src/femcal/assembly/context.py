@@ -29,17 +29,21 @@ class Context:
     """The model being assembled and how: coupled or lumped mass, the shells' K6ROT, the
     threads the kernels may use."""
 
-    def __init__(self, model: Model, coupled: bool, k6rot: float, threads: int = 1):
+    def __init__(self, model: Model, coupled: bool, k6rot: float, threads: int = 1,
+                 grid_normals: np.ndarray | None = None):  # fmt: skip
+        """``grid_normals``: the shells' grid normals if known (a part of a model is
+        assembled with the whole model's normals); computed from the model's shells if
+        not."""
         self.model = model
         self.coupled = coupled
         self.k6rot = k6rot
         self.threads = threads
         self.materials = MaterialTables(model.materials)
-        self._grid_normals: np.ndarray | None = None
+        self._grid_normals = grid_normals
 
     def grid_normals(self) -> np.ndarray:
         """(n_nodes, 3) NASTRAN's unique grid-point normals of the shells (PARAM SNORM), NaN
-        where a grid has none; computed once."""
+        where a grid has none; computed once (or given)."""
         if self._grid_normals is None:
             self._grid_normals = shell_grid_normals(self.model)
         return self._grid_normals

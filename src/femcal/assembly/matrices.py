@@ -64,20 +64,42 @@ def assemble(model: Model, options: Options | None = None) -> Matrices:
     """
     if model.n_nodes == 0:
         raise ModelError("the model has no grids or scalar points: nothing to assemble")
+    coupled, wtmass, k6rot, threads = settings(model, options)
+    ndof = np.where(model.is_grid, 6, 1)
+    pairs = [element_pairs(b) for b in model.elements.values()]
+    # the pattern's column indices are only needed at the end: built while the kernels run
+    pattern = Pattern.build(model.dof_start, ndof, pairs, background=threads > 1)
+    asm = Assembler(pattern, model.cd_frames, n_matrices=2)  # K and M
+    masses = add_elements(Context(model, coupled, k6rot, threads), asm)
+    M = _compact(asm.matrix(1))  # a lumped mass is (block) diagonal: keep only what it holds
+    if wtmass != 1.0:
+        M = M * wtmass
+    return Matrices(asm.matrix(0), M, masses)
+
+
+def settings(model: Model, options: Options | None) -> tuple[bool, float, float, int]:
+    """(coupled mass, WTMASS, K6ROT, kernel threads) of ``options``, the model's PARAMs
+    where they say None."""
     opt = options or Options()
     par = model.params
     coupled = opt.coupled_mass if opt.coupled_mass is not None else par.coupled_mass
     wtmass = opt.wtmass if opt.wtmass is not None else par.wtmass
     k6rot = opt.k6rot if opt.k6rot is not None else par.k6rot
-    ndof = np.where(model.is_grid, 6, 1)
-    pairs = [_pairs(b) for b in model.elements.values()]
     threads = opt.threads if opt.threads is not None else min(4, usable_cores())
-    # the pattern's column indices are only needed at the end: built while the kernels run
-    pattern = Pattern.build(model.dof_start, ndof, pairs, background=threads > 1)
-    asm = Assembler(pattern, model.cd_frames, n_matrices=2)  # K and M
-    ctx = Context(model, coupled, k6rot, max(1, threads))
+    return coupled, wtmass, k6rot, max(1, threads)
+
+
+def add_elements(ctx: Context, asm: Assembler) -> dict[str, float]:
+    """Add the stiffness (matrix 0) and mass (matrix 1) of every element of ``ctx.model`` to
+    ``asm``; returns the structural mass by element type (before WTMASS).
+
+    Raises
+    ------
+    ModelError
+        For an element type without a handler, or data its kernel cannot use.
+    """
     masses: dict[str, float] = {}
-    for etype, block in model.elements.items():
+    for etype, block in ctx.model.elements.items():
         handler = _HANDLERS.get(etype)
         if handler is None:
             raise ModelError(f"{etype} stiffness and mass are not implemented yet", block.ids[:20])
@@ -86,10 +108,7 @@ def assemble(model: Model, options: Options | None = None) -> Matrices:
         except ValueError as e:  # a kernel's complaint about elements at positions in the block
             raise ModelError(f"{etype}: {name_positions(str(e), block.ids)}",
                              block.ids[:20]) from None  # fmt: skip
-    M = _compact(asm.matrix(1))  # a lumped mass is (block) diagonal: keep only what it holds
-    if wtmass != 1.0:
-        M = M * wtmass
-    return Matrices(asm.matrix(0), M, masses)
+    return masses
 
 
 def _compact(A: sp.csr_matrix) -> sp.csr_matrix:
@@ -103,7 +122,8 @@ def _compact(A: sp.csr_matrix) -> sp.csr_matrix:
     return out
 
 
-def _pairs(block: ElementBlock) -> np.ndarray:
+def element_pairs(block: ElementBlock) -> np.ndarray:
+    """(m, 2) the pairs of nodes each element of the block couples."""
     k = block.nodes.shape[1]
     if k == 1:
         return np.zeros((0, 2), np.int64)

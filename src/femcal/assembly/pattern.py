@@ -69,6 +69,7 @@ class Pattern:
         pairs: list[np.ndarray],
         *,
         background: bool = False,
+        diagonal: np.ndarray | None = None,
     ) -> Pattern:
         """Pattern from node pairs.
 
@@ -80,10 +81,14 @@ class Pattern:
         dof_start, ndof : (n_nodes,) per node.
         pairs : arrays (m, 2) of node indices that elements couple (both orders are added,
             as is every node's diagonal block; entries with a negative index are ignored).
+        diagonal : the nodes whose diagonal blocks the pattern holds (default every node);
+            the rows of the others hold only what ``pairs`` couple, none if nothing does (a
+            pattern of a few elements in a large model).
         """
         n = len(ndof)
         n_dof = int(ndof.sum())
-        chunks = [np.arange(n, dtype=np.int64) * (n + 1)]  # diagonal a*n + a
+        own = np.arange(n, dtype=np.int64) if diagonal is None else np.asarray(diagonal, np.int64)
+        chunks = [own * (n + 1)]  # diagonal a*n + a
         for p in pairs:
             p = np.asarray(p, dtype=np.int64).reshape(-1, 2)
             p = p[(p >= 0).all(axis=1)]
@@ -164,10 +169,13 @@ def _expand_columns(dof_start: np.ndarray, ndof: np.ndarray, b: np.ndarray, blk:
     for lo in range(0, n, _EXPAND_NODES):
         hi = min(lo + _EXPAND_NODES, n)
         p0, p1 = node_ptr[lo], node_ptr[hi]
+        if p1 == p0:  # no entries in these rows
+            continue
         nb = blk[p0:p1]
         cum = np.cumsum(nb)
         seg = (np.repeat(dof_start[b[p0:p1]] - (cum - nb), nb) + np.arange(cum[-1])).astype(itype)
         rows = np.repeat(np.arange(lo, hi), ndof[lo:hi])  # node of each DOF row of the range
+        rows = rows[row_len_node[rows] > 0]  # (rows without entries take no place)
         r_len = row_len_node[rows]
         r_start = start_of_row[rows] - start_of_row[lo]
         total = int(r_len.sum())
@@ -189,10 +197,14 @@ class Assembler:
     for a lumped mass matrix that saves a pattern-sized array and half the scatter.
     """
 
-    def __init__(self, pattern: Pattern, frames: np.ndarray | None = None, n_matrices: int = 1):
+    def __init__(self, pattern: Pattern, frames: np.ndarray | None = None, n_matrices: int = 1,
+                 positions: dict | None = None):  # fmt: skip
         """``frames``: (n_nodes, 3, 3) displacement frames (columns = axes in basic); element
-        matrices given in basic are rotated into them. None: every frame is basic."""
+        matrices given in basic are rotated into them. None: every frame is basic.
+        ``positions``: a dict in which the CSR positions of element blocks are kept by their
+        nodes, for assemblers that add the same elements to the same pattern again."""
         self.pattern = pattern
+        self._positions = positions
         self._data: list[np.ndarray | None] = [None] * n_matrices
         self._node_blocks: list[np.ndarray | None] = [None] * n_matrices
         self.frames = frames
@@ -235,7 +247,7 @@ class Assembler:
             if (nd >= 0).all():
                 values: list = [None if m is None else _node_diagonal(nd, d, m) for m in chunk]
                 full = [i for i, m in enumerate(chunk) if m is not None and values[i] is None]
-                pos = self.pattern.block_positions(nd, d).ravel() if full else None
+                pos = self._block_positions(nd, d) if full else None
                 for i in full:
                     values[i] = chunk[i].ravel()
                 out.append((pos, values))
@@ -250,6 +262,16 @@ class Assembler:
             pos = self.pattern.positions(rows, cols)
             out.append((pos, [None if m is None else m[keep] for m in chunk]))
         return out
+
+    def _block_positions(self, nodes: np.ndarray, d: int) -> np.ndarray:
+        """:meth:`Pattern.block_positions`, flattened; kept in ``positions`` if given."""
+        if self._positions is None:
+            return self.pattern.block_positions(nodes, d).ravel()
+        key = (d, nodes.shape, nodes.tobytes())
+        pos = self._positions.get(key)
+        if pos is None:
+            pos = self._positions[key] = self.pattern.block_positions(nodes, d).ravel()
+        return pos
 
     def scatter(self, prepared: list) -> None:
         """Add what :meth:`prepare` returned to the accumulated matrices (not thread-safe:
@@ -285,6 +307,18 @@ class Assembler:
         number ``which``."""
         if len(rows):
             np.add.at(self._full(which), self.pattern.positions(rows, cols), vals)
+
+    def data(self, which: int = 0) -> np.ndarray:
+        """Matrix number ``which`` as its values (nnz,) on the pattern, node blocks
+        included (the accumulated array itself: add nothing more after taking it)."""
+        out = self._full(which)
+        blocks = self._node_blocks[which]
+        if blocks is not None:
+            p = self.pattern
+            node, i, j = np.nonzero(blocks)
+            start = p.dof_start[node]
+            np.add.at(out, p.positions(start + i, start + j), blocks[node, i, j])
+        return out
 
     def matrix(self, which: int = 0) -> sp.csr_matrix:
         """Assembled matrix number ``which``. Without node blocks it shares the accumulated

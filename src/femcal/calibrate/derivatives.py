@@ -22,7 +22,11 @@ clear error instead of giving a wrong derivative.
 
 The same fits, on a tensor grid of offsets per group of elements that shares its parameters,
 give K and M as polynomials in several parameters at once (:func:`group_polynomials`), which
-the surrogate reduces (:mod:`femcal.calibrate.reduction`). Eigen-sensitivities built on these
+the surrogate reduces (:mod:`femcal.calibrate.reduction`). A group is assembled again and
+again on one sparsity pattern (:class:`~femcal.assembly.repeated.RepeatedAssembly`), so the
+fits are dense arithmetic on data vectors; a parameter that only scales the group's K or M
+(a modulus with G derived from it, a density) is found so by its own check and needs no
+grid of its own. Eigen-sensitivities built on these
 matrices are in :mod:`femcal.calibrate.sensitivity`.
 """
 
@@ -35,7 +39,8 @@ from math import comb
 import numpy as np
 import scipy.sparse as sp
 
-from ..assembly import Options, assemble
+from ..assembly import Options
+from ..assembly.repeated import RepeatedAssembly
 from ..errors import FemcalError
 from ..model.model import Model
 from .parameters import Parameter, affected_elements, current_value, subset, with_values
@@ -79,16 +84,8 @@ def _lagrange_value_weights(nodes: np.ndarray, at: float = 0.0) -> np.ndarray:
     return w
 
 
-def _combine(mats: list[sp.csr_matrix], w: np.ndarray) -> sp.csr_matrix:
-    out = mats[0] * w[0]
-    for A, c in zip(mats[1:], w[1:], strict=True):
-        out = out + A * c
-    return sp.csr_matrix(out)
-
-
-def _max_abs(A: sp.spmatrix) -> float:
-    A = sp.csr_matrix(A)
-    return float(np.abs(A.data).max()) if A.nnz else 0.0
+def _max_abs(x: np.ndarray) -> float:
+    return float(np.abs(x).max()) if x.size else 0.0
 
 
 def _chebyshev_points(count: int, lo: float, hi: float) -> np.ndarray:
@@ -97,24 +94,32 @@ def _chebyshev_points(count: int, lo: float, hi: float) -> np.ndarray:
     return 0.5 * (lo + hi) + 0.5 * (hi - lo) * x
 
 
-def _relative_misfit(Ks: list, Ms: list, w: np.ndarray, exact) -> tuple[float, str]:
-    """Largest relative misfit of ``sum w_j Ks[j]`` and ``sum w_j Ms[j]`` against ``exact``
-    (K, M), and which of stiffness and mass it is in."""
+def _relative_misfit(fitted: tuple[np.ndarray, np.ndarray],
+                     exact: tuple[np.ndarray, np.ndarray]) -> tuple[float, str]:  # fmt: skip
+    """Largest relative misfit of the fitted (K, M) data against the ``exact`` ones, and
+    which of stiffness and mass it is in."""
     worst, which = 0.0, "stiffness"
-    for name, series, X in (("stiffness", Ks, exact[0]), ("mass", Ms, exact[1])):
-        scale = _max_abs(X)
+    for name, f, x in zip(("stiffness", "mass"), fitted, exact, strict=True):
+        scale = _max_abs(x)
         if scale > 0:
-            miss = _max_abs(_combine(series, w) - X) / scale
+            miss = _max_abs(f - x) / scale
             if miss > worst:
                 worst, which = miss, name
     return worst, which
 
 
 def _misfit(nodes: np.ndarray, series: list, at: float, exact) -> tuple[float, str]:
-    """:func:`_relative_misfit` of the interpolant through ``series`` (pairs (K, M) at
-    ``nodes``) against ``exact`` (K, M) at ``at``."""
+    """:func:`_relative_misfit` of the interpolant through ``series`` (pairs (K, M) of data
+    vectors at ``nodes``) against ``exact`` (K, M) at ``at``."""
     w = _lagrange_value_weights(nodes, at)
-    return _relative_misfit([m[0] for m in series], [m[1] for m in series], w, exact)
+    return _relative_misfit(_weighted(series, w), exact)
+
+
+def _weighted(series: list, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``sum w_j K_j`` and ``sum w_j M_j`` of the pairs (K, M) of data vectors."""
+    K = sum(c * m[0] for c, m in zip(w, series, strict=True))
+    M = sum(c * m[1] for c, m in zip(w, series, strict=True))
+    return K, M
 
 
 def _describe(par: Parameter, kinds) -> str:
@@ -123,15 +128,36 @@ def _describe(par: Parameter, kinds) -> str:
             f"{', '.join(sorted(kinds))})")  # fmt: skip
 
 
+@dataclass(frozen=True)
+class Nodes:
+    """Interpolation offsets found for one parameter moving alone (:func:`interpolation_nodes`).
+
+    offsets : (n,) the offsets, 0 (the centre) not among them.
+    series : per offset the assembled (K, M), as the evaluation gave them.
+    raised : whether the field's own degree failed and Chebyshev points of a raised degree
+        approximate a smooth non-polynomial dependence (else the polynomial is exact, and any
+        n distinct offsets give it).
+    """
+
+    offsets: np.ndarray
+    series: list
+    raised: bool
+
+
 def interpolation_nodes(assemble_at, degree: int, interval: tuple[float, float],
-                        what: str, at_zero=None) -> tuple[np.ndarray, list]:  # fmt: skip
+                        what: str, at_zero=None, first_try: int | None = None,
+                        align=None) -> Nodes:  # fmt: skip
     """Offsets ``d`` and the matrices ``assemble_at(d)`` = (K, M) there, on which the
     interpolating polynomial reproduces the matrices (see the module docstring).
 
     ``degree`` is the field's own degree (equally spaced points on +-SPREAD, as many as it
     needs); if that fails, :data:`RAISED_DEGREES` on Chebyshev points over ``interval``
     (which holds +-SPREAD). ``what`` names the parameter(s) in the error. ``at_zero``: the
-    matrices at ``d = 0`` if the caller has them (else assembled once here).
+    matrices at ``d = 0`` if the caller has them (else assembled once here). The matrices
+    may be sparse matrices of one pattern or data vectors. ``first_try``: a raised degree
+    to try before all others (the one an alike group of elements needed); it is checked as
+    any other, and the usual ladder follows if it fails. ``align``: turns a list of what
+    ``assemble_at`` returned into pairs (K, M) of one shape (default: as they are).
 
     Raises
     ------
@@ -140,21 +166,35 @@ def interpolation_nodes(assemble_at, degree: int, interval: tuple[float, float],
     """
     if at_zero is None:
         at_zero = assemble_at(0.0)
-    nodes = np.linspace(-SPREAD, SPREAD, degree + 1)
-    series = [assemble_at(d) for d in nodes]
-    miss, which = _misfit(nodes, series, 0.0, at_zero)
-    if miss <= DEGREE_CHECK:
-        return nodes, series
-    first = (miss, which)
     lo, hi = min(interval[0], -SPREAD), max(interval[1], SPREAD)
-    for raised in (d for d in RAISED_DEGREES if d > degree):
+    align = align or (lambda items: items)
+
+    def misfit(nodes: np.ndarray, series: list, at: float, exact) -> tuple[float, str]:
+        *series, exact = align([*series, exact])
+        return _misfit(nodes, series, at, exact)
+
+    def raised_fit(raised: int) -> tuple[Nodes, float]:
         nodes = _chebyshev_points(raised + 1, lo, hi)
         series = [assemble_at(d) for d in nodes]
         between = 0.5 * (nodes[-2] + nodes[-1])
-        miss = max(_misfit(nodes, series, 0.0, at_zero)[0],
-                   _misfit(nodes, series, between, assemble_at(between))[0])  # fmt: skip
+        miss = max(misfit(nodes, series, 0.0, at_zero)[0],
+                   misfit(nodes, series, between, assemble_at(between))[0])  # fmt: skip
+        return Nodes(nodes, series, True), miss
+
+    if first_try is not None and first_try > degree:
+        found, miss = raised_fit(first_try)
         if miss <= DEGREE_CHECK:
-            return nodes, series
+            return found
+    nodes = np.linspace(-SPREAD, SPREAD, degree + 1)
+    series = [assemble_at(d) for d in nodes]
+    miss, which = misfit(nodes, series, 0.0, at_zero)
+    if miss <= DEGREE_CHECK:
+        return Nodes(nodes, series, False)
+    first = (miss, which)
+    for raised in (d for d in RAISED_DEGREES if d > degree and d != first_try):
+        found, miss = raised_fit(raised)
+        if miss <= DEGREE_CHECK:
+            return found
     raise DerivativeError(
         f"{what}: the {first[1]} of its elements is not a polynomial of degree {degree} in "
         f"it (misfit {first[0]:.1e}), nor reproduced to {DEGREE_CHECK:.0e} by one of degree "
@@ -177,20 +217,19 @@ def parameter_matrices(model: Model, par: Parameter, *, options: Options | None 
         raise DerivativeError(f"parameter {par.name} ({par.card} {par.id} {par.field}): no "
                               "element depends on it")  # fmt: skip
     sub = subset(model, rows)
+    repeated = RepeatedAssembly(sub, options, whole=model)
     P = current_value(model, par.card, par.id, par.field)
     degree = max(spec.k_degree, spec.m_degree)
 
-    def assemble_at(d: float) -> tuple[sp.csr_matrix, sp.csr_matrix]:
-        mats = assemble(with_values(sub, [par], [P * (1.0 + d)]), options)
-        return mats.K, mats.M
+    def assemble_at(d: float) -> tuple[np.ndarray, np.ndarray]:
+        return repeated.data(with_values(sub, [par], [P * (1.0 + d)]))
 
-    nodes, series = interpolation_nodes(assemble_at, degree, (-SPREAD, SPREAD),
-                                        _describe(par, rows))  # fmt: skip
-    w = _lagrange_derivative_weights(nodes) / P  # d/dP = (d/d delta) / P
-    shape = series[0][0].shape
-    dK = _combine([m[0] for m in series], w) if spec.k_degree > 0 else sp.csr_matrix(shape)
-    dM = _combine([m[1] for m in series], w) if spec.m_degree > 0 else sp.csr_matrix(shape)
-    return dK, dM
+    found = interpolation_nodes(assemble_at, degree, (-SPREAD, SPREAD), _describe(par, rows))
+    w = _lagrange_derivative_weights(found.offsets) / P  # d/dP = (d/d delta) / P
+    dK, dM = _weighted(found.series, w)
+    shape = (model.n_dof, model.n_dof)
+    return (repeated.matrix(dK) if spec.k_degree > 0 else sp.csr_matrix(shape),
+            repeated.matrix(dM) if spec.m_degree > 0 else sp.csr_matrix(shape))  # fmt: skip
 
 
 def derivative_matrices(model: Model, params: list[Parameter], *,
@@ -254,108 +293,242 @@ def group_polynomials(model: Model, params: list[Parameter], center: np.ndarray,
     """The exact polynomial dependence of K and M on the parameters, group by group, about
     the scaled point ``center`` (the model given is the nominal one).
 
-    Each group's elements are assembled alone on a tensor grid of (degree + 1) offsets per
-    parameter; the polynomial through those values is the matrices' dependence exactly
-    (checked at the centre, as in :func:`parameter_matrices`). If that check fails, each
-    parameter's degree is found alone (raised on Chebyshev points where its dependence is
-    rational, :func:`interpolation_nodes`) and the grid is built again. With ``first_order``
-    only the linear terms are kept (the derivatives at the centre: FEMCali's first-order
-    surrogate); with ``constant`` the constant term (the group's matrices at the centre) is
-    kept too.
+    Each group's elements are assembled alone (:class:`~femcal.assembly.repeated.
+    RepeatedAssembly`: one pattern, the whole model's shell normals). First each parameter
+    moves alone about the centre, and its interpolation offsets are found as in
+    :func:`interpolation_nodes` (the field's degree, raised on Chebyshev points where the
+    dependence is rational; a raised degree one group needed is tried first for the alike
+    parameters of the next). A parameter that, moving alone, scales the group's K or M in
+    proportion to its value takes no grid: its terms are the others' scaled. Then the
+    group is assembled on the tensor grid of the other parameters' offsets, with the centre
+    in place of one offset of every parameter whose polynomial is exact (the same
+    polynomial, and the grid shares the assemblies of the parameters moving alone), and the
+    whole polynomial is checked at a point off the grid in every parameter. With
+    ``first_order`` only the linear terms are kept (the derivatives at the
+    centre: FEMCali's first-order surrogate); with ``constant`` the constant term (the
+    group's matrices at the centre) is kept too.
+
+    Raises
+    ------
+    DerivativeError
+        If a parameter's dependence is not reproduced (:func:`interpolation_nodes`), or the
+        group's joint dependence is not the product of its parameters' polynomials.
     """
     center = np.asarray(center, float)
     out: list[GroupPolynomial] = []
     groups = element_groups(model, params)
+    raised: dict[tuple, int] = {}  # the degrees alike groups needed
     for n, (idx, rows) in enumerate(groups.items(), start=1):
-        sub = subset(model, rows)
-        pars = [params[i] for i in idx]
-        at_values = [par.value(center[i]) for i, par in zip(idx, pars, strict=True)]
-        at_c = assemble(with_values(sub, pars, at_values), options)
-        degrees = [max(p.spec.k_degree, p.spec.m_degree) for p in pars]
-        nodes = [np.linspace(-SPREAD, SPREAD, d + 1) for d in degrees]
-        Ks, Ms, coef_w = _tensor_fit(sub, idx, pars, center, nodes, options)
-        miss = _constant_misfit(Ks, Ms, coef_w, at_c)
-        if miss[0] > DEGREE_CHECK:  # a dependence that is not the fields' polynomial
-            nodes = [_alone_nodes(sub, pars, k, idx[k], at_values, at_c, center, degrees[k],
-                                  options) for k in range(len(idx))]  # fmt: skip
-            Ks, Ms, coef_w = _tensor_fit(sub, idx, pars, center, nodes, options)
-            miss = _constant_misfit(Ks, Ms, coef_w, at_c)
-        if miss[0] > DEGREE_CHECK:
-            names = ", ".join(p.name for p in pars)
-            raise DerivativeError(
-                f"parameters {names}: the {miss[1]} of their elements ({', '.join(rows)}) is "
-                f"not reproduced by the polynomial of degrees {[len(x) - 1 for x in nodes]} in "
-                f"them (misfit {miss[0]:.1e}) although each parameter's alone is; their "
-                "derivatives would not be exact.")  # fmt: skip
-        grid = list(Ks)  # the exponent tuples are the grid's indices
-        zero = tuple(0 for _ in idx)
+        fit = _GroupFit(model, rows, [params[i] for i in idx], center[list(idx)], options,
+                        raised)  # fmt: skip
+        exps, K, M = fit.coefficients()
+        k_at, m_at = (fit.repeated.places(at) for at in fit.places)  # (shared by the terms)
         terms, Kc, Mc = [], [], []
-        for a in grid:
-            if (a == zero and not constant) or (first_order and sum(a) > 1):
+        tol = 1e-11
+        k_scale, m_scale = _max_abs(fit.at_centre[0]), _max_abs(fit.at_centre[1])
+        for a, Ka, Ma in zip(exps, K, M, strict=True):
+            if (sum(a) == 0 and not constant) or (first_order and sum(a) > 1):
                 continue
-            w = np.array([coef_w[a][g] for g in grid])
-            K = _combine([Ks[g] for g in grid], w)
-            M = _combine([Ms[g] for g in grid], w)
-            tol = 1e-11
-            k_zero = _max_abs(K) <= tol * max(_max_abs(at_c.K), 1e-300)
-            m_zero = _max_abs(M) <= tol * max(_max_abs(at_c.M), 1e-300)
-            if k_zero and m_zero and a != zero:
+            k_zero = _max_abs(Ka) <= tol * max(k_scale, 1e-300)
+            m_zero = _max_abs(Ma) <= tol * max(m_scale, 1e-300)
+            if k_zero and m_zero and sum(a) > 0:
                 continue  # the field's degree bounds both; this term is rounding
             terms.append(a)
-            Kc.append(sp.csr_matrix(K.shape) if k_zero else K)
-            Mc.append(sp.csr_matrix(M.shape) if m_zero else M)
+            shape = (model.n_dof, model.n_dof)
+            Kc.append(sp.csr_matrix(shape) if k_zero else fit.repeated.matrix(Ka, k_at))
+            Mc.append(sp.csr_matrix(shape) if m_zero else fit.repeated.matrix(Ma, m_at))
         out.append(GroupPolynomial(idx, np.array(terms, int).reshape(-1, len(idx)), Kc, Mc))
         if progress is not None:
-            progress(n, len(groups), [p.name for p in pars])
+            progress(n, len(groups), [params[i].name for i in idx])
     return out
 
 
-def _alone_nodes(sub: Model, pars: list[Parameter], k: int, i: int, at_values: list[float],
-                 at_c, center: np.ndarray, degree: int, options: Options | None
-                 ) -> np.ndarray:  # fmt: skip
-    """Interpolation offsets for parameter ``pars[k]`` (index i) moving alone about the
-    centre, the others held at ``at_values`` (``at_c``: the group's matrices there; see
-    :func:`interpolation_nodes`)."""
-    par = pars[k]
-
-    def assemble_at(d: float) -> tuple[sp.csr_matrix, sp.csr_matrix]:
-        vals = list(at_values)
-        vals[k] = par.value(center[i] + d)
-        mats = assemble(with_values(sub, pars, vals), options)
-        return mats.K, mats.M
-
-    interval = (par.p_lower - center[i], par.p_upper - center[i])
-    return interpolation_nodes(assemble_at, degree, interval, _describe(par, sub.elements),
-                               (at_c.K, at_c.M))[0]  # fmt: skip
+#: Columns of the coefficient data turned from assemblies into coefficients at a time.
+_COLUMNS = 1 << 16
 
 
-def _tensor_fit(sub: Model, idx: tuple[int, ...], pars: list[Parameter], center: np.ndarray,
-                nodes: list[np.ndarray], options: Options | None
-                ) -> tuple[dict, dict, dict]:  # fmt: skip
-    """The group's K and M on the tensor grid of ``nodes`` (offsets per parameter about
-    ``center``), and the weights giving each monomial coefficient from them: ``Ks[g]``,
-    ``Ms[g]`` per grid index g, ``coef_w[a][g]`` per exponent tuple a."""
-    grid = list(itertools.product(*[range(len(x)) for x in nodes]))
-    Ks, Ms = {}, {}
-    for g in grid:
-        vals = [par.value(center[i] + nodes[k][g[k]]) for k, (i, par)
-                in enumerate(zip(idx, pars, strict=True))]  # fmt: skip
-        mats = assemble(with_values(sub, pars, vals), options)
-        Ks[g], Ms[g] = mats.K, mats.M
-    # coefficients: apply the inverse Vandermonde matrix along every parameter
-    inv = [np.linalg.inv(np.vander(x, increasing=True)) for x in nodes]
-    coef_w = {a: {g: float(np.prod([inv[k][a[k], g[k]] for k in range(len(idx))]))
-                  for g in grid} for a in grid}  # fmt: skip
-    return Ks, Ms, coef_w
+class _GroupFit:
+    """One group's assemblies about the centre and the polynomial through them (see
+    :func:`group_polynomials`); every assembly is made once, whoever asks for it.
+
+    K and M are kept as their data on the places of the group's pattern that hold a value
+    (:attr:`places`: about half of a shell's pattern is zero, most of a lumped mass's), which
+    grow if an assembly puts a value elsewhere."""
+
+    def __init__(self, model: Model, rows: dict, pars: list[Parameter], centre: np.ndarray,
+                 options: Options | None, raised: dict[tuple, int]):  # fmt: skip
+        """``raised``: per (card, field, element types) the raised degree a group needed
+        (tried first for an alike parameter; what this group needs is put there)."""
+        self.raised = raised
+        self.sub = subset(model, rows)
+        self.kinds = list(rows)
+        self.pars = pars
+        self.centre = centre
+        self.repeated = RepeatedAssembly(self.sub, options, whole=model)
+        #: K's and M's places in the pattern (sorted positions)
+        self.places = [np.zeros(0, np.int64), np.zeros(0, np.int64)]
+        # offsets -> K and M data and the places each is on
+        self._made: dict[tuple[float, ...], tuple] = {}
+        self._centre = self._made[(0.0,) * len(pars)] = self._assemble((0.0,) * len(pars))
+
+    @property
+    def at_centre(self) -> tuple[np.ndarray, np.ndarray]:
+        """The group's K data and M data (on the present :attr:`places`) at the centre."""
+        return self._placed(self._centre)
+
+    def _assemble(self, offsets: tuple[float, ...]) -> tuple:
+        values = [p.value(c + d) for p, c, d in zip(self.pars, self.centre, offsets, strict=True)]
+        out = []
+        for which, X in enumerate(self.repeated.data(with_values(self.sub, self.pars, values))):
+            at = self.places[which]
+            if np.count_nonzero(X) != np.count_nonzero(X[at]):  # values elsewhere too
+                held = np.zeros(len(X), bool)
+                held[at] = True
+                held |= X != 0.0
+                at = self.places[which] = np.flatnonzero(held)
+            out.append((X[at], at))
+        return tuple(out)
+
+    def _placed(self, made: tuple) -> tuple[np.ndarray, np.ndarray]:
+        """K and M data of an assembly on the present :attr:`places`."""
+        out = []
+        for (X, at), now in zip(made, self.places, strict=True):
+            if len(at) != len(now):
+                grown = np.zeros(len(now))
+                grown[np.searchsorted(now, at)] = X
+                X = grown
+            out.append(X)
+        return out[0], out[1]
+
+    def _alone(self, k: int) -> Nodes:
+        """Parameter k's interpolation offsets, the others at the centre."""
+        par = self.pars[k]
+
+        def assemble_at(d: float) -> tuple:
+            key = tuple(d if j == k else 0.0 for j in range(len(self.pars)))
+            if key not in self._made:
+                self._made[key] = self._assemble(key)
+            return self._made[key]
+
+        interval = (par.p_lower - self.centre[k], par.p_upper - self.centre[k])
+        degree = max(par.spec.k_degree, par.spec.m_degree)
+        alike = (par.card, par.field, tuple(sorted(self.kinds)))
+        found = interpolation_nodes(assemble_at, degree, interval, _describe(par, self.kinds),
+                                    self._centre, self.raised.get(alike),
+                                    lambda items: [self._placed(m) for m in items])  # fmt: skip
+        if found.raised:
+            self.raised[alike] = len(found.offsets) - 1
+        return found
+
+    def _scales(self, k: int, found: Nodes) -> str | None:
+        """"K" or "M" if parameter k, moving alone, scales that matrix of the group in
+        proportion to its value and leaves the other (a modulus with G derived from E, a
+        density): then ``X(d) = X(0) (1 + d / (1 + c))`` is the whole dependence on it."""
+        spec = self.pars[k].spec
+        if found.raised or (spec.k_degree, spec.m_degree) not in ((1, 0), (0, 1)):
+            return None
+        which = 0 if spec.k_degree else 1
+        base = self.at_centre
+        for d, made in zip(found.offsets, found.series, strict=True):
+            series = self._placed(made)
+            factor = 1.0 + d / (1.0 + self.centre[k])
+            scaled = (base[0] * factor, base[1]) if which == 0 else (base[0], base[1] * factor)
+            if _relative_misfit(series, scaled)[0] > DEGREE_CHECK:
+                return None
+        return "KM"[which]
+
+    def coefficients(self) -> tuple[list[tuple[int, ...]], list, list]:
+        """Exponent tuples and the K and M data (on :attr:`places`) of their coefficients,
+        per term, or empty where it is zero."""
+        n = len(self.pars)
+        alone = [self._alone(k) for k in range(n)]
+        scales = [self._scales(k, a) for k, a in enumerate(alone)]
+        # grid offsets: an exact polynomial's with the centre for its first offset (which
+        # stays off the grid, the check's coordinate); a raised one's as found (the check
+        # between its first two); a scaling parameter's the centre only (the check at its
+        # first offset)
+        grid, off = [], []
+        for a, scale in zip(alone, scales, strict=True):
+            if scale is not None:
+                grid.append(np.zeros(1))
+                off.append(float(a.offsets[0]))
+            elif a.raised:
+                grid.append(a.offsets)
+                off.append(0.5 * float(a.offsets[0] + a.offsets[1]))
+            else:
+                grid.append(np.concatenate([[0.0], a.offsets[1:]]))
+                off.append(float(a.offsets[0]))
+        off = tuple(off)
+        points = [tuple(float(x) for x in pt) for pt in itertools.product(*grid)]
+        for key in [k for k in self._made if k not in set(points) | {off}]:
+            del self._made[key]  # the alone fits' other tries
+        inv = [np.linalg.inv(np.vander(x, increasing=True)) for x in grid]
+        base = list(itertools.product(*[range(len(x)) for x in grid]))
+        W = np.array([[np.prod([inv[k][a[k], g[k]] for k in range(n)]) for g in base]
+                      for a in base])  # fmt: skip
+        check = self._made.pop(off, None) or self._assemble(off)
+        # the coefficients, sum_g W[a, g] X(g): the grid's assemblies in rows (the alone
+        # lines' moved there), turned into coefficients in place a block of columns at a time
+        made = [self._made.pop(pt, None) or self._assemble(pt) for pt in points]
+        CK = np.empty((len(base), len(self.places[0])))
+        CM = np.empty((len(base), len(self.places[1])))
+        for g in range(len(points)):
+            CK[g], CM[g] = self._placed(made[g])
+            made[g] = None
+        for lo in range(0, CK.shape[1], _COLUMNS):
+            CK[:, lo : lo + _COLUMNS] = W @ CK[:, lo : lo + _COLUMNS]
+        CM = W @ CM
+        exps, CK, CM = self._with_scales(base, CK, CM, scales)
+        # the check, off the grid in every parameter
+        powers = [np.prod([o ** e for o, e in zip(off, a, strict=True)]) for a in exps]
+        exact = self._placed(check)
+        miss = _relative_misfit((_sum_rows(powers, CK, exact[0]),
+                                 _sum_rows(powers, CM, exact[1])), exact)  # fmt: skip
+        if miss[0] > DEGREE_CHECK:
+            names = ", ".join(p.name for p in self.pars)
+            raise DerivativeError(
+                f"parameters {names}: the {miss[1]} of their elements "
+                f"({', '.join(self.kinds)}) is not reproduced by the polynomial of degrees "
+                f"{[len(x) - 1 for x in grid]} in them (misfit {miss[0]:.1e}) although each "
+                "parameter's alone is; their derivatives would not be exact.")  # fmt: skip
+        self._made.clear()
+        return exps, CK, CM
+
+    def _with_scales(self, base: list[tuple[int, ...]], CK: np.ndarray, CM: np.ndarray,
+                     scales: list[str | None]) -> tuple[list, list, list]:  # fmt: skip
+        """The terms of the scaling parameters added to the others' (``base``, the scaling
+        parameters' exponents 0): a term with exponent 1 in a set of them is the base term
+        times ``1 / (1 + c)`` of each, in the matrix they scale (zero in the other)."""
+        which = [k for k, s in enumerate(scales) if s is not None]
+        if not which:
+            return base, list(CK), list(CM)
+        exps, rows = [], []
+        for ones in itertools.product((0, 1), repeat=len(which)):
+            k_factor = m_factor = 1.0
+            for k, e in zip(which, ones, strict=True):
+                if e:
+                    f = 1.0 / (1.0 + self.centre[k])
+                    k_factor *= f if scales[k] == "K" else 0.0
+                    m_factor *= f if scales[k] == "M" else 0.0
+            if k_factor == 0.0 and m_factor == 0.0:
+                continue
+            for i, a in enumerate(base):
+                exps.append(tuple(e if k not in which else ones[which.index(k)]
+                                  for k, e in enumerate(a)))  # fmt: skip
+                rows.append((i, k_factor, m_factor))
+        # (a factor 1 keeps the base term's row itself, a factor 0 an empty row)
+        K = [CK[i] if kf == 1.0 else CK[i] * kf if kf else CK[i, :0] for i, kf, _ in rows]
+        M = [CM[i] if mf == 1.0 else CM[i] * mf if mf else CM[i, :0] for i, _, mf in rows]
+        return exps, K, M
 
 
-def _constant_misfit(Ks: dict, Ms: dict, coef_w: dict, at_c) -> tuple[float, str]:
-    """Relative misfit of the fitted constant term against the matrices at the centre, and
-    in which of stiffness and mass it is largest."""
-    grid = list(Ks)
-    zero = tuple(0 for _ in grid[0])
-    w = np.array([coef_w[zero][g] for g in grid])
-    return _relative_misfit([Ks[g] for g in grid], [Ms[g] for g in grid], w, (at_c.K, at_c.M))
+def _sum_rows(weights: list[float], rows: list[np.ndarray], like: np.ndarray) -> np.ndarray:
+    """``sum_i weights[i] rows[i]`` over the rows that are not empty (zero terms)."""
+    out = np.zeros_like(like)
+    for w, r in zip(weights, rows, strict=True):
+        if r.size and w:
+            out += w * r
+    return out
 
 
 def shift_weight(a, b, c) -> float:
