@@ -143,8 +143,8 @@ def centre_derivatives(polys: list[GroupPolynomial], center: np.ndarray, M: sp.s
     # by (lam_r - s) / (lam_k - s), up to 1e4 and more
     Pa = np.ascontiguousarray(Phi[red.a_dofs])  # the modes' a-set rows (T u_a = u_g)
 
-    def off_modes(Y: np.ndarray) -> np.ndarray:
-        for _ in range(2):  # twice: the modes hold most of it
+    def off_modes(Y: np.ndarray, passes: int = 1) -> np.ndarray:
+        for _ in range(passes):
             Y = Y - Pa @ (Pa.T @ (Ma @ Y))
         return Y
 
@@ -164,7 +164,10 @@ def centre_derivatives(polys: list[GroupPolynomial], center: np.ndarray, M: sp.s
         dSP[i] = Sr @ Cc
         loads.append((rows, dKX - dMX * lm[None, :]))
     # the modes above the basis: term n adds (lam_j - s)^n Z_n^T f_j, one Z_n at a time
-    Y = off_modes(shifted_solve(np.asarray((Tt @ Sg.T).todense())))
+    # the sensors' solve holds the modes in full: twice (the first pass leaves rounding of
+    # their size); a later solve of a vector without them makes them again only from
+    # rounding, amplified by (lam_r - s) / (lam_k - s): one pass removes that
+    Y = off_modes(shifted_solve(np.asarray((Tt @ Sg.T).todense())), passes=2)
     for n in range(terms):
         Zn = T @ Y
         active = np.flatnonzero(per_mode > n)  # the modes whose series is still running

@@ -233,6 +233,7 @@ def build_surrogate(model: Model, params: list[Parameter], p_center: np.ndarray,
                     enrich_hz: float | None = None, n_enrich: int | None = None,
                     residual: bool = False, frf_modes: int | None = None,
                     frf_hz: float | None = None, exact_gradient: bool = False,
+                    centre_only: bool = False,
                     progress: Callable[[str], None] | None = None,
                     ) -> tuple[Surrogate, object]:  # fmt: skip
     """Reduce the (nominal) model at ``p_center`` on its first ``n_modes`` modes there.
@@ -259,6 +260,9 @@ def build_surrogate(model: Model, params: list[Parameter], p_center: np.ndarray,
         to this frequency at the centre (at least one).
     exact_gradient : also compute the full model's exact FRF derivatives at the centre
         (:func:`femcal.calibrate.gradient.centre_derivatives`), kept as ``Surrogate.exact``.
+    centre_only : the surrogate is wanted at its centre only (the full model's FRFs there):
+        its basis is the same, but the polynomial terms are not reduced on it, so that it
+        does not depend on the parameters (its FRFs at the centre are the same numbers).
 
     Returns
     -------
@@ -321,8 +325,9 @@ def build_surrogate(model: Model, params: list[Parameter], p_center: np.ndarray,
         Phi = np.hstack([Phi, block])
         say(f"surrogate basis: {block.shape[1]} static responses to the inputs and their "
             "parameter derivatives (residual flexibility)")
-    exps, Kt, Mt = _reexpand(polynomials, Phi, np.asarray(p_center, float), len(params),
-                             first_order=order == "first-order")  # fmt: skip
+    exps, Kt, Mt = ([], [], []) if centre_only else _reexpand(
+        polynomials, Phi, np.asarray(p_center, float), len(params),
+        first_order=order == "first-order")  # fmt: skip
     r = Phi.shape[1]
     K0 = Phi.T @ (mats.K @ Phi)
     M0 = Phi.T @ (mats.M @ Phi)

@@ -561,7 +561,7 @@ def _calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *, truth: np.nda
             case.model, list(case.params), q, case.outputs, case.inputs,
             n_modes=cfg.reduction_modes, zeta=case.zeta0, quantity=case.quantity,
             order=cfg.surrogate, polynomials=case.polynomials, residual=cfg.residual,
-            frf_modes=frf_modes[k], exact_gradient=False)  # fmt: skip
+            frf_modes=frf_modes[k], exact_gradient=False, centre_only=True)  # fmt: skip
         return residuals(sur.frf(q, case.freq), case.H_test, cfg.metric)
 
     holdout = (validate(cases, problem.terms, terms0, params, p_final, prior, plan,

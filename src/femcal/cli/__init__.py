@@ -3,58 +3,53 @@
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import signal
 import sys
 import warnings
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
+from types import ModuleType
 
 from .. import __version__
 from ..errors import FemcalError
-from . import (
-    calibrate,
-    correlate,
-    frf,
-    identify,
-    info,
-    init,
-    model,
-    rig,
-    solve,
-    study,
-    synth,
-    synth_rig,
-    timedata,
-)
 from .examples import annotate
 
+#: The subcommands and their modules (each with ``add_parser(subparsers)`` and ``run(args)``).
+#: A command imports its own module only: ``femcal solve`` does not load what identification
+#: or the rig need (SciPy's signal and statistics packages, about a second).
 _COMMANDS = {
-    "info": info,
-    "solve": solve,
-    "frf": frf,
-    "synth-test": synth,
-    "synth-rig-test": synth_rig,
-    "identify": identify,
-    "calibrate": calibrate,
-    "correlate": correlate,
-    "init": init,
-    "model": model,
-    "timedata": timedata,
-    "study": study,
-    "rig": rig,
+    "info": "info",
+    "solve": "solve",
+    "frf": "frf",
+    "synth-test": "synth",
+    "synth-rig-test": "synth_rig",
+    "identify": "identify",
+    "calibrate": "calibrate",
+    "correlate": "correlate",
+    "init": "init",
+    "model": "model",
+    "timedata": "timedata",
+    "study": "study",
+    "rig": "rig",
 }
 
 
-def build_parser() -> argparse.ArgumentParser:
+def _module(command: str) -> ModuleType:
+    return importlib.import_module(f".{_COMMANDS[command]}", __name__)
+
+
+def build_parser(only: str | None = None) -> argparse.ArgumentParser:
+    """The command line's parser; with ``only`` (a command's name) that command alone."""
     parser = argparse.ArgumentParser(
         prog="femcal",
         description="Finite-element normal modes and FRF-based calibration from NASTRAN decks.",
     )
     parser.add_argument("--version", action="version", version=f"femcal {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for _name, module in _COMMANDS.items():
-        module.add_parser(sub)
+    for name in [only] if only in _COMMANDS else _COMMANDS:
+        _module(name).add_parser(sub)
     annotate(parser)
     return parser
 
@@ -97,8 +92,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit status (see ``EXIT_*``). Nothing but femcal's own one-line
     messages reaches the user: an unexpected exception is reported as an internal error (its
     traceback with ``FEMCAL_TRACEBACK=1``), Ctrl-C and SIGTERM as an interruption."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    words = list(sys.argv[1:] if argv is None else argv)
+    # the command named first (not an option's value: no top-level option takes one)
+    first = next((w for w in words if not w.startswith("-")), None)
+    args = build_parser(first if first in _COMMANDS else None).parse_args(words)
     # the whole command, its action too (``femcal rig iterate``, ``femcal timedata frf``)
     name = " ".join(["femcal", args.command, *([args.action] if getattr(args, "action", None)
                                                else [])])  # fmt: skip
@@ -109,7 +106,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         previous = None
     try:
         with _one_line_warnings(name.removeprefix("femcal ")):
-            return int(_COMMANDS[args.command].run(args) or 0)
+            return int(_module(args.command).run(args) or 0)
     except FemcalError as e:
         print(f"{name}: {e}", file=sys.stderr)
         return EXIT_INPUT
