@@ -37,6 +37,31 @@ def test_a_bound_holds_and_the_other_parameter_is_optimal_given_it():
     assert res.p[1] == pytest.approx(p1, rel=1e-8)
 
 
+def test_a_parameter_whose_bounds_meet_is_held_whatever_its_column():
+    """A parameter with lower == upper is held: the search takes the same steps to the same
+    point whether its Jacobian column is computed, zero or anything else."""
+    rng = np.random.default_rng(5)
+    A = rng.normal(size=(40, 4))
+    b = A @ np.array([1.0, -2.0, 0.5, 3.0]) + 0.1 * rng.normal(size=40)
+    lo, hi = np.array([-5.0, 0.2, -5.0, -5.0]), np.array([5.0, 0.2, 5.0, 5.0])
+
+    def fun(column):
+        def f(p):  # r = A p - b + 0.1 sin(p_0 + p_2), mildly nonlinear
+            J = A.copy()
+            J[:, 0] += 0.1 * np.cos(p[0] + p[2])
+            J[:, 2] += 0.1 * np.cos(p[0] + p[2])
+            J[:, 1] = column
+            return A @ p - b + 0.1 * np.sin(p[0] + p[2]), J
+        return f
+
+    runs = [levenberg_marquardt(fun(c), np.zeros(4), lo, hi, ftol=1e-14, xtol=1e-12)
+            for c in (A[:, 1], 0.0, rng.normal(size=40))]  # fmt: skip
+    for r in runs:
+        assert r.p[1] == 0.2
+        assert np.array_equal(r.p, runs[0].p) and r.history == runs[0].history
+    assert runs[0].iterations > 1
+
+
 def test_latin_hypercube_puts_one_point_in_each_slice():
     pts = latin_hypercube(8, [-0.2, 0.0, 1.0], [0.2, 1.0, 3.0], np.random.default_rng(1))
     assert pts.shape == (8, 3)

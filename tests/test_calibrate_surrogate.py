@@ -250,3 +250,19 @@ def test_residual_flexibility_surrogate_is_the_full_model_at_its_centre_with_its
         # the surrogate's own Jacobian: its eigenvector derivatives are truncated to the
         # basis (measured up to 1.2e-4, I1_bar; the differences' own error is 2e-8)
         assert np.abs(dH[i] - fd).max() < 3e-4 * np.abs(fd).max(), params[i].name
+
+
+def test_jacobian_of_some_parameters_is_theirs_and_zero_elsewhere(setup):
+    """frf_and_jacobian with ``which``: the chosen parameters' derivatives as without it,
+    the others zero (the search skips the parameters its bounds hold)."""
+    model, params = setup
+    sur, _ = build_surrogate(model, params, np.zeros(len(params)), OUTS, INS,
+                             n_modes=30, zeta=0.02)  # fmt: skip
+    f = np.linspace(10.0, 250.0, 40)
+    p = np.linspace(-0.1, 0.1, len(params))
+    which = np.arange(len(params)) % 3 != 1
+    H, dH = sur.frf_and_jacobian(p, f)
+    H_w, dH_w = sur.frf_and_jacobian(p, f, which)
+    assert np.array_equal(H, H_w)
+    assert np.array_equal(dH_w[which], dH[which])
+    assert not dH_w[~which].any() and np.abs(dH[~which]).max() > 0

@@ -29,3 +29,19 @@ def test_info_bad_deck_exits_2_with_location(write, capsys):
 def test_info_missing_file(tmp_path, capsys):
     assert main(["info", str(tmp_path / "nope.bdf")]) == 2
     assert "No such file" in capsys.readouterr().err
+
+
+def test_a_command_loads_its_own_module_only():
+    """``femcal solve`` does not import what identification and the rig need (SciPy's
+    signal and statistics packages, about a second of start-up): the parser is built for
+    the command named."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from femcal.cli import build_parser; "
+            "build_parser('solve').parse_args(['solve', 'deck.bdf']); "
+            "print(sorted(m for m in ('femcal.identify', 'femcal.rig', 'scipy.signal', "
+            "'scipy.stats', 'femcal.cli.identify') if m in sys.modules))")  # fmt: skip
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True)  # fmt: skip
+    assert out.stdout.strip() == "[]"

@@ -3,7 +3,8 @@
 Minimises ``F(p) = |r(p)|^2 / 2`` for p in the box [lower, upper]. Each step solves
 ``(J^T J + mu D) dp = -J^T r`` with D the diagonal of J^T J (Marquardt's scaling, floored),
 over the free parameters only: a parameter at a bound whose gradient pushes it outward is
-held there. The trial point is projected onto the box; it is kept if it lowers F (mu is then
+held there, as is one whose bounds meet (its Jacobian column is not looked at). The trial
+point is projected onto the box; it is kept if it lowers F (mu is then
 divided by 3), otherwise mu is multiplied by 4 and the step solved again.
 
 Stops when the relative fall of F in an accepted step is below ``ftol`` and the largest
@@ -63,7 +64,7 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], tuple[np.ndarray, object]],
         g = J.T @ r
         at_lo = (p <= lo) & (g > 0)
         at_hi = (p >= hi) & (g < 0)
-        free = ~(at_lo | at_hi)
+        free = ~(at_lo | at_hi) & (lo < hi)  # (a parameter whose bounds meet is held)
         if not free.any() or np.abs(g[free]).max() <= 1e-14 * max(1.0, cost):
             converged, message = True, "gradient zero within the bounds"
             break

@@ -42,11 +42,15 @@ class Term:
             r = r + self.correction @ (q - self.surrogate.p_center)
         return r if self.rows is None else r[self.rows]
 
-    def jacobian(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def jacobian(self, p: np.ndarray, which: np.ndarray | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
         """(J (n_residuals, n_p_c), eps) at the shared p (unweighted; ``rows`` only), the
-        correction included (at the centre of a corrected term: the full model's)."""
+        correction included (at the centre of a corrected term: the full model's); with
+        ``which`` (shared, bool) only those parameters' columns are computed (the others:
+        the correction's alone)."""
         q = np.asarray(p, float)[self.index]
-        H, dH = self.surrogate.frf_and_jacobian(q, self.freq)
+        H, dH = self.surrogate.frf_and_jacobian(
+            q, self.freq, None if which is None else np.asarray(which)[self.index])
         J = jacobian(H, dH, self.metric, self.H_test)
         r = residuals(H, self.H_test, self.metric)
         if self.correction is not None:
@@ -87,13 +91,14 @@ class Problem:
     def _data_residuals(self, p: np.ndarray) -> np.ndarray:
         return np.concatenate([t.factor * t.transformed(t.residuals(p))[0] for t in self.terms])
 
-    def data_jacobian(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def data_jacobian(self, p: np.ndarray, which: np.ndarray | None = None
+                      ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
         """(J (n_residuals, n_p), r (n_residuals,)) of the data part at p: every term's
         transformed residuals and their Jacobian, weighed by its factor, the corrections
-        included."""
+        included; with ``which`` (n_p,) bool only those columns (:meth:`Term.jacobian`)."""
         Js, rs = [], []
         for t in self.terms:
-            Jt, et = t.jacobian(p)
+            Jt, et = t.jacobian(p, which)
             rt, dt = t.transformed(et)
             J = np.zeros((len(rt), len(self.lower)))
             J[:, t.index] = t.factor * (dt[:, None] * Jt)
@@ -106,8 +111,8 @@ class Problem:
         r = self._data_residuals(p)
         w = self.weights
 
-        def jac() -> np.ndarray:
-            J = self.data_jacobian(p)[0]
+        def jac() -> np.ndarray:  # (a parameter held by its bounds needs no column)
+            J = self.data_jacobian(p, self.lower < self.upper)[0]
             return J if w is None else np.vstack([J, np.diag(w)])
 
         return (r if w is None else np.concatenate([r, w * p])), jac

@@ -183,9 +183,10 @@ class Surrogate:
     def _q(self, lam: np.ndarray, freq_hz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return modal_factors_and_slopes(lam, freq_hz, self.zeta, self.quantity)
 
-    def frf_and_jacobian(self, p: np.ndarray, freq_hz: np.ndarray
-                         ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
-        """H (n_out, n_in, n_f) and dH/dp (n_p, n_out, n_in, n_f) at p."""
+    def frf_and_jacobian(self, p: np.ndarray, freq_hz: np.ndarray,
+                         which: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """H (n_out, n_in, n_f) and dH/dp (n_p, n_out, n_in, n_f) at p; with ``which``
+        (n_p,) bool the derivatives by those parameters only (the others' are zero)."""
         lam_all, psi_all = self.modes(p)
         m = self._n_frf  # the FRF's modes: j < m; their derivatives use all r modes k
         lam, psi = lam_all[:m], psi_all[:, :m]
@@ -195,7 +196,7 @@ class Surrogate:
         H = np.einsum("oj,ij,jf->oif", S, P, q, optimize=True)
         inv_gap = inverse_gaps(lam, lam_all)  # (r, m)
         n_o, n_i, n_f = H.shape
-        dH = np.empty((self.n_params, n_o, n_i, n_f), complex)
+        dH = np.zeros((self.n_params, n_o, n_i, n_f), complex)
         SP = np.einsum("oj,ij->oij", S, P).reshape(n_o * n_i, -1)  # (o i, m)
         dK, dM = self.derivatives(p)
         if self.residual:  # K~^-1 = Psi Lam^-1 Psi^T
@@ -204,7 +205,7 @@ class Surrogate:
             R = (S_all[:, m:] / lam_all[m:]) @ P_all[:, m:].T
             stat = self._static_factor(freq_hz)
             H = H + R[:, :, None] * stat[None, None, :]
-        for i in range(self.n_params):
+        for i in range(self.n_params) if which is None else np.flatnonzero(which):
             G = psi_all.T @ (dK[i] @ psi)  # (r, m)
             N = psi_all.T @ (dM[i] @ psi)
             dlam, Cc = eigen_derivatives(G, N, lam, inv_gap)
