@@ -53,8 +53,8 @@ def _reexpand(polys: list[GroupPolynomial], Phi: np.ndarray, center: np.ndarray,
         def on_basis(A, rows=rows, P=P) -> np.ndarray:
             return P.T @ (A[rows][:, rows] @ P) if A.nnz else np.zeros((P.shape[1],) * 2)
 
-        red = {tuple(a): (on_basis(Kc), on_basis(Mc))
-               for a, Kc, Mc in zip(g.exponents, g.K, g.M, strict=True)}  # fmt: skip
+        Ks, Ms = _reduced_all(g.K, on_basis), _reduced_all(g.M, on_basis)
+        red = {tuple(a): (Kr, Mr) for a, Kr, Mr in zip(g.exponents, Ks, Ms, strict=True)}
         c = center[idx]
         for b in red:
             if sum(b) == 0 or (first_order and sum(b) > 1):
@@ -72,6 +72,42 @@ def _reexpand(polys: list[GroupPolynomial], Phi: np.ndarray, center: np.ndarray,
             Kt.append(Kb)
             Mt.append(Mb)
     return exps, Kt, Mt
+
+
+def _reduced_all(mats: list, on_basis: Callable) -> list[np.ndarray]:
+    """``on_basis`` of each matrix, a matrix that is a multiple of an earlier one (a term of a
+    parameter that scales the group: the same index arrays, proportional data) reduced as
+    that multiple of the earlier one's reduction."""
+    out: list[np.ndarray] = []
+    done: list[tuple[object, np.ndarray, np.ndarray]] = []  # (matrix, probe places, reduced)
+    for A in mats:
+        reduced = None
+        for B, probe, RB in done:
+            factor = _proportion(A, B, probe)
+            if factor is not None:
+                reduced = factor * RB
+                break
+        if reduced is None:
+            reduced = on_basis(A)
+            if A.nnz:
+                n = len(A.data)
+                done.append((A, np.array([np.argmax(np.abs(A.data)), n // 3, n // 2]), reduced))
+        out.append(reduced)
+    return out
+
+
+def _proportion(A, B, probe: np.ndarray) -> float | None:
+    """f with A = f B to rounding, if A and B share their index arrays (else None): the
+    ratio at a few places first, then every entry."""
+    if A.nnz != B.nnz or A.indices is not B.indices or A.indptr is not B.indptr:
+        return None
+    factor = A.data[probe[0]] / B.data[probe[0]]
+    scale = float(np.abs(A.data[probe[0]]))
+    if np.abs(A.data[probe] - factor * B.data[probe]).max() > 1e-14 * scale:
+        return None
+    if np.abs(A.data - factor * B.data).max() > 1e-14 * scale:
+        return None
+    return float(factor)
 
 
 def _mass_root(M) -> sp.csr_matrix | None:
