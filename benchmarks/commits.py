@@ -67,6 +67,7 @@ def femcal(tree: Path, args: list[str], cwd: Path) -> tuple[float, float, str]:
 def calibrate(tree: Path, sha: str, k: int) -> dict:
     out = WORK / "out" / f"{sha}-{k}"
     wall, mb, text = femcal(tree, ["calibrate", DEMO, "--out", str(out), "--fresh"], tree)
+    (out / "console.txt").write_text(text)  # (where the time went, line by line)
     stamp = lambda pat: float(re.search(r"\[\s*([\d.]+) s\] [^\n]*" + pat, text).group(1))  # noqa: E731
     setup = stamp("cycle 1: Levenberg") - stamp("the exact dependence of K and M")
     table = text[text.index("parameter  "):text.index("deviation: ")]
