@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.femcal-setup
 
-.PHONY: setup demo test test-slow lint bench-parse bench-deck-edit bench-assembly bench-eigen bench-identify bench-identify-real bench-calibration bench-fuzz bench-scaling bench-pages setup-slepc bench-slepc clean
+.PHONY: setup demo test test-slow lint bench-parse bench-deck-edit bench-assembly bench-eigen bench-identify bench-identify-real bench-calibration bench-fuzz bench-scaling bench-pages bench-commits setup-slepc bench-slepc clean
 
 setup: $(STAMP)
 
@@ -74,6 +74,12 @@ bench-calibration: setup
 # local worker processes and a Dask LocalCluster (docs/scaling.md).
 bench-scaling: setup
 	$(PY) benchmarks/scaling.py
+
+# Two commits side by side, run whole and alternating: the demo's calibration and the plate's
+# normal modes at 242 k DOF with CalculiX once (make bench-commits OLD=<rev> [NEW=<rev>]).
+bench-commits: setup
+	@command -v ccx >/dev/null || { [ "$$(id -u)" = 0 ] && apt-get install -y -qq calculix-ccx >/dev/null; } || true
+	$(PY) benchmarks/commits.py $(OLD) $(or $(NEW),HEAD) --calculix
 
 # The report pages in headless Chromium at 1024 px: the verdict first, no sideways scrolling.
 bench-pages: setup
