@@ -312,13 +312,20 @@ class Assembler:
         """Matrix number ``which`` as its values (nnz,) on the pattern, node blocks
         included (the accumulated array itself: add nothing more after taking it)."""
         out = self._full(which)
-        blocks = self._node_blocks[which]
-        if blocks is not None:
-            p = self.pattern
-            node, i, j = np.nonzero(blocks)
-            start = p.dof_start[node]
-            np.add.at(out, p.positions(start + i, start + j), blocks[node, i, j])
+        if self._node_blocks[which] is not None:
+            rows, cols, vals = self._node_entries(which)
+            np.add.at(out, self.pattern.positions(rows, cols), vals)
         return out
+
+    def _node_entries(self, which: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(rows, columns, values) of matrix ``which``'s node blocks' nonzero entries."""
+        p = self.pattern
+        blocks = self._node_blocks[which]
+        node, i, j = np.nonzero(blocks)
+        if (p.ndof[node] < 6).any():
+            raise ValueError("a 6 x 6 node block was added to a scalar point")
+        start = p.dof_start[node]
+        return start + i, start + j, blocks[node, i, j]
 
     def matrix(self, which: int = 0) -> sp.csr_matrix:
         """Assembled matrix number ``which``. Without node blocks it shares the accumulated
@@ -328,14 +335,10 @@ class Assembler:
         m = sp.csr_matrix((p.n_dof, p.n_dof))
         if self._data[which] is not None or self._node_blocks[which] is None:
             m.data, m.indices, m.indptr = self._full(which), p.indices, p.indptr
-        blocks = self._node_blocks[which]
-        if blocks is None:
+        if self._node_blocks[which] is None:
             return m
-        node, i, j = np.nonzero(blocks)
-        start = p.dof_start[node]
-        if (p.ndof[node] < 6).any():
-            raise ValueError("a 6 x 6 node block was added to a scalar point")
-        b = sp.csr_matrix((blocks[node, i, j], (start + i, start + j)), shape=m.shape)
+        rows, cols, vals = self._node_entries(which)
+        b = sp.csr_matrix((vals, (rows, cols)), shape=m.shape)
         return b if self._data[which] is None else (m + b).tocsr()
 
 

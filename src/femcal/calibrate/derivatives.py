@@ -154,7 +154,8 @@ def interpolation_nodes(assemble_at, degree: int, interval: tuple[float, float],
     needs); if that fails, :data:`RAISED_DEGREES` on Chebyshev points over ``interval``
     (which holds +-SPREAD). ``what`` names the parameter(s) in the error. ``at_zero``: the
     matrices at ``d = 0`` if the caller has them (else assembled once here). The matrices
-    may be sparse matrices of one pattern or data vectors. ``first_try``: a raised degree
+    are data vectors of one pattern (:class:`~femcal.assembly.repeated.RepeatedAssembly`),
+    or what ``align`` turns into them. ``first_try``: a raised degree
     to try before all others (the one an alike group of elements needed); it is checked as
     any other, and the usual ladder follows if it fails. ``align``: turns a list of what
     ``assemble_at`` returned into pairs (K, M) of one shape (default: as they are).
@@ -325,6 +326,7 @@ def group_polynomials(model: Model, params: list[Parameter], center: np.ndarray,
         k_at, m_at = (fit.repeated.places(at) for at in fit.places)  # (shared by the terms)
         terms, Kc, Mc = [], [], []
         tol = 1e-11
+        shape = (model.n_dof, model.n_dof)
         k_scale, m_scale = _max_abs(fit.at_centre[0]), _max_abs(fit.at_centre[1])
         for a, Ka, Ma in zip(exps, K, M, strict=True):
             if (sum(a) == 0 and not constant) or (first_order and sum(a) > 1):
@@ -334,7 +336,6 @@ def group_polynomials(model: Model, params: list[Parameter], center: np.ndarray,
             if k_zero and m_zero and sum(a) > 0:
                 continue  # the field's degree bounds both; this term is rounding
             terms.append(a)
-            shape = (model.n_dof, model.n_dof)
             Kc.append(sp.csr_matrix(shape) if k_zero else fit.repeated.matrix(Ka, k_at))
             Mc.append(sp.csr_matrix(shape) if m_zero else fit.repeated.matrix(Ma, m_at))
         out.append(GroupPolynomial(idx, np.array(terms, int).reshape(-1, len(idx)), Kc, Mc))
@@ -421,9 +422,10 @@ class _GroupFit:
         return found
 
     def _scales(self, k: int, found: Nodes) -> str | None:
-        """"K" or "M" if parameter k, moving alone, scales that matrix of the group in
-        proportion to its value and leaves the other (a modulus with G derived from E, a
-        density): then ``X(d) = X(0) (1 + d / (1 + c))`` is the whole dependence on it."""
+        """Which of the group's matrices ("K" or "M") parameter k, moving alone, scales in
+        proportion to its value while it leaves the other (a modulus with G derived from E,
+        a density), or None: then ``X(d) = X(0) (1 + d / (1 + c))`` is the whole dependence
+        on it."""
         spec = self.pars[k].spec
         if found.raised or (spec.k_degree, spec.m_degree) not in ((1, 0), (0, 1)):
             return None
