@@ -49,12 +49,18 @@ class Term:
         ``which`` (shared, bool) only those parameters' columns are computed (the others:
         the correction's alone)."""
         q = np.asarray(p, float)[self.index]
-        H, dH = self.surrogate.frf_and_jacobian(
-            q, self.freq, None if which is None else np.asarray(which)[self.index])
-        J = jacobian(H, dH, self.metric, self.H_test)
+        mine = None if which is None else np.asarray(which)[self.index]
+        H, dH = self.surrogate.frf_and_jacobian(q, self.freq, mine)
+        if mine is None:
+            J = jacobian(H, dH, self.metric, self.H_test)
+        else:  # (the other columns are zero: no need to divide them by H)
+            cols = np.flatnonzero(mine)
+            J_sel = jacobian(H, dH[cols], self.metric, self.H_test)
+            J = np.zeros((J_sel.shape[0], len(q)))
+            J[:, cols] = J_sel
         r = residuals(H, self.H_test, self.metric)
         if self.correction is not None:
-            J = J + self.correction
+            J += self.correction  # (J is this call's own array)
             r = r + self.correction @ (q - self.surrogate.p_center)
         return (J, r) if self.rows is None else (J[self.rows], r[self.rows])
 
@@ -97,14 +103,22 @@ class Problem:
         transformed residuals and their Jacobian, weighed by its factor, the corrections
         included; with ``which`` (n_p,) bool only those columns (:meth:`Term.jacobian`)."""
         Js, rs = [], []
+        n_p = len(self.lower)
         for t in self.terms:
             Jt, et = t.jacobian(p, which)
             rt, dt = t.transformed(et)
-            J = np.zeros((len(rt), len(self.lower)))
-            J[:, t.index] = t.factor * (dt[:, None] * Jt)
-            Js.append(J)
+            if t.huber is not None:  # (least squares: dt = 1)
+                Jt = dt[:, None] * Jt
+            if t.factor != 1.0:
+                Jt = t.factor * Jt
+            if len(t.index) == n_p and (t.index == np.arange(n_p)).all():
+                Js.append(Jt)
+            else:
+                J = np.zeros((len(rt), n_p))
+                J[:, t.index] = Jt
+                Js.append(J)
             rs.append(t.factor * rt)
-        return np.vstack(Js), np.concatenate(rs)
+        return (Js[0] if len(Js) == 1 else np.vstack(Js)), np.concatenate(rs)
 
     def fun(self, p: np.ndarray):
         """Residuals and a callable for their Jacobian (computed for accepted points only)."""

@@ -35,11 +35,12 @@ def eigen_derivatives(G: np.ndarray, N: np.ndarray, lam: np.ndarray, inv_gap: np
     sum_k c_kj phi_k, of m mass-normalised modes from G = Phi^T dK Phi_m and
     N = Phi^T dM Phi_m (r, m), their eigenvalues lam (m,) and :func:`inverse_gaps`:
     ``dlam_j = G_jj - lam_j N_jj``, ``c_kj = (G_kj - lam_j N_kj) / (lam_j - lam_k)``,
-    ``c_jj = -N_jj / 2`` (Fox and Kapoor; the modal method)."""
+    ``c_jj = -N_jj / 2`` (Fox and Kapoor; the modal method). G and N may carry leading
+    axes (several parameters at once, (..., r, m)); dlam and c then carry them too."""
     diag = np.arange(len(lam))
-    dlam = _eigenvalue_derivatives(G[diag, diag], N[diag, diag], lam)
-    c = (G - N * lam[None, :]) * inv_gap
-    c[diag, diag] = -0.5 * N[diag, diag]
+    dlam = _eigenvalue_derivatives(G[..., diag, diag], N[..., diag, diag], lam)
+    c = (G - N * lam) * inv_gap
+    c[..., diag, diag] = -0.5 * N[..., diag, diag]
     return dlam, c
 
 

@@ -186,7 +186,12 @@ class Surrogate:
     def frf_and_jacobian(self, p: np.ndarray, freq_hz: np.ndarray,
                          which: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """H (n_out, n_in, n_f) and dH/dp (n_p, n_out, n_in, n_f) at p; with ``which``
-        (n_p,) bool the derivatives by those parameters only (the others' are zero)."""
+        (n_p,) bool the derivatives by those parameters only (the others' are zero).
+
+        Every parameter's derivative is made at once: the real modal coefficients of all of
+        them, (n_sel n_out n_in, 2 m) for the shapes' and the eigenvalues' parts, times the
+        real and imaginary parts of q and dq/dlam, (2 m, 2 n_f), in one real product (half
+        the arithmetic of a complex one, which would first turn the coefficients complex)."""
         lam_all, psi_all = self.modes(p)
         m = self._n_frf  # the FRF's modes: j < m; their derivatives use all r modes k
         lam, psi = lam_all[:m], psi_all[:, :m]
@@ -194,28 +199,34 @@ class Surrogate:
         S_all, P_all = self.C @ psi_all, self.B @ psi_all  # (n_out, r), (n_in, r)
         S, P = S_all[:, :m], P_all[:, :m]
         H = np.einsum("oj,ij,jf->oif", S, P, q, optimize=True)
-        inv_gap = inverse_gaps(lam, lam_all)  # (r, m)
         n_o, n_i, n_f = H.shape
-        dH = np.zeros((self.n_params, n_o, n_i, n_f), complex)
-        SP = np.einsum("oj,ij->oij", S, P).reshape(n_o * n_i, -1)  # (o i, m)
-        dK, dM = self.derivatives(p)
         if self.residual:  # K~^-1 = Psi Lam^-1 Psi^T
+            stat = self._static_factor(freq_hz)
+            R = (S_all[:, m:] / lam_all[m:]) @ P_all[:, m:].T
+            H = H + R[:, :, None] * stat[None, None, :]
+        dH = np.zeros((self.n_params, n_o, n_i, n_f), complex)
+        sel = np.arange(self.n_params) if which is None else np.flatnonzero(which)
+        if not sel.size:
+            return H, dH
+        W = self._weight_derivatives(p)[:, sel]  # (n_terms, n_sel)
+        dK = np.tensordot(W.T, self.Kt, axes=1)  # (n_sel, r, r)
+        dM = np.tensordot(W.T, self.Mt, axes=1)
+        G = psi_all.T @ (dK @ psi)  # (n_sel, r, m)
+        N = psi_all.T @ (dM @ psi)
+        dlam, Cc = eigen_derivatives(G, N, lam, inverse_gaps(lam, lam_all))
+        dS, dP = S_all @ Cc, P_all @ Cc  # (n_sel, n_out, m), (n_sel, n_in, m)
+        # per parameter and output-input pair: m shape coefficients, then m of dlam
+        A = np.empty((sel.size, n_o, n_i, 2 * m))
+        A[..., :m] = dS[:, :, None, :] * P[None, None] + S[None, :, None, :] * dP[:, None]
+        A[..., m:] = (S[:, None, :] * P[None, :, :])[None] * dlam[:, None, None, :]
+        Q = np.empty((2 * m, 2 * n_f))
+        Q[:m, :n_f], Q[:m, n_f:], Q[m:, :n_f], Q[m:, n_f:] = q.real, q.imag, dq.real, dq.imag
+        X = (A.reshape(-1, 2 * m) @ Q).reshape(sel.size, n_o, n_i, 2 * n_f)
+        dH[sel] = X[..., :n_f] + 1j * X[..., n_f:]
+        if self.residual:  # d(C K~^-1 B^T) less the m modes' static part
             KiB = psi_all @ (P_all.T / lam_all[:, None])  # (r, n_in)
             CKi = (S_all / lam_all) @ psi_all.T  # (n_out, r)
-            R = (S_all[:, m:] / lam_all[m:]) @ P_all[:, m:].T
-            stat = self._static_factor(freq_hz)
-            H = H + R[:, :, None] * stat[None, None, :]
-        for i in range(self.n_params) if which is None else np.flatnonzero(which):
-            G = psi_all.T @ (dK[i] @ psi)  # (r, m)
-            N = psi_all.T @ (dM[i] @ psi)
-            dlam, Cc = eigen_derivatives(G, N, lam, inv_gap)
-            dS, dP = S_all @ Cc, P_all @ Cc
-            shape_part = (np.einsum("oj,ij->oij", dS, P) + np.einsum("oj,ij->oij", S, dP))
-            dH[i] = (shape_part.reshape(n_o * n_i, -1) @ q
-                     + (SP * dlam[None, :]) @ dq).reshape(n_o, n_i, n_f)  # fmt: skip
-            if self.residual:  # d(C K~^-1 B^T) less the m modes' static part
-                dR = (-CKi @ dK[i] @ KiB
-                      - (shape_part.reshape(n_o * n_i, -1) @ (1.0 / lam)).reshape(n_o, n_i)
-                      + (SP * (dlam / lam**2)[None, :]).sum(axis=1).reshape(n_o, n_i))
-                dH[i] += dR[:, :, None] * stat[None, None, :]
+            dR = (-(CKi @ dK @ KiB) - A[..., :m] @ (1.0 / lam)
+                  + A[..., m:] @ (1.0 / lam**2))  # (n_sel, n_out, n_in)
+            dH[sel] += dR[..., None] * stat
         return H, dH
