@@ -75,8 +75,9 @@ SCREEN_SIZES = 10.0 ** np.arange(-3.0, 1.01, 1.0)
 
 #: The screen's candidates go in blocks whose every complex temporary stays within this many
 #: bytes (a handful are alive at once), so a test with many channels and inputs screens in
-#: bounded memory.
-SCREEN_BLOCK_BYTES = 64 * 2**20
+#: bounded memory, and the chain of elementwise steps on a block runs from the processor's
+#: cache rather than from memory (RESULTS.md has the measurement).
+SCREEN_BLOCK_BYTES = 4 * 2**20
 
 
 @dataclass(frozen=True)
@@ -325,13 +326,17 @@ def missing_elements(model: Model, modes: Modes, outputs: Sequence[Channel],
     def deviations(ratio: np.ndarray, fsel: np.ndarray) -> np.ndarray:
         """(c,) the weighted deviation of model-over-test ratios (c, o, i, f) at ``fsel``,
         without trigonometry: log10|r| = ln(|r|^2) / (2 ln 10), and the phase part's square
-        (2 sin(arg r / 2))^2 = 2 (1 - Re r / |r|)."""
+        (2 sin(arg r / 2))^2 = 2 (1 - Re r / |r|); each part's sum over o, i, f is one
+        product with its weights."""
+        n_c = ratio.shape[0]
         with np.errstate(divide="ignore", invalid="ignore"):
             a2 = ratio.real**2 + ratio.imag**2
-            dev = ((np.log(a2) / (2.0 * _LN10)) ** 2 * wparts[0][..., fsel]).sum(axis=(1, 2, 3))
+            log_a2 = np.log(a2)
+            dev = (log_a2 * log_a2).reshape(n_c, -1) @ (
+                wparts[0][..., fsel] / (4.0 * _LN10**2)).ravel()
             if complex_log:
-                dev += (2.0 * (1.0 - ratio.real / np.sqrt(a2)) / _LN10**2
-                        * wparts[1][..., fsel]).sum(axis=(1, 2, 3))  # fmt: skip
+                dev += (1.0 - ratio.real / np.sqrt(a2)).reshape(n_c, -1) @ (
+                    wparts[1][..., fsel] * (2.0 / _LN10**2)).ravel()
         return np.where(np.isfinite(dev), dev, np.inf)
 
     def screen(dofs: np.ndarray, mass: bool, fsel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -340,12 +345,15 @@ def missing_elements(model: Model, modes: Modes, outputs: Sequence[Channel],
         each added exactly to the modal receptance at the frequencies ``fsel``. The sizes
         are relative to the DOF's own dynamic stiffness in the band (the inverse of the
         median driving-point receptance, times w^2 for a mass), so one set serves every
-        DOF, translation or rotation, in any units."""
+        DOF, translation or rotation, in any units. With the candidate the model's FRFs
+        become H (R - dR) / R, so the ratio to the test's is ``base - dR g`` with
+        ``base = H / H_test`` and ``g = base / R`` made once."""
         fall = np.full(len(dofs), -np.inf)
         best = np.zeros(len(dofs))
         Gf, w2 = G[fsel], w[fsel] ** 2
         base = (H_model / H_test)[..., fsel]
-        Rf = R[..., fsel]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            g = base / R[..., fsel]  # (o, i, f)
         ref_dev = deviations(base[None], fsel)[0]
         # candidates per block: each complex (c, o, i, f) temporary within SCREEN_BLOCK_BYTES
         per = 16 * max(len(outputs) * len(inputs) * len(fsel), dofs.shape[1] * len(fsel)
@@ -362,20 +370,22 @@ def missing_elements(model: Model, modes: Modes, outputs: Sequence[Channel],
             reach = flex > 0  # a DOF no mode moves cannot be a candidate
             ref = np.where(reach, 1.0 / np.where(reach, flex, 1.0), 0.0)
             eye = np.eye(k)[None, None]
+            if k == 1:  # (c, o, 1, f) and (c, 1, i, f) g: their product is R_o. R_.i g
+                out_d = np.ascontiguousarray(Rod[..., 0].transpose(1, 2, 0))[:, :, None, :]
+                d_in = Rdi[..., 0, :].transpose(1, 2, 0)[:, None, :, :] * g[None]
             for rel in SCREEN_SIZES:
                 size = ref * rel  # (c,)
                 dz = (-w2[:, None] * size[None, :] if mass
                       else np.broadcast_to(size[None, :], (len(fsel), len(size))))  # fmt: skip
                 if k == 1:  # Sherman-Morrison
-                    core = dz / (1.0 + Rdd[..., 0, 0] * dz)  # (f, c)
-                    dR = np.einsum("fco,fc,fci->coif", Rod[..., 0], core, Rdi[..., 0, :],
-                                   optimize=True)  # fmt: skip
+                    core = (dz / (1.0 + Rdd[..., 0, 0] * dz)).T  # (c, f)
+                    ratio = base[None] - (out_d * core[:, None, None, :]) * d_in
                 else:
                     core = np.linalg.solve(eye + Rdd * dz[..., None, None],
                                            eye * dz[..., None, None])  # fmt: skip
                     dR = np.einsum("fcok,fckl,fcli->coif", Rod, core, Rdi, optimize=True)
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    got = 1.0 - deviations(base[None] * (1.0 - dR / Rf[None]), fsel) / ref_dev
+                    ratio = base[None] - dR * g[None]
+                got = 1.0 - deviations(ratio, fsel) / ref_dev
                 got = np.where(reach, got, -np.inf)
                 sl = slice(a, a + len(size))
                 better = got > fall[sl]
