@@ -146,6 +146,7 @@ def validate(cases: Sequence[Case], terms: Sequence[Term], nominal_terms: Sequen
              plan: tuple[str, list[tuple[str, int, np.ndarray]]],
              *, noise_sigma: float | None, hold_ratio: float, identifiable_ratio: float,
              max_iter: int, full_residuals: Callable[[int, np.ndarray], np.ndarray],
+             search: Callable[[Problem, list[np.ndarray], int], Sequence] | None = None,
              progress: Callable[[str], None] | None = None) -> HoldOut:  # fmt: skip
     """Run the folds of ``plan`` (see the module docstring).
 
@@ -156,6 +157,10 @@ def validate(cases: Sequence[Case], terms: Sequence[Term], nominal_terms: Sequen
     params : the shared parameters (their bounds are the search's).
     full_residuals : (case, p) -> that configuration's residuals (unweighted, all rows) on
         the full model at the shared p.
+    search : (problem, start points, fold number from 1) -> the Levenberg-Marquardt
+        results (with ``p`` and ``cost``) from each start point in order, wherever they run
+        and kept wherever the caller keeps them (:func:`femcal.calibrate.starts.run_starts`);
+        default: one after another here.
     """
     say = progress or (lambda _m: None)
     kind, folds = plan
@@ -188,11 +193,11 @@ def validate(cases: Sequence[Case], terms: Sequence[Term], nominal_terms: Sequen
         fold_terms = tuple(replace(terms[j], factor=factors[j],
                                    rows=None if keep[j].all() else keep[j]) for j in used)
         problem = Problem(fold_terms, lo, hi, max_iter, ref.weights(prior))
-        best = None
-        for p0 in (zero, np.clip(p_final, lo, hi)):
-            res = levenberg_marquardt(problem.fun, p0, lo, hi, max_iter=max_iter)
-            if best is None or res.cost < best.cost:
-                best = res
+        points = [zero, np.clip(p_final, lo, hi)]
+        results = (search(problem, points, n) if search is not None
+                   else [levenberg_marquardt(problem.fun, p0, lo, hi, max_iter=max_iter)
+                         for p0 in points])  # fmt: skip
+        best = min(results, key=lambda res: res.cost)  # (the first of equal ones)
         c = nominal_terms[k].huber
         r_cal = full_residuals(k, best.p)[rows]
         fold = Fold(name, k, rows, best.p, held, huber_deviation(r0[k][rows], c),

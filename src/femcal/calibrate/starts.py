@@ -138,6 +138,9 @@ def run_starts(problem: Problem, starts: list[np.ndarray], *, session: Session |
                          lambda tmp: Path(tmp).write_text(text))  # fmt: skip
 
     todo = [k for k in range(len(starts)) if k not in results]
+    if todo:  # the task's clock starts here, not at its first finished start
+        say(Step(f"{len(todo)} of {len(starts)} starts to run", task=task, done=len(results),
+                 total=len(starts)))  # fmt: skip
     engine = session.engine if session is not None else Engine()
     if engine.kind == "dask" and todo:
         pool = session.pool()

@@ -377,15 +377,17 @@ def _calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *, truth: np.nda
         return Problem(terms_on(surs), lower, upper, cfg.max_iterations,
                        weighing.get("weights"))  # fmt: skip
 
-    def starts_in(name: str, problem: Problem, pts: list[np.ndarray],
-                  center: np.ndarray) -> list[StartResult]:  # fmt: skip
+    def starts_in(name: str, problem: Problem, pts: list[np.ndarray], center: np.ndarray,
+                  task: str | None = None) -> list[StartResult]:  # fmt: skip
+        """The starts ``pts`` on ``problem``, kept in the state folder ``name`` (resumed
+        there), their fingerprint the run's and ``center``'s."""
         folder = state_dir / name if state_dir is not None else None
         if fresh and folder is not None and folder.is_dir():
             for f in folder.glob("start_*.json"):
                 f.unlink()
         return run_starts(problem, pts, session=session, folder=folder,
                           fingerprint=fp + f"-{name}-" + ",".join(f"{x:.12g}" for x in center),
-                          progress=say, task=_starts_task(name))  # fmt: skip
+                          progress=say, task=task or _starts_task(name))  # fmt: skip
 
     cycles: list[Cycle] = []
 
@@ -568,6 +570,9 @@ def _calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *, truth: np.nda
                         noise_sigma=cfg.noise_sigma, hold_ratio=cfg.hold_ratio,
                         identifiable_ratio=cfg.identifiable_ratio,
                         max_iter=cfg.max_iterations, full_residuals=full_residuals,
+                        search=lambda prob, pts, n: starts_in(
+                            f"holdout{n}", prob, pts, p_final,
+                            task=f"hold-out {n}/{len(plan[1])}: starts"),
                         progress=say)
                if plan[1] else None)  # fmt: skip
     result = CalibrationResult(
