@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 
 from femcal.parallel import SerialExecutor, executor, message_queue, ordered
+from femcal.parallel.executors import ForkedCall
 
 from .processes import alive, children
 
@@ -76,6 +77,26 @@ def test_processes_and_their_message_queue():
         assert [f.result() for f in [pool.submit(_square, k) for k in range(5)]] == [0, 1, 4, 9, 16]
     q.put("done")
     assert q.get() == "done"
+
+
+def _blas_threads_and_pid(values: list) -> tuple[int, int, float]:
+    from threadpoolctl import threadpool_info
+
+    blas = [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
+    return max(blas or [1]), os.getpid(), float(sum(values))
+
+
+@pytest.mark.skipif(os.name != "posix", reason="forked workers only where the OS forks")
+def test_a_forked_call_inherits_its_inputs_and_returns_its_result():
+    """The call runs in another process with one BLAS thread; its inputs are inherited at the
+    fork, so even one that cannot be pickled (a lambda) gets there; an error comes back."""
+    values = [1.5, 2.5, lambda: None]  # the lambda: pickling the inputs would fail
+    with ForkedCall(lambda v: _blas_threads_and_pid(v[:2]), values) as call:
+        threads, pid, total = call.future.result(timeout=60)
+    assert (threads, total) == (1, 4.0)
+    assert pid != os.getpid()
+    with ForkedCall(lambda: 1 / 0) as call:
+        assert isinstance(call.future.exception(timeout=60), ZeroDivisionError)
 
 
 def test_bad_requests_are_named():

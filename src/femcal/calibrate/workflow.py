@@ -48,6 +48,7 @@ pictures) are written by :mod:`femcal.jobs.calibration`.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import json
@@ -63,6 +64,7 @@ from ..correlate import mac, pair_modes, pseudo_orthogonality, serep_mass
 from ..identify import IdentifiedModel
 from ..model.model import Model
 from ..parallel.cluster import Engine, Session, result_of
+from ..parallel.executors import ForkedCall
 from ..parallel.progress import Detail
 from ..response.frf import channel_matrix
 from ..testdata.data import FRFData
@@ -74,7 +76,7 @@ from .holdout import fold_plan, validate
 from .identifiability import identifiability, identifiability_summary
 from .lm import latin_hypercube
 from .metric import deviation, residuals
-from .modelform import diagnose, measured_scatter
+from .modelform import ModelForm, diagnose, measured_scatter
 from .parameters import Parameter, share_parameters
 from .prior import Likelihood, likelihood_of, posterior, prior_of
 from .problem import Problem, Term
@@ -531,11 +533,6 @@ def _calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *, truth: np.nda
     at_bound = {params[i].name for i in range(n_p) if not held[i] and (
         np.isclose(p_final[i], params[i].p_lower, atol=1e-9)
         or np.isclose(p_final[i], params[i].p_upper, atol=1e-9))}  # fmt: skip
-    case_results = tuple(
-        _case_result(case, surs0[k], surs[k], modes0[k], modes_c[k], p_final, frf_modes[k],
-                     likelihoods[k], cfg.metric, r0s[k],
-                     [q.name for q in case.params if q.name in at_bound], cfg.noise_sigma)
-        for k, case in enumerate(cases))  # fmt: skip
     parameters = []
     for i, par in enumerate(params):
         std = float(post.std[i])
@@ -566,15 +563,30 @@ def _calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *, truth: np.nda
             frf_modes=frf_modes[k], exact_gradient=False, centre_only=True)  # fmt: skip
         return residuals(sur.frf(q, case.freq), case.H_test, cfg.metric)
 
-    holdout = (validate(cases, problem.terms, terms0, params, p_final, prior, plan,
-                        noise_sigma=cfg.noise_sigma, hold_ratio=cfg.hold_ratio,
-                        identifiable_ratio=cfg.identifiable_ratio,
-                        max_iter=cfg.max_iterations, full_residuals=full_residuals,
-                        search=lambda prob, pts, n: starts_in(
-                            f"holdout{n}", prob, pts, p_final,
-                            task=f"hold-out {n}/{len(plan[1])}: starts"),
-                        progress=say)
-               if plan[1] else None)  # fmt: skip
+    bound_names = [[q.name for q in case.params if q.name in at_bound] for case in cases]
+    form_inputs = [(case, surs[k], modes_c[k], p_final, cfg.metric, r0s[k], bound_names[k],
+                    cfg.noise_sigma) for k, case in enumerate(cases)]  # fmt: skip
+    # the model-form diagnostics (NumPy on what is at hand) run in a forked process of their
+    # own while the hold-out folds (which factorise) run here, when there are cores for both
+    beside = bool(plan[1]) and session.engine.kind == "local" and session.engine.workers > 1
+    with (ForkedCall(_model_forms, form_inputs) if beside
+          else contextlib.nullcontext()) as call:
+        holdout = (validate(cases, problem.terms, terms0, params, p_final, prior, plan,
+                            noise_sigma=cfg.noise_sigma, hold_ratio=cfg.hold_ratio,
+                            identifiable_ratio=cfg.identifiable_ratio,
+                            max_iter=cfg.max_iterations, full_residuals=full_residuals,
+                            search=lambda prob, pts, n: starts_in(
+                                f"holdout{n}", prob, pts, p_final,
+                                task=f"hold-out {n}/{len(plan[1])}: starts"),
+                            progress=say)
+                   if plan[1] else None)  # fmt: skip
+        forms = (result_of(call.future, "the model-form diagnostics") if beside
+                 else _model_forms(form_inputs))  # fmt: skip
+    case_results = tuple(
+        _case_result(case, surs0[k], surs[k], modes0[k], modes_c[k], p_final, frf_modes[k],
+                     likelihoods[k], cfg.metric, r0s[k], forms[k])
+        for k, case in enumerate(cases))  # fmt: skip
+
     result = CalibrationResult(
         config=cfg, parameters=tuple(parameters), p_final=p_final, cases=case_results,
         cycles=tuple(cycles), settled=settled, prior=prior, identifiability=before,
@@ -590,23 +602,37 @@ def _build_surrogate(model: Model, params: list[Parameter], q: np.ndarray,
     return build_surrogate(model, params, q, outputs, inputs, **kwargs)
 
 
-def _case_result(case: Case, sur0: Surrogate, sur: Surrogate, modes0, modes_after,
-                 p_final: np.ndarray, frf_modes: int, likelihood: Likelihood, metric: str,
-                 eps_before: np.ndarray, at_bound: list[str],
-                 noise_sigma: float | None) -> CaseResult:  # fmt: skip
-    """One configuration's outcome: the full model's FRFs (each surrogate at its centre: the
-    modal sum over the reduction modes, with the residual flexibility if asked), deviations,
-    MAC and mode pairings before and after, and the model-form diagnostics against the
-    given noise level (else the measured FRFs' scatter about the identified model)."""
-    n_p_c = len(case.params)
+def _model_form(case: Case, sur: Surrogate, modes_after, p_final: np.ndarray, metric: str,
+                eps_before: np.ndarray, at_bound: list[str],
+                noise_sigma: float | None) -> ModelForm:  # fmt: skip
+    """One configuration's model-form diagnostics (:func:`~femcal.calibrate.modelform.
+    diagnose`) at the calibrated point against the given noise level (else the measured
+    FRFs' scatter about the identified model)."""
     noise = noise_sigma or measured_scatter(case.setup.data, case.setup.identified,
                                             case.outputs, case.setup.band, metric)
+    H_after = sur.frf(p_final[case.index], case.freq)
+    eps_after = residuals(H_after, case.H_test, metric)
+    return diagnose(case.model, modes_after, case.outputs, case.inputs, case.freq,
+                    case.zeta0, case.setup.band, case.test_hz, eps_before, eps_after, H_after,
+                    case.H_test, metric, noise, at_bound, case.setup.channel_names)  # fmt: skip
+
+
+def _model_forms(inputs: list[tuple]) -> list[ModelForm]:
+    """:func:`_model_form` of every configuration's inputs (a task for a worker)."""
+    return [_model_form(*args) for args in inputs]
+
+
+def _case_result(case: Case, sur0: Surrogate, sur: Surrogate, modes0, modes_after,
+                 p_final: np.ndarray, frf_modes: int, likelihood: Likelihood, metric: str,
+                 eps_before: np.ndarray, form: ModelForm) -> CaseResult:  # fmt: skip
+    """One configuration's outcome: the full model's FRFs (each surrogate at its centre: the
+    modal sum over the reduction modes, with the residual flexibility if asked), deviations,
+    MAC and mode pairings before and after, and its model-form diagnostics ``form``
+    (:func:`_model_form`)."""
+    n_p_c = len(case.params)
     H_before = sur0.frf(np.zeros(n_p_c), case.freq)
     H_after = sur.frf(p_final[case.index], case.freq)
     eps_after = residuals(H_after, case.H_test, metric)
-    form = diagnose(case.model, modes_after, case.outputs, case.inputs, case.freq, case.zeta0,
-                    case.setup.band, case.test_hz, eps_before, eps_after, H_after, case.H_test,
-                    metric, noise, at_bound, case.setup.channel_names)  # fmt: skip
     Cg = channel_matrix(case.model, case.outputs)
     fe_before = np.asarray(Cg @ modes0.shapes)
     fe_after = np.asarray(Cg @ modes_after.shapes)

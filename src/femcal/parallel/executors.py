@@ -192,6 +192,49 @@ def executor(kind: Kind, workers: int = 1, *, name: str = "femcal",
                        initargs=initargs)  # fmt: skip
 
 
+#: A forked call's function and arguments, set in its worker when the worker starts.
+_INHERITED: tuple | None = None
+
+
+def _inherit(call: tuple, blas_threads: int | None) -> None:
+    global _INHERITED
+    _INHERITED = call
+    if blas_threads is not None:
+        from threadpoolctl import threadpool_limits
+
+        threadpool_limits(blas_threads)
+
+
+def _run_inherited() -> object:
+    assert _INHERITED is not None, "a forked call's worker started without its call"
+    fn, args = _INHERITED
+    return fn(*args)
+
+
+class ForkedCall:
+    """``fn(*args)`` in a worker process of its own while the caller goes on: ``future``
+    holds its result. Where the OS can fork, the worker inherits ``fn`` and its arguments
+    at the fork (nothing is pickled on the way in, only the result on the way back), so it
+    suits work on large inputs the caller already holds; elsewhere they are pickled. The
+    worker runs with ``blas_threads`` BLAS threads (None: the library's default), dies with
+    this process and ignores Ctrl-C (:class:`ProcessPool`). Work that factorises sparse
+    matrices does not belong here (a forked worker cannot run CHOLMOD's OpenMP; see
+    :func:`_process_context`). Use it as a context manager: leaving the block waits for the
+    call, or, left by an exception, ends the worker at once."""
+
+    def __init__(self, fn: Callable[..., R], *args, blas_threads: int | None = 1) -> None:
+        self.pool = ProcessPool(1, mp_context=_process_context(), initializer=_inherit,
+                                initargs=((fn, args), blas_threads))  # fmt: skip
+        self.future: Future = self.pool.submit(_run_inherited)
+
+    def __enter__(self) -> ForkedCall:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> bool:  # fmt: skip
+        return self.pool.__exit__(exc_type, exc, tb)
+
+
 def message_queue(kind: Kind) -> queue.Queue:
     """A queue that the workers of an executor of ``kind`` can put messages on and the caller
     read (``put``, ``get``, ``get_nowait`` raising :class:`queue.Empty`). For processes a
