@@ -207,3 +207,39 @@ def test_group_polynomials_reproduce_the_groups_matrices(tmp_path, shear_modulus
             assert _rel(K, exact.K) < 1e-8, [p.name for p in pars]
             if exact.M.nnz:
                 assert _rel(M, exact.M) < 1e-8, [p.name for p in pars]
+
+
+def test_a_groups_degree_is_found_on_a_sample_first(tmp_path, monkeypatch):
+    """A large group's raised degree is found on a sample of its elements: the whole group is
+    then assembled only at that degree's points, and its polynomial is the same as when the
+    ladder of degrees climbs on every element."""
+    import femcal.calibrate.derivatives as derivatives
+    from femcal.assembly.repeated import RepeatedAssembly
+
+    (tmp_path / "d.bdf").write_text(plate_deck())
+    (tmp_path / "p.toml").write_text(PARAMS_TOML)
+    model = build_model(read_deck(tmp_path / "d.bdf"))
+    params = read_parameters(tmp_path / "p.toml", model)
+    n_quads = len(model.elements["CQUAD4"].ids)
+    sizes: list[tuple] = []  # (element types, elements) of each assembly
+    data = RepeatedAssembly.data
+
+    def counted(self, part):
+        sizes.append((tuple(part.elements), sum(len(b.ids) for b in part.elements.values())))
+        return data(self, part)
+
+    monkeypatch.setattr(RepeatedAssembly, "data", counted)
+    runs = {}
+    for probe in (n_quads, 2):  # no probe (the group is not 4 times larger), then a sample
+        monkeypatch.setattr(derivatives, "_PROBE", probe)
+        sizes.clear()
+        polys = derivatives.group_polynomials(model, params, np.zeros(len(params)),
+                                              constant=True)  # fmt: skip
+        plate = next(g for g in polys if g.exponents[:, 0].max() >= 5)
+        whole = sizes.count((("CQUAD4",), n_quads))
+        runs[probe] = (plate, whole, sum(t == ("CQUAD4",) and k < n_quads for t, k in sizes))
+    (alone, whole_alone, _), (probed, whole_probed, sample) = runs[n_quads], runs[2]
+    assert sample > 0 and whole_probed < whole_alone
+    np.testing.assert_array_equal(probed.exponents, alone.exponents)
+    for a, b in zip(probed.K + probed.M, alone.K + alone.M, strict=True):
+        assert (a != b).nnz == 0

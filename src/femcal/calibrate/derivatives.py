@@ -344,6 +344,10 @@ def group_polynomials(model: Model, params: list[Parameter], center: np.ndarray,
     return out
 
 
+#: Elements of each type a group's degree is first found on (:meth:`_GroupFit._probe`), for
+#: groups of over four times as many.
+_PROBE = 64
+
 #: Columns of the coefficient data turned from assemblies into coefficients at a time.
 _COLUMNS = 1 << 16
 
@@ -361,6 +365,7 @@ class _GroupFit:
         """``raised``: per (card, field, element types) the raised degree a group needed
         (tried first for an alike parameter; what this group needs is put there)."""
         self.raised = raised
+        self._model, self._rows, self._options = model, rows, options
         self.sub = subset(model, rows)
         self.kinds = list(rows)
         self.pars = pars
@@ -414,12 +419,28 @@ class _GroupFit:
         interval = (par.p_lower - self.centre[k], par.p_upper - self.centre[k])
         degree = max(par.spec.k_degree, par.spec.m_degree)
         alike = (par.card, par.field, tuple(sorted(self.kinds)))
+        if alike not in self.raised and sum(map(len, self._rows.values())) > 4 * _PROBE:
+            self._probe(k, alike)
         found = interpolation_nodes(assemble_at, degree, interval, _describe(par, self.kinds),
                                     self._centre, self.raised.get(alike),
                                     lambda items: [self._placed(m) for m in items])  # fmt: skip
         if found.raised:
             self.raised[alike] = len(found.offsets) - 1
         return found
+
+    def _probe(self, k: int, alike: tuple) -> None:
+        """Find the degree parameter k needs on a sample of the group's elements (about
+        :data:`_PROBE`, spread over each type's rows) and, if raised, note it in
+        :attr:`raised` for the whole group to try first: the ladder of degrees then climbs
+        on the sample, not on every element. The whole group's fit is checked as any."""
+        sample = {t: r[:: max(1, -(-len(r) // _PROBE))] for t, r in self._rows.items()}
+        probe = _GroupFit(self._model, sample, self.pars, self.centre, self._options, {})
+        try:
+            found = probe._alone(k)
+        except DerivativeError:  # the whole group's fit says what fails
+            return
+        if found.raised:
+            self.raised[alike] = len(found.offsets) - 1
 
     def _scales(self, k: int, found: Nodes) -> str | None:
         """Which of the group's matrices ("K" or "M") parameter k, moving alone, scales in
