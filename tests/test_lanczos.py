@@ -52,6 +52,28 @@ def test_block_lanczos_finds_repeated_roots_and_skips_massless_dof(block, tol, r
     assert solves >= 2
 
 
+def test_the_basis_products_run_in_the_callers_wide_context():
+    """``wide`` wraps the products over the whole basis at every step (where the caller
+    gives them more BLAS threads than the solves), and the roots are the same."""
+    from contextlib import contextmanager
+
+    K, M = twin_chains()
+    sigma = -10.0
+    solve, _ = factorize((K - sigma * M).tocsc())
+    entered: list[int] = []
+
+    @contextmanager
+    def wide():
+        entered.append(1)
+        yield
+
+    lam, _, solves = block_lanczos(solve, M, sigma, 24, block=8, wide=wide)
+    plain = block_lanczos(solve, M, sigma, 24, block=8)
+    assert len(entered) == solves - 1  # every step after the start block
+    np.testing.assert_allclose(lam, plain[0], rtol=1e-12)
+    np.testing.assert_allclose(lam, reference(K, M, 24), rtol=1e-9)
+
+
 def test_solve_modes_block_and_arpack_agree():
     K, M = twin_chains()
     req = EigenRequest(nd=16)

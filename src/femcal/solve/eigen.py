@@ -22,7 +22,7 @@ import numpy as np
 import scipy.linalg as sl
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from threadpoolctl import threadpool_limits
+from threadpoolctl import ThreadpoolController
 
 from ..errors import FemcalWarning, SolverError
 from ..model.analysis import EigenRequest
@@ -289,6 +289,13 @@ def _lanczos(K, M, sigma, request, lam_lo, lam_hi, backend, progress, on_factor=
         on_factor(solve, sigma)
     want = request.nd if request.nd is not None else 20
     k = min(max(want + 2, 12), n - 2)
+    blas = ThreadpoolController()
+    threads = max((c.num_threads for c in blas.select(user_api="blas").lib_controllers),
+                  default=1)  # fmt: skip
+
+    def wide() -> object:
+        return blas.limit(limits=threads, user_api="blas")
+
     lam = vec = None
 
     def answered(lam: np.ndarray) -> bool:
@@ -313,14 +320,17 @@ def _lanczos(K, M, sigma, request, lam_lo, lam_hi, backend, progress, on_factor=
         if progress:
             progress(f"Lanczos: {k} roots of {n} DOF ({name}, {method})")
         # One BLAS thread per pool during the iteration: the Lanczos' and CHOLMOD's OpenBLAS
-        # pools otherwise compete for the cores and slow every solve down.
+        # pools otherwise compete for the cores and slow every solve down. Only the
+        # reorthogonalisation's products over the whole basis, between two solves, take the
+        # pools' threads: they read the whole basis, at every step.
         finished = False
-        with threadpool_limits(limits=1, user_api="blas"):
+        with blas.limit(limits=1, user_api="blas"):
             if method == "block":
                 try:
                     # more roots wanted on the same basis, not from scratch: it returns
                     # when enough() says so or when every root of the problem is found
-                    lam, vec, _ = block_lanczos(solve, M, sigma, k, enough=enough)
+                    lam, vec, _ = block_lanczos(solve, M, sigma, k, enough=enough,
+                                                wide=wide)  # fmt: skip
                     finished = True
                 except LanczosNotConverged as e:
                     if progress:

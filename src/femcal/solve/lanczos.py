@@ -25,6 +25,7 @@ symmetric pairs).
 from __future__ import annotations
 
 from collections.abc import Callable
+from contextlib import AbstractContextManager, nullcontext
 
 import numpy as np
 import scipy.linalg as sl
@@ -56,6 +57,7 @@ def block_lanczos(solve: Callable[[np.ndarray], np.ndarray], M: sp.spmatrix, sig
                   max_dim: int | None = None, seed: int = 20191,
                   progress: Callable[[str], None] | None = None,
                   enough: Callable[[np.ndarray], bool] | None = None,
+                  wide: Callable[[], AbstractContextManager] | None = None,
                   ) -> tuple[np.ndarray, np.ndarray, int]:  # fmt: skip
     """The k roots lambda nearest above ``sigma`` and their vectors.
 
@@ -74,6 +76,8 @@ def block_lanczos(solve: Callable[[np.ndarray], np.ndarray], M: sp.spmatrix, sig
         False the iteration goes on for twice as many roots with the same basis (k doubles,
         the basis keeps growing), until it says True or every root of the problem is found.
         For "every root below V2" requests, whose count is not known beforehand.
+    wide : a context in which the products with the whole basis run (the caller's way to give
+        them more BLAS threads than the solves get); none: as the caller runs.
 
     Returns
     -------
@@ -104,15 +108,16 @@ def block_lanczos(solve: Callable[[np.ndarray], np.ndarray], M: sp.spmatrix, sig
         # blocks (the three-term recurrence, nearly all of it), then once on the whole basis
         # for what rounding left, and once more if that pass removed much (Kahan's rule)
         C = np.zeros((top, bq))
-        C[prev:top] = V[:, prev:top].T @ mass(W)
-        W -= V[:, prev:top] @ C[prev:top]
-        for _ in range(2):
-            before = np.linalg.norm(W, axis=0)
-            C2 = V[:, :top].T @ mass(W)
-            W -= V[:, :top] @ C2
-            C += C2
-            if (np.linalg.norm(W, axis=0) >= 0.5 * before).all():
-                break
+        with wide() if wide is not None else nullcontext():
+            C[prev:top] = V[:, prev:top].T @ mass(W)
+            W -= V[:, prev:top] @ C[prev:top]
+            for _ in range(2):
+                before = np.linalg.norm(W, axis=0)
+                C2 = V[:, :top].T @ mass(W)
+                W -= V[:, :top] @ C2
+                C += C2
+                if (np.linalg.norm(W, axis=0) >= 0.5 * before).all():
+                    break
         T[:top, m:top] = C
         T[m:top, :top] = C.T
         Ts = T[:top, :top]
