@@ -99,6 +99,20 @@ def test_a_forked_call_inherits_its_inputs_and_returns_its_result():
         assert isinstance(call.future.exception(timeout=60), ZeroDivisionError)
 
 
+def test_beside_runs_here_where_a_process_of_its_own_would_not_help(monkeypatch):
+    """With one usable core the call runs in this process, at once, behind the same
+    interface; with more (where the OS forks) in a worker of its own."""
+    import femcal.parallel.executors as executors
+
+    monkeypatch.setattr(executors, "usable_cores", lambda: 1)
+    with executors.beside(os.getpid) as call:
+        assert call.future.done() and call.future.result() == os.getpid()
+    if os.name == "posix":
+        monkeypatch.setattr(executors, "usable_cores", lambda: 2)
+        with executors.beside(os.getpid) as call:
+            assert call.future.result(timeout=60) != os.getpid()
+
+
 def test_bad_requests_are_named():
     with pytest.raises(ValueError, match="kind 'gpu': expected one of serial, threads, processes"):
         executor("gpu", 2)

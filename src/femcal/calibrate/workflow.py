@@ -64,7 +64,7 @@ from ..correlate import mac, pair_modes, pseudo_orthogonality, serep_mass
 from ..identify import IdentifiedModel
 from ..model.model import Model
 from ..parallel.cluster import Engine, Session, result_of
-from ..parallel.executors import ForkedCall
+from ..parallel.executors import beside
 from ..parallel.progress import Detail
 from ..response.frf import channel_matrix
 from ..testdata.data import FRFData
@@ -568,8 +568,8 @@ def _calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *, truth: np.nda
                     cfg.noise_sigma) for k, case in enumerate(cases)]  # fmt: skip
     # the model-form diagnostics (NumPy on what is at hand) run in a forked process of their
     # own while the hold-out folds (which factorise) run here, when there are cores for both
-    beside = bool(plan[1]) and session.engine.kind == "local" and session.engine.workers > 1
-    with (ForkedCall(_model_forms, form_inputs) if beside
+    aside = bool(plan[1]) and session.engine.kind == "local" and session.engine.workers > 1
+    with (beside(_model_forms, form_inputs) if aside
           else contextlib.nullcontext()) as call:
         holdout = (validate(cases, problem.terms, terms0, params, p_final, prior, plan,
                             noise_sigma=cfg.noise_sigma, hold_ratio=cfg.hold_ratio,
@@ -580,7 +580,7 @@ def _calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *, truth: np.nda
                                 task=f"hold-out {n}/{len(plan[1])}: starts"),
                             progress=say)
                    if plan[1] else None)  # fmt: skip
-        forms = (result_of(call.future, "the model-form diagnostics") if beside
+        forms = (result_of(call.future, "the model-form diagnostics") if aside
                  else _model_forms(form_inputs))  # fmt: skip
     case_results = tuple(
         _case_result(case, surs0[k], surs[k], modes0[k], modes_c[k], p_final, frf_modes[k],

@@ -235,6 +235,29 @@ class ForkedCall:
         return self.pool.__exit__(exc_type, exc, tb)
 
 
+class _CallHere:
+    """``fn(*args)`` run here, at once: a :class:`ForkedCall`'s interface (``future``, a
+    context manager) where no worker of its own would help."""
+
+    def __init__(self, fn: Callable[..., R], *args) -> None:
+        self.future: Future = SerialExecutor().submit(fn, *args)
+
+    def __enter__(self) -> _CallHere:
+        return self
+
+    def __exit__(self, *exc: object) -> bool:
+        return False
+
+
+def beside(fn: Callable[..., R], *args, blas_threads: int | None = 1
+           ) -> ForkedCall | _CallHere:  # fmt: skip
+    """``fn(*args)`` in a :class:`ForkedCall` while the caller goes on, where the OS forks
+    and this process may use more than one core; else run here, now (the same interface)."""
+    if os.name == "posix" and usable_cores() > 1:
+        return ForkedCall(fn, *args, blas_threads=blas_threads)
+    return _CallHere(fn, *args)
+
+
 def message_queue(kind: Kind) -> queue.Queue:
     """A queue that the workers of an executor of ``kind`` can put messages on and the caller
     read (``put``, ``get``, ``get_nowait`` raising :class:`queue.Empty`). For processes a
