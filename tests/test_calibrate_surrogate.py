@@ -8,7 +8,7 @@ import pytest
 import scipy.linalg as sla
 
 from femcal.assembly import assemble
-from femcal.calibrate.metric import jacobian, log_frequencies, residuals
+from femcal.calibrate.metric import jacobian, jacobian_of_parts, log_frequencies, residuals
 from femcal.calibrate.parameters import with_values
 from femcal.calibrate.reduction import build_surrogate
 from femcal.model import EigenRequest
@@ -90,6 +90,10 @@ def test_metric_jacobian_equals_central_differences(setup, metric):
     H_test = sur.frf(np.zeros(len(params)), f) * (1 + 0.05 * rng.normal(size=(5, 2, len(f))))
     H, dH = sur.frf_and_jacobian(p, f)
     J = jacobian(H, dH, metric, H_test)
+    H_parts, sel, X = sur.frf_and_jacobian_parts(p, f)  # the search's own path, real parts
+    assert np.array_equal(H_parts, H) and np.array_equal(sel, np.arange(len(params)))
+    J_parts = jacobian_of_parts(H, X, metric, H_test)
+    assert np.abs(J_parts - J).max() < 1e-13 * np.abs(J).max()
     h = 1e-4  # fourth-order differences: truncation ~h^4, rounding ~1e-16 / h
     for i in range(len(params)):
         e = np.zeros(len(params))

@@ -61,6 +61,26 @@ def jacobian(H_model: np.ndarray, dH: np.ndarray, metric: str = "log-magnitude",
     return np.concatenate([mag, (half[None] * rel.imag / _LN10).reshape(n_p, -1).T])
 
 
+def jacobian_of_parts(H_model: np.ndarray, X: np.ndarray, metric: str = "log-magnitude",
+                      H_test: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
+    """:func:`jacobian` from dH given as its real and imaginary parts side by side, X
+    (n_p, n_out, n_in, 2 n_f) (``dH = X[..., :n_f] + i X[..., n_f:]``): ``dH / H`` as
+    ``dH conj(H) / |H|^2`` in real arithmetic, written straight into J (n_residuals, n_p)."""
+    n_p, n_f = X.shape[0], H_model.shape[2]
+    n = H_model.size
+    inv = 1.0 / H_model
+    Xr, Xi = X[..., :n_f], X[..., n_f:]
+    J = np.empty((n if metric == "log-magnitude" else 2 * n, n_p))
+    J[:n] = ((Xr * inv.real - Xi * inv.imag) / _LN10).reshape(n_p, -1).T
+    if metric == "log-magnitude":
+        return J
+    if H_test is None:
+        raise ValueError("the complex-log Jacobian needs the test FRFs")
+    half = np.cos(np.angle(H_model / H_test) / 2.0) / _LN10
+    J[n:] = (half * (Xr * inv.imag + Xi * inv.real)).reshape(n_p, -1).T
+    return J
+
+
 def deviation(eps: np.ndarray) -> float:
     """delta = eps^T eps."""
     return float(eps @ eps)

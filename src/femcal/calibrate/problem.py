@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .metric import jacobian, residuals
+from .metric import jacobian_of_parts, residuals
 from .robust import huber_transform
 from .surrogate import Surrogate
 
@@ -50,14 +50,13 @@ class Term:
         the correction's alone)."""
         q = np.asarray(p, float)[self.index]
         mine = None if which is None else np.asarray(which)[self.index]
-        H, dH = self.surrogate.frf_and_jacobian(q, self.freq, mine)
-        if mine is None:
-            J = jacobian(H, dH, self.metric, self.H_test)
-        else:  # (the other columns are zero: no need to divide them by H)
-            cols = np.flatnonzero(mine)
-            J_sel = jacobian(H, dH[cols], self.metric, self.H_test)
+        H, sel, X = self.surrogate.frf_and_jacobian_parts(q, self.freq, mine)
+        J_sel = jacobian_of_parts(H, X, self.metric, self.H_test)
+        if len(sel) == len(q):
+            J = J_sel
+        else:  # (the other columns are zero)
             J = np.zeros((J_sel.shape[0], len(q)))
-            J[:, cols] = J_sel
+            J[:, sel] = J_sel
         r = residuals(H, self.H_test, self.metric)
         if self.correction is not None:
             J += self.correction  # (J is this call's own array)

@@ -186,7 +186,19 @@ class Surrogate:
     def frf_and_jacobian(self, p: np.ndarray, freq_hz: np.ndarray,
                          which: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """H (n_out, n_in, n_f) and dH/dp (n_p, n_out, n_in, n_f) at p; with ``which``
-        (n_p,) bool the derivatives by those parameters only (the others' are zero).
+        (n_p,) bool the derivatives by those parameters only (the others' are zero)."""
+        H, sel, X = self.frf_and_jacobian_parts(p, freq_hz, which)
+        n_f = H.shape[2]
+        dH = np.zeros((self.n_params, *H.shape), complex)
+        dH[sel] = X[..., :n_f] + 1j * X[..., n_f:]
+        return H, dH
+
+    def frf_and_jacobian_parts(self, p: np.ndarray, freq_hz: np.ndarray,
+                               which: np.ndarray | None = None
+                               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+        """H (n_out, n_in, n_f), the parameters differentiated by (``which``'s, all without
+        it) as indices sel (n_sel,), and their dH/dp as real and imaginary parts side by
+        side, X (n_sel, n_out, n_in, 2 n_f): ``dH[sel] = X[..., :n_f] + i X[..., n_f:]``.
 
         Every parameter's derivative is made at once: the real modal coefficients of all of
         them, (n_sel n_out n_in, 2 m) for the shapes' and the eigenvalues' parts, times the
@@ -204,10 +216,9 @@ class Surrogate:
             stat = self._static_factor(freq_hz)
             R = (S_all[:, m:] / lam_all[m:]) @ P_all[:, m:].T
             H = H + R[:, :, None] * stat[None, None, :]
-        dH = np.zeros((self.n_params, n_o, n_i, n_f), complex)
         sel = np.arange(self.n_params) if which is None else np.flatnonzero(which)
         if not sel.size:
-            return H, dH
+            return H, sel, np.zeros((0, n_o, n_i, 2 * n_f))
         W = self._weight_derivatives(p)[:, sel]  # (n_terms, n_sel)
         dK = np.tensordot(W.T, self.Kt, axes=1)  # (n_sel, r, r)
         dM = np.tensordot(W.T, self.Mt, axes=1)
@@ -222,11 +233,11 @@ class Surrogate:
         Q = np.empty((2 * m, 2 * n_f))
         Q[:m, :n_f], Q[:m, n_f:], Q[m:, :n_f], Q[m:, n_f:] = q.real, q.imag, dq.real, dq.imag
         X = (A.reshape(-1, 2 * m) @ Q).reshape(sel.size, n_o, n_i, 2 * n_f)
-        dH[sel] = X[..., :n_f] + 1j * X[..., n_f:]
         if self.residual:  # d(C K~^-1 B^T) less the m modes' static part
             KiB = psi_all @ (P_all.T / lam_all[:, None])  # (r, n_in)
             CKi = (S_all / lam_all) @ psi_all.T  # (n_out, r)
             dR = (-(CKi @ dK @ KiB) - A[..., :m] @ (1.0 / lam)
                   + A[..., m:] @ (1.0 / lam**2))  # (n_sel, n_out, n_in)
-            dH[sel] += dR[..., None] * stat
-        return H, dH
+            X[..., :n_f] += dR[..., None] * stat.real
+            X[..., n_f:] += dR[..., None] * stat.imag
+        return H, sel, X
