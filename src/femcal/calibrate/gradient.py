@@ -168,13 +168,24 @@ def centre_derivatives(polys: list[GroupPolynomial], center: np.ndarray, M: sp.s
     # their size); a later solve of a vector without them makes them again only from
     # rounding, amplified by (lam_r - s) / (lam_k - s): one pass removes that
     Y = off_modes(shifted_solve(np.asarray((Tt @ Sg.T).todense())), passes=2)
+    # parameters whose elements touch the same rows (a group's thickness and modulus) share
+    # their rows of each Z_n
+    first_of: dict[bytes, int] = {}
+    share = [first_of.setdefault(rows.tobytes(), i) for i, (rows, _) in enumerate(loads)]
     for n in range(terms):
         Zn = T @ Y
-        active = np.flatnonzero(per_mode > n)  # the modes whose series is still running
-        w = ((lm[active] - STATIC_SHIFT) / top) ** n
+        # the modes whose series is still running: the highest ones (their terms grow with
+        # the mode), so a slice of the columns, not a copy of them
+        active = np.flatnonzero(per_mode > n)
+        cols = (slice(active[0], active[-1] + 1)
+                if active.size and active[-1] - active[0] + 1 == active.size else active)
+        w = ((lm[cols] - STATIC_SHIFT) / top) ** n
+        taken: dict[int, np.ndarray] = {}
         for i, (rows, neg_f) in enumerate(loads):
             if rows.size:
-                dSP[i][:, active] -= (Zn[rows].T @ neg_f[:, active]) * w[None, :]
+                if share[i] not in taken:
+                    taken[share[i]] = Zn[rows]
+                dSP[i][:, cols] -= (taken[share[i]].T @ neg_f[:, cols]) * w[None, :]
         if n + 1 < terms:
             Y = off_modes(top * shifted_solve(Ma @ Y))
     S, P = Sr[:n_out, :m], Sr[n_out:, :m]
