@@ -375,6 +375,8 @@ class _GroupFit:
         self.places = [np.zeros(0, np.int64), np.zeros(0, np.int64)]
         # offsets -> K and M data and the places each is on
         self._made: dict[tuple[float, ...], tuple] = {}
+        # per matrix: the present places and each pattern position's rank among them
+        self._rank: list[tuple | None] = [None, None]
         self._centre = self._made[(0.0,) * len(pars)] = self._assemble((0.0,) * len(pars))
 
     @property
@@ -396,12 +398,19 @@ class _GroupFit:
         return tuple(out)
 
     def _placed(self, made: tuple) -> tuple[np.ndarray, np.ndarray]:
-        """K and M data of an assembly on the present :attr:`places`."""
+        """K and M data of an assembly on the present :attr:`places`: an older assembly's
+        data, on fewer places, go where their places rank among the present ones (the rank
+        of every place of the pattern is made once per growth of the places)."""
         out = []
-        for (X, at), now in zip(made, self.places, strict=True):
+        for which, ((X, at), now) in enumerate(zip(made, self.places, strict=True)):
             if len(at) != len(now):
+                ranked = self._rank[which]
+                if ranked is None or ranked[0] is not now:
+                    rank = np.zeros(int(now[-1]) + 1, np.int64)
+                    rank[now] = np.arange(len(now))
+                    ranked = self._rank[which] = (now, rank)
                 grown = np.zeros(len(now))
-                grown[np.searchsorted(now, at)] = X
+                grown[ranked[1][at]] = X
                 X = grown
             out.append(X)
         return out[0], out[1]
