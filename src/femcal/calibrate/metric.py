@@ -49,23 +49,18 @@ def residuals(H_model: np.ndarray, H_test: np.ndarray, metric: str = "log-magnit
 def jacobian(H_model: np.ndarray, dH: np.ndarray, metric: str = "log-magnitude",
              H_test: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
     """d eps / dp as (n_residuals, n_p) from H (n_out, n_in, n_f) and dH (n_p, ...); the
-    complex-log form needs H_test too."""
-    rel = dH / H_model[None]
-    n_p = dH.shape[0]
-    mag = (rel.real / _LN10).reshape(n_p, -1).T
-    if metric == "log-magnitude":
-        return mag
-    if H_test is None:
-        raise ValueError("the complex-log Jacobian needs the test FRFs")
-    half = np.cos(np.angle(H_model / H_test) / 2.0)
-    return np.concatenate([mag, (half[None] * rel.imag / _LN10).reshape(n_p, -1).T])
+    complex-log form needs H_test too (:func:`jacobian_of_parts` of dH's real and
+    imaginary parts)."""
+    return jacobian_of_parts(H_model, np.concatenate([dH.real, dH.imag], axis=-1), metric,
+                             H_test)  # fmt: skip
 
 
 def jacobian_of_parts(H_model: np.ndarray, X: np.ndarray, metric: str = "log-magnitude",
                       H_test: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
-    """:func:`jacobian` from dH given as its real and imaginary parts side by side, X
-    (n_p, n_out, n_in, 2 n_f) (``dH = X[..., :n_f] + i X[..., n_f:]``): ``dH / H`` as
-    ``dH conj(H) / |H|^2`` in real arithmetic, written straight into J (n_residuals, n_p)."""
+    """d eps / dp as (n_residuals, n_p) from H (n_out, n_in, n_f) and dH given as its real
+    and imaginary parts side by side, X (n_p, n_out, n_in, 2 n_f) (``dH = X[..., :n_f] +
+    i X[..., n_f:]``); the complex-log form needs H_test too. ``dH / H`` is taken as
+    ``dH conj(H) / |H|^2`` in real arithmetic and written straight into J."""
     n_p, n_f = X.shape[0], H_model.shape[2]
     n = H_model.size
     inv = 1.0 / H_model
