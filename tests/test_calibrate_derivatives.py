@@ -242,4 +242,5 @@ def test_a_groups_degree_is_found_on_a_sample_first(tmp_path, monkeypatch):
     assert sample > 0 and whole_probed < whole_alone
     np.testing.assert_array_equal(probed.exponents, alone.exponents)
     for a, b in zip(probed.K + probed.M, alone.K + alone.M, strict=True):
-        assert (a != b).nnz == 0
+        # the same assemblies at the same points; the fits' products may be split otherwise
+        assert _rel(a, b) < 1e-13 if b.nnz else a.nnz == 0
