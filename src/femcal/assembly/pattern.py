@@ -207,6 +207,8 @@ class Assembler:
         self._positions = positions
         self._data: list[np.ndarray | None] = [None] * n_matrices
         self._node_blocks: list[np.ndarray | None] = [None] * n_matrices
+        #: per matrix, the node indices its node blocks were added at (arrays, in turn)
+        self._node_hits: list[list[np.ndarray]] = [[] for _ in range(n_matrices)]
         self.frames = frames
         self._basic = (
             None if frames is None else np.all(np.abs(frames - np.eye(3)) < 1e-15, axis=(1, 2))
@@ -285,6 +287,7 @@ class Assembler:
                     if self._node_blocks[which] is None:
                         self._node_blocks[which] = np.zeros((self.pattern.n_nodes, 6, 6))
                     np.add.at(self._node_blocks[which][:, :d, :d], idx, blocks)
+                    self._node_hits[which].append(idx)
                 else:
                     np.add.at(self._full(which), pos, v)
 
@@ -320,8 +323,12 @@ class Assembler:
     def _node_entries(self, which: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(rows, columns, values) of matrix ``which``'s node blocks' nonzero entries."""
         p = self.pattern
+        # only the nodes something was added at (a part of a large model touches few of
+        # them); in ascending order, as a search of the whole array would give them
+        hit = np.unique(np.concatenate(self._node_hits[which]))
         blocks = self._node_blocks[which]
-        node, i, j = np.nonzero(blocks)
+        at, i, j = np.nonzero(blocks[hit])
+        node = hit[at]
         if (p.ndof[node] < 6).any():
             raise ValueError("a 6 x 6 node block was added to a scalar point")
         start = p.dof_start[node]
@@ -349,6 +356,9 @@ def _node_diagonal(nodes: np.ndarray, d: int, m: np.ndarray):
     m5 = m.reshape(n, k, d, k, d)
     if k > 1:
         off = ~np.eye(k, dtype=bool)
+        # the first element alone first: a stiffness couples its nodes in every element
+        if np.any(m5[:1].transpose(1, 3, 0, 2, 4)[off]):
+            return None
         if np.any(m5.transpose(1, 3, 0, 2, 4)[off]):
             return None
     ar = np.arange(k)
