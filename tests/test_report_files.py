@@ -484,3 +484,50 @@ def test_where_the_model_form_warning_points_is_a_doubt_not_a_reassurance():
     assert _is_warning("rig: Where: a spring to ground of 2e+08 N mm/rad at GRID 7 ...")
     assert not _is_warning("Held-out prediction: calibrated without each input's FRFs ...")
     assert not _is_warning("The search settled: the identifiable parameters stopped moving.")
+
+
+def _greedy_wrap(measure, text: str, width: float, size: float, weight: str, family: str):
+    """The plain rule the PDF's wrapping keeps: a word at a time while the line fits, a
+    word wider than the line broken between characters."""
+    width *= 0.98
+    lines = []
+    for para in text.split("\n"):
+        line = ""
+        for word in para.split(" "):
+            trial = f"{line} {word}" if line else word
+            if measure.width(trial, size, weight, family) <= width:
+                line = trial
+                continue
+            if line:
+                lines.append(line)
+            line = ""
+            for ch in word:
+                if line and measure.width(line + ch, size, weight, family) > width:
+                    lines.append(line)
+                    line = ch
+                else:
+                    line += ch
+        lines.append(line)
+    return lines
+
+
+def test_the_pdf_wraps_text_as_a_word_at_a_time_would():
+    """Wrapping from the words' widths, checked on the line, gives the lines of the plain
+    word-at-a-time rule: long and short words, double spaces, newlines, words wider than
+    the line, both fonts and weights."""
+    from femcal.viz.report_pdf import _Measure
+
+    rng = np.random.default_rng(7)
+    vocab = ["a", "of", "the", "frequency", "0.00913", "(12957:3)", "misfit", "MAC", "p29",
+             "antiresonances,", "W" * 12, "i" * 40, "x" * 150, "", "calibration:"]
+    measure, reference = _Measure(), _Measure()
+    for _ in range(40):
+        words = rng.choice(vocab, size=int(rng.integers(0, 50)))
+        seps = rng.choice([" ", " ", " ", "  ", "\n", " \n "], size=len(words))
+        text = "".join(w + s for w, s in zip(words, seps, strict=True))
+        width = float(rng.uniform(40.0, 500.0))
+        size = float(rng.choice([7.0, 9.5, 12.0]))
+        weight = str(rng.choice(["normal", "bold"]))
+        family = str(rng.choice(["sans-serif", "monospace"]))
+        assert measure.wrap(text, width, size, weight, family) == _greedy_wrap(
+            reference, text, width, size, weight, family)

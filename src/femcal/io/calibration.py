@@ -28,6 +28,8 @@ from ..calibrate.parameters import Parameter
 from ..calibrate.result import CalibrationResult, CaseResult, Cycle
 from ..correlate import mac_text
 from ..model.units import length_unit
+from ..parallel.cluster import result_of
+from ..parallel.executors import beside
 from .html import (
     PAGE_STYLE,
     embedded_figure,
@@ -1162,8 +1164,20 @@ def write_report(result: CalibrationResult, out: str | os.PathLike[str], *,
     out = Path(out)
     pics = out / "pictures"
     pics.mkdir(parents=True, exist_ok=True)
-    drawn = pictures_of.report_pictures(result, pics)
     several = len(result.cases) > 1
+    # the charts (Matplotlib) are drawn in a process of their own while the paired modes are
+    # rendered (VTK) here: both are one core's work (drawn here in turn on one core)
+    renders: dict[str, tuple[list[int], list[Path]]] = {}
+    with beside(pictures_of.report_pictures, result, pics) as charts:
+        for case in result.cases:
+            which = sorted({m.fe_after - 1 for m in case.modes if m.fe_after is not None})
+            if which:
+                say(f"{case.name}: rendering the calibrated model's paired modes")
+                renders[case.name] = (which, render_modes(
+                    case.modes_after, case.model,
+                    pics / (f"modes_{case.name}" if several else "modes"),
+                    title="calibrated", which=which, window=(960, 600)))  # fmt: skip
+        drawn = result_of(charts.future, "the report's charts")
     figures: list[ReportFigure] = []
 
     def add(title: str, path: Path, caption: str, case: str | None, mode: bool = False) -> None:
@@ -1177,16 +1191,11 @@ def write_report(result: CalibrationResult, out: str | os.PathLike[str], *,
         for f in drawn:
             if f.case == case.name:
                 add(f.title + at, f.path, f.caption, case.name)
-        which = sorted({m.fe_after - 1 for m in case.modes if m.fe_after is not None})
-        if which:
-            say(f"{case.name}: rendering the calibrated model's paired modes")
-            pngs = render_modes(case.modes_after, case.model,
-                                pics / (f"modes_{case.name}" if several else "modes"),
-                                title="calibrated", which=which, window=(960, 600))  # fmt: skip
-            for k, png in zip(which, pngs, strict=True):
-                add(f"Calibrated mode {k + 1}, "
-                    f"{case.modes_after.frequencies_hz[k]:.2f} Hz{at}", png,
-                    _mode_caption(case, k), case.name, mode=True)  # fmt: skip
+        which, pngs = renders.get(case.name, ([], []))
+        for k, png in zip(which, pngs, strict=True):
+            add(f"Calibrated mode {k + 1}, "
+                f"{case.modes_after.frequencies_hz[k]:.2f} Hz{at}", png,
+                _mode_caption(case, k), case.name, mode=True)  # fmt: skip
     report = report_dict(result)
     head = provenance(report_inputs(result), command=command)
     viewers: dict[str, str] = {}

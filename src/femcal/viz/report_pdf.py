@@ -115,28 +115,66 @@ class _Measure:
     def wrap(self, text: str, width: float, size: float, weight: str = "normal",
              family: str = "sans-serif") -> list[str]:  # fmt: skip
         """``text`` broken into lines no wider than ``width`` points (less 2 %, for the
-        rounding of glyph positions): at spaces, and a word wider than the line between its
-        characters (its own newlines kept)."""
+        rounding of glyph positions): at spaces, as many words on a line as fit, and a word
+        wider than the line between its characters (its own newlines kept).
+
+        A line's word count is estimated from its words' widths and then checked on the line
+        itself, a word more or less at a time (a text's width grows with what is appended to
+        it): a line takes a few measurements of its length, not one per word and one per
+        character of the word that ends it."""
         width *= 0.98
+
+        def fits(s: str) -> bool:
+            return self.width(s, size, weight, family) <= width
+
         lines: list[str] = []
         for para in str(text).split("\n"):
-            line = ""
-            for word in para.split(" "):
-                trial = f"{line} {word}" if line else word
-                if self.width(trial, size, weight, family) <= width:
-                    line = trial
+            words = para.split(" ")
+            line, i = "", 0
+            while i < len(words):
+                # the most words from i that fit after what the line holds: estimated from
+                # the words' own widths (each measured once), then checked on the line
+                lo, left = 0, len(words) - i
+                est = self.width(line, size, weight, family) if line else 0.0
+                while lo < left:
+                    word = words[i + lo] if not line and not lo else " " + words[i + lo]
+                    est += self.width(word, size, weight, family)
+                    if est > width:
+                        break
+                    lo += 1
+                lo = max(lo, 1)  # (an estimate: the check decides, from one word on)
+                if fits(_joined(line, words[i : i + lo])):
+                    while lo < left and fits(_joined(line, words[i : i + lo + 1])):
+                        lo += 1
+                else:
+                    while lo and not fits(_joined(line, words[i : i + lo])):
+                        lo -= 1
+                if lo:
+                    line, i = _joined(line, words[i : i + lo]), i + lo
                     continue
                 if line:
                     lines.append(line)
-                line = ""
+                word, line = words[i], ""
+                i += 1
+                if fits(word):
+                    line = word
+                    continue
                 for ch in word:  # the word alone, broken where it must be
-                    if line and self.width(line + ch, size, weight, family) > width:
+                    if line and not fits(line + ch):
                         lines.append(line)
                         line = ch
                     else:
                         line += ch
             lines.append(line)
         return lines
+
+
+def _joined(line: str, words: list[str]) -> str:
+    """``words`` appended to ``line`` one by one, each after a space unless the line is
+    still empty."""
+    for word in words:
+        line = f"{line} {word}" if line else word
+    return line
 
 
 class _Document:
