@@ -333,3 +333,42 @@ def test_a_part_assembled_again_is_its_share_of_the_whole(write):
     scale = np.abs(whole.K.data).max()
     assert np.abs((K - whole.K).toarray()).max() < 1e-12 * scale
     assert np.abs((M - whole.M).toarray()).max() < 1e-12 * np.abs(whole.M.data).max()
+
+
+def test_a_part_assembled_again_keeps_its_shape_not_its_sections(write):
+    """The quadrilaterals' shape-only kernel data are kept between assemblies of the same
+    elements (RepeatedAssembly): assemblies with other thicknesses, moduli and transverse
+    shear (MID3 given, or shear-rigid) in any order equal a fresh assembly of each, bit for
+    bit, and the whole model's matrices."""
+    from femcal.assembly import assemble
+    from femcal.assembly.repeated import RepeatedAssembly
+    from femcal.model.build import load_model
+
+    def deck(t1: float, t2: float, e: float, name: str):
+        lines = ["SOL 103", "CEND", "BEGIN BULK", f"MAT1,1,{e!r},,.3,7.85-9",
+                 f"PSHELL,1,1,{t1!r},1,,1", f"PSHELL,2,1,{t2!r},1"]  # fmt: skip
+        rng = np.random.default_rng(3)
+        for j in range(4):
+            for i in range(6):
+                z = 0.02 * i * i + rng.uniform(-0.3, 0.3)  # curved and warped
+                lines.append(f"GRID,{1 + i + 10 * j},,{10.0 * i + rng.uniform(-1, 1)!r},"
+                             f"{12.0 * j!r},{z!r}")  # fmt: skip
+        for j in range(3):
+            for i in range(5):
+                g = 1 + i + 10 * j
+                lines.append(f"CQUAD4,{1 + i + 10 * j},{1 + (i >= 3)},{g},{g + 1},{g + 11},"
+                             f"{g + 10}")  # fmt: skip
+        lines.append("ENDDATA")
+        return load_model(write("\n".join(lines) + "\n", name))
+
+    models = [deck(2.0, 3.0, 210000.0, "a.bdf"), deck(2.6, 1.5, 70000.0, "b.bdf"),
+              deck(2.0, 3.0, 210000.0, "c.bdf")]  # fmt: skip
+    repeated = RepeatedAssembly(models[0])
+    for k, model in enumerate(models):
+        Kd, Md = repeated.data(model)
+        fresh_K, fresh_M = RepeatedAssembly(model).data(model)
+        assert np.array_equal(Kd, fresh_K) and np.array_equal(Md, fresh_M), k
+        whole = assemble(model)
+        assert np.abs((repeated.matrix(Kd) - whole.K).toarray()).max() < (
+            1e-12 * np.abs(whole.K.data).max())
+    assert repeated._kept  # the shape was kept, and served the later assemblies

@@ -30,11 +30,14 @@ class Context:
     threads the kernels may use."""
 
     def __init__(self, model: Model, coupled: bool, k6rot: float, threads: int = 1,
-                 grid_normals: np.ndarray | None = None):  # fmt: skip
+                 grid_normals: np.ndarray | None = None, kept: dict | None = None):  # fmt: skip
         """``grid_normals``: the shells' grid normals if known (a part of a model is
         assembled with the whole model's normals); computed from the model's shells if
-        not."""
+        not. ``kept``: a dict in which kernels keep what depends on the elements' shape
+        alone, per part of a block, for assemblies of the same elements again (None: not
+        kept)."""
         self.model = model
+        self.kept = kept
         self.coupled = coupled
         self.k6rot = k6rot
         self.threads = threads

@@ -2,8 +2,9 @@
 
 Derivatives and polynomial fits (:mod:`femcal.calibrate.derivatives`) assemble one group of
 elements at many parameter values. Their connectivity does not change, so the sparsity
-pattern (over the nodes the elements touch only), the CSR positions of the element blocks
-and the shells' grid normals are made once here, and every assembly is a pair of data
+pattern (over the nodes the elements touch only), the CSR positions of the element blocks,
+the shells' grid normals and what the quadrilaterals' kernels take from their shape alone
+(within :data:`KEEP_BYTES`) are made once here, and every assembly is a pair of data
 vectors (K and M) on that one pattern: combining assemblies is arithmetic on dense vectors,
 not a sparse sum.
 """
@@ -18,6 +19,12 @@ from ..model.model import Model
 from .context import Context, shell_grid_normals
 from .matrices import Options, add_elements, element_pairs, settings
 from .pattern import Assembler, Pattern
+
+#: Memory the kernels may keep between assemblies (what depends on the elements' shape
+#: alone, :class:`femcal.elements.shell.QuadGeometry`); beyond it they recompute it.
+KEEP_BYTES = 512 << 20
+#: What a quadrilateral keeps: strain rows (4 x 9 x 28), drilling rows (4 x 24) and the rest.
+QUAD_KEPT_BYTES = 8 * (4 * 9 * 28 + 4 * 24 + 4 * 4 + 16 + 4 + 8)
 
 
 class RepeatedAssembly:
@@ -44,6 +51,9 @@ class RepeatedAssembly:
         pairs = [element_pairs(b) for b in part.elements.values()]
         self.pattern = Pattern.build(part.dof_start, ndof, pairs, diagonal=touched)
         self._positions: dict = {}
+        # the quadrilaterals' shape-only kernel data, kept while they fit KEEP_BYTES
+        quads = sum(len(b.ids) for t, b in part.elements.items() if t in ("CQUAD4", "CQUADR"))
+        self._kept: dict | None = {} if quads * QUAD_KEPT_BYTES <= KEEP_BYTES else None
 
     @property
     def nnz(self) -> int:
@@ -60,7 +70,8 @@ class RepeatedAssembly:
             As :func:`femcal.assembly.assemble` does.
         """
         asm = Assembler(self.pattern, model.cd_frames, n_matrices=2, positions=self._positions)
-        add_elements(Context(model, self.coupled, self.k6rot, self.threads, self.normals), asm)
+        add_elements(Context(model, self.coupled, self.k6rot, self.threads, self.normals,
+                             self._kept), asm)  # fmt: skip
         M = asm.data(1)
         if self.wtmass != 1.0:
             M *= self.wtmass

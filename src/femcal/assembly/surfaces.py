@@ -54,6 +54,8 @@ def shells(ctx: Context, block: ElementBlock, asm: Assembler) -> float:
                 variant = {"drilling": True}
             else:  # CQUAD4, CTRIA3: the grid normals tie the drilling rotation where curved
                 variant = {"normals": ctx.grid_normals()[block.nodes[sel]]}
+            if k == 4 and ctx.kept is not None:  # the same elements again: their shape kept
+                variant["keep"] = ctx.kept.setdefault((block.type, sel.tobytes()), {})
             K, M = kernel(
                 xyz[sel], sec.A[sel], sec.D[sel], None if rigid else sec.S[sel], B,
                 rho_area=sec.rho_area[sel], nsm=sec.nsm[sel], zoffs=zoffs[sel],

@@ -172,6 +172,7 @@ total translational mass stays ``m * area`` (projected area for warped quads).
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -570,19 +571,42 @@ _TRI_EDGES = ((0, 1), (1, 2), (2, 0))
 # ----------------------------------------------------------------------------------------
 
 
-def _quad4_local(
-    xl: np.ndarray,
-    A: np.ndarray,
-    D: np.ndarray,
-    S: np.ndarray | None,
-    B: np.ndarray,
-    alpha: np.ndarray,
-    drilling: bool = True,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Element-frame stiffness (n, 24, 24), int(N_a) (n, 4) and int(N_a N_b) (n, 4, 4).
+@dataclass(frozen=True)
+class QuadGeometry:
+    """What CQUAD4 elements' stiffness and mass take from their shape alone (the element
+    frame's corner coordinates): kept by an assembly that forms the same elements again with
+    other section properties (:class:`femcal.assembly.repeated.RepeatedAssembly`).
 
-    ``drilling``: the Allman membrane (CQUADR); else the bilinear membrane with Taylor's
-    incompatible modes (CQUAD4), ``Rz`` only in the drilling penalty.
+    detJ : per Gauss point (n,) Jacobian determinants; area (n,); cov (n, 2, 2) the area
+        covariance (length^2). rows : (n, 4, 9, k) per Gauss point the strain rows
+        ``sqrt(w det J) B_q`` (8 generalised strains; the drilling residual's row 8 zero),
+        k = 24, or 28 with Taylor's incompatible modes. drill : (n, 4, 24) the drilling
+        residual's rows, unscaled; modes : (n, 4, 2, 2) the incompatible modes' gradients
+        (scaled by det0 / sqrt(det J)), None with the Allman membrane. Nint (n, 4),
+        Mcons (n, 4, 4): int(N_a) and int(N_a N_b).
+    """
+
+    detJ: list[np.ndarray]  # noqa: N815 (the formulas' symbol)
+    area: np.ndarray
+    cov: np.ndarray
+    rows: np.ndarray
+    drill: np.ndarray
+    modes: np.ndarray | None
+    Nint: np.ndarray
+    Mcons: np.ndarray
+
+    @property
+    def nbytes(self) -> int:
+        return sum(x.nbytes for x in (self.rows, self.drill, self.Nint, self.Mcons, self.cov))
+
+
+def quad_geometry(xl: np.ndarray, drilling: bool = True) -> QuadGeometry:
+    """The shape-only part of :func:`_quad4_local` for corner coordinates xl (n, 4, 2).
+
+    Raises
+    ------
+    ValueError
+        For a non-positive Jacobian (a concave or twisted quadrilateral).
     """
     n = xl.shape[0]
     jac = [np.einsum("ra,eai->eri", _quad_shape(xi, eta)[1], xl) for xi, eta in _GAUSS_2X2]
@@ -594,11 +618,6 @@ def _quad4_local(
             f"index(es) {bad[:10].tolist()}"
         )
     area = np.sum(detJ, axis=0)
-    if S is None:
-        S = _shear_penalty(D, area)
-    else:
-        S = _with_residual_bending(S, _area_covariance(xl, detJ, area), A, B, D)
-    C = _constitutive(A, D, S, B)
 
     # Covariant transverse shear strains at the MITC4 tying points (edge midpoints).
     tie = {
@@ -616,6 +635,8 @@ def _quad4_local(
     # Per Gauss point q: weighted rows sqrt(w det J) B_q (8 generalised strains + 1 drilling
     # residual), stacked so that K is one batched product over all points.
     rows = np.zeros((n, 4, 9, k))
+    drill = np.zeros((n, 4, 24))
+    modes = None if drilling else np.zeros((n, 4, 2, 2))
     Nint = np.zeros((n, 4))
     Mcons = np.zeros((n, 4, 4))
     for q, ((xi, eta), J, dJ) in enumerate(zip(_GAUSS_2X2, jac, detJ, strict=True)):
@@ -630,7 +651,7 @@ def _quad4_local(
         Bg[:, 6:8] = Jinv @ np.stack([e_xi, e_eta], axis=1)
 
         rows[:, q, :8, :24] = np.sqrt(dJ)[:, None, None] * Bg
-        rows[:, q, 8, :24] = np.sqrt(alpha * dJ)[:, None] * _drill_row(N, dNxy, dNbxy, Gal)
+        drill[:, q] = _drill_row(N, dNxy, dNbxy, Gal)
         if not drilling:  # Taylor: centre Jacobian, det0 / det J, so the modes' strains
             g = np.einsum("eir,rk->eik", J0inv, np.diag([-2.0 * xi, -2.0 * eta]))  # mean 0
             g *= (det0 / np.sqrt(dJ))[:, None, None]
@@ -638,11 +659,45 @@ def _quad4_local(
             rows[:, q, 2, 24:26] = g[:, 1]
             rows[:, q, 1, 26:28] = g[:, 1]  # v modes: eps_yy = dv/dy, gamma = dv/dx
             rows[:, q, 2, 26:28] = g[:, 0]
-            # and their in-plane rotation omega = (v,x - u,y) / 2 in the residual Rz - omega
-            rows[:, q, 8, 24:26] = 0.5 * np.sqrt(alpha)[:, None] * g[:, 1]
-            rows[:, q, 8, 26:28] = -0.5 * np.sqrt(alpha)[:, None] * g[:, 0]
+            modes[:, q] = g
         Nint += dJ[:, None] * N
         Mcons += dJ[:, None, None] * np.outer(N, N)
+    return QuadGeometry(detJ, area, _area_covariance(xl, detJ, area), rows, drill, modes,
+                        Nint, Mcons)  # fmt: skip
+
+
+def _quad4_local(
+    xl: np.ndarray,
+    A: np.ndarray,
+    D: np.ndarray,
+    S: np.ndarray | None,
+    B: np.ndarray,
+    alpha: np.ndarray,
+    drilling: bool = True,
+    geometry: QuadGeometry | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Element-frame stiffness (n, 24, 24), int(N_a) (n, 4) and int(N_a N_b) (n, 4, 4).
+
+    ``drilling``: the Allman membrane (CQUADR); else the bilinear membrane with Taylor's
+    incompatible modes (CQUAD4), ``Rz`` only in the drilling penalty. ``geometry``: the
+    elements' :func:`quad_geometry` (for the same ``drilling``) if at hand.
+    """
+    own = geometry is None  # (a geometry given is kept for later calls: not written to)
+    geo = quad_geometry(xl, drilling) if own else geometry
+    n = xl.shape[0]
+    S = (_shear_penalty(D, geo.area) if S is None
+         else _with_residual_bending(S, geo.cov, A, B, D))  # fmt: skip
+    C = _constitutive(A, D, S, B)
+    # the drilling residual's rows, sqrt(alpha w det J) times its row; the incompatible
+    # modes' in-plane rotation omega = (v,x - u,y) / 2 in the residual Rz - omega
+    rows = geo.rows if own else geo.rows.copy()
+    k = rows.shape[3]
+    for q, dJ in enumerate(geo.detJ):
+        rows[:, q, 8, :24] = np.sqrt(alpha * dJ)[:, None] * geo.drill[:, q]
+        if geo.modes is not None:
+            g = geo.modes[:, q]
+            rows[:, q, 8, 24:26] = 0.5 * np.sqrt(alpha)[:, None] * g[:, 1]
+            rows[:, q, 8, 26:28] = -0.5 * np.sqrt(alpha)[:, None] * g[:, 0]
 
     # sum_q rows_q^T diag(C, 1) rows_q as one product over the stacked points.
     C9 = np.zeros((n, 9, 9))
@@ -657,7 +712,7 @@ def _quad4_local(
         Kaa_inv = np.zeros_like(Kaa)
         Kaa_inv[ok] = np.linalg.inv(Kaa[ok])
         K = K[:, :24, :24] - K[:, :24, 24:] @ Kaa_inv @ K[:, 24:, :24]
-    return K, Nint, Mcons
+    return (K, geo.Nint, geo.Mcons) if own else (K, geo.Nint.copy(), geo.Mcons.copy())
 
 
 def _triangle_covariance(xl: np.ndarray) -> np.ndarray:
@@ -812,11 +867,15 @@ def quad4_matrices(
     coupled_mass: bool = False,
     drilling: bool = False,
     normals: ArrayLike | None = None,
+    keep: dict | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Stiffness and mass of CQUAD4 elements: MITC4 bending/shear, bilinear + incompatible
     modes membrane (``drilling=True``: CQUADR, Allman (ITW) membrane).
 
     Formulation, sign conventions, drilling, offsets and mass: see the module docstring.
+    ``keep``: a dict in which the elements' shape-only part (:class:`QuadGeometry`) is kept
+    by the first call and taken by the next ones: for the same elements (the same ``xyz``
+    and ``drilling``) with other section properties.
     """
     T, xl, h, A_, D_, S_, B_, m, zo, alpha = _prepare(
         xyz, 4, A, D, S, B, rho_area, nsm, zoffs, k6rot,
@@ -824,7 +883,10 @@ def quad4_matrices(
     )
     if not drilling:
         alpha = _k6rot_modulus(alpha, D_, 4) + _curvature_tie(T, xl, normals, A_, D_)
-    K, Nint, Mcons = _quad4_local(xl, A_, D_, S_, B_, alpha, drilling)
+    geometry = None if keep is None else keep.get(("quad", drilling))
+    if keep is not None and geometry is None:
+        geometry = keep[("quad", drilling)] = quad_geometry(xl, drilling)
+    K, Nint, Mcons = _quad4_local(xl, A_, D_, S_, B_, alpha, drilling, geometry)
     return _to_basic(K, Nint, Mcons, m, T, zo[:, None] - h, coupled_mass)
 
 
