@@ -105,6 +105,15 @@ def test_metric_jacobian_equals_central_differences(setup, metric):
         scale = np.abs(fd).max()
         assert np.abs(J[:, i] - fd).max() < 1e-6 * scale, params[i].name
         assert np.abs(J_parts[:, i] - fd).max() < 1e-6 * scale, params[i].name
+    # some columns alone, written into a wider Jacobian at their places (the search's held
+    # parameters: zero columns), are those columns
+    which = np.arange(len(params)) % 2 == 0
+    _, sel, X_some = sur.frf_and_jacobian_parts(p, f, which)
+    wide = jacobian_of_parts(H, X_some, metric, H_test, out=np.zeros((len(J), len(params))),
+                             columns=sel)  # fmt: skip
+    scale = np.abs(J_parts).max()
+    assert np.abs(wide[:, which] - J_parts[:, which]).max() <= 1e-13 * scale
+    assert not wide[:, ~which].any()
 
 
 def test_log_frequencies_have_n_samples_per_half_power_bandwidth():

@@ -56,23 +56,28 @@ def jacobian(H_model: np.ndarray, dH: np.ndarray, metric: str = "log-magnitude",
 
 
 def jacobian_of_parts(H_model: np.ndarray, X: np.ndarray, metric: str = "log-magnitude",
-                      H_test: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
+                      H_test: np.ndarray | None = None, *, out: np.ndarray | None = None,
+                      columns: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
     """d eps / dp as (n_residuals, n_p) from H (n_out, n_in, n_f) and dH given as its real
     and imaginary parts side by side, X (n_p, n_out, n_in, 2 n_f) (``dH = X[..., :n_f] +
     i X[..., n_f:]``); the complex-log form needs H_test too. ``dH / H`` is taken as
-    ``dH conj(H) / |H|^2`` in real arithmetic and written straight into J."""
+    ``dH conj(H) / |H|^2`` in real arithmetic and written straight into J: a new array, or
+    ``out`` (n_residuals, n_cols) at its ``columns`` (n_p,), which is returned."""
+    if metric not in METRICS:
+        raise ValueError(f"metric must be one of {', '.join(METRICS)}, not {metric!r}")
     n_p, n_f = X.shape[0], H_model.shape[2]
     n = H_model.size
     inv = 1.0 / H_model
     Xr, Xi = X[..., :n_f], X[..., n_f:]
-    J = np.empty((n if metric == "log-magnitude" else 2 * n, n_p))
-    J[:n] = ((Xr * inv.real - Xi * inv.imag) / _LN10).reshape(n_p, -1).T
+    J = np.empty((n if metric == "log-magnitude" else 2 * n, n_p)) if out is None else out
+    cols = slice(None) if columns is None else columns
+    J[:n, cols] = ((Xr * inv.real - Xi * inv.imag) / _LN10).reshape(n_p, -1).T
     if metric == "log-magnitude":
         return J
     if H_test is None:
         raise ValueError("the complex-log Jacobian needs the test FRFs")
     half = np.cos(np.angle(H_model / H_test) / 2.0) / _LN10
-    J[n:] = (half * (Xr * inv.imag + Xi * inv.real)).reshape(n_p, -1).T
+    J[n:, cols] = (half * (Xr * inv.imag + Xi * inv.real)).reshape(n_p, -1).T
     return J
 
 

@@ -51,13 +51,12 @@ class Term:
         q = np.asarray(p, float)[self.index]
         mine = None if which is None else np.asarray(which)[self.index]
         H, sel, X = self.surrogate.frf_and_jacobian_parts(q, self.freq, mine)
-        J_sel = jacobian_of_parts(H, X, self.metric, self.H_test)
-        if len(sel) == len(q):
-            J = J_sel
-        else:  # (the other columns are zero)
-            J = np.zeros((J_sel.shape[0], len(q)))
-            J[:, sel] = J_sel
         r = residuals(H, self.H_test, self.metric)
+        if len(sel) == len(q):
+            J = jacobian_of_parts(H, X, self.metric, self.H_test)
+        else:  # (the other columns are zero)
+            J = jacobian_of_parts(H, X, self.metric, self.H_test,
+                                  out=np.zeros((len(r), len(q))), columns=sel)  # fmt: skip
         if self.correction is not None:
             J += self.correction  # (J is this call's own array)
             r = r + self.correction @ (q - self.surrogate.p_center)
