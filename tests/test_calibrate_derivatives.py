@@ -244,3 +244,43 @@ def test_a_groups_degree_is_found_on_a_sample_first(tmp_path, monkeypatch):
     for a, b in zip(probed.K + probed.M, alone.K + alone.M, strict=True):
         # the same assemblies at the same points; the fits' products may be split otherwise
         assert _rel(a, b) < 1e-13 if b.nnz else a.nnz == 0
+
+
+def test_a_polynomials_derivative_sums_its_terms_as_a_sparse_sum_does():
+    """dK/dp_j X from the group polynomials sums a group's terms on their data (they share
+    their index arrays) and adds the other groups' as sparse matrices: the same matrix as
+    the sparse sum of every weighted term, in the same order."""
+    from femcal.calibrate.derivatives import GroupPolynomial, polynomial_derivative, shift_weight
+
+    rng = np.random.default_rng(5)
+    n = 40
+
+    def terms(count: int, density: float) -> list[sp.csr_matrix]:
+        shared = sp.random(n, n, density=density, format="csr", random_state=rng)
+        out = []
+        for _ in range(count):  # one pattern, other values (a group's terms)
+            A = sp.csr_matrix((rng.standard_normal(shared.nnz), shared.indices,
+                               shared.indptr), shape=(n, n))  # fmt: skip
+            out.append(A)
+        return out
+
+    exps_a = np.array([[0, 0], [1, 0], [2, 0], [3, 1], [1, 1]])
+    exps_b = np.array([[0], [1], [2]])
+    polys = [GroupPolynomial((0, 1), exps_a, terms(5, 0.2), terms(5, 0.1)),
+             GroupPolynomial((0,), exps_b, terms(3, 0.3), [sp.csr_matrix((n, n))] * 3)]
+    center = np.array([0.13, -0.07])
+    X = rng.standard_normal((n, 3))
+    for j in (0, 1):
+        dK = dM = 0.0
+        for g in polys:
+            if j in g.params:
+                unit = np.zeros(len(g.params), int)
+                unit[g.params.index(j)] = 1
+                c = center[list(g.params)]
+                for a, Kc, Mc in zip(g.exponents, g.K, g.M, strict=True):
+                    w = shift_weight(a, unit, c)
+                    dK = dK + w * Kc
+                    dM = dM + w * Mc
+        dKX, dMX = polynomial_derivative(polys, center, j, X)
+        for got, want in ((dKX, dK @ X), (dMX, dM @ X)):
+            assert np.abs(got - want).max() <= 1e-14 * np.abs(want).max()

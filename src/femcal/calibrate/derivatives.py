@@ -593,9 +593,28 @@ def polynomial_derivative(polys: list[GroupPolynomial], center: np.ndarray, j: i
             if w == 0.0:
                 continue
             if Kc.nnz:
-                dK.append(w * Kc)
+                dK.append((w, Kc))
             if Mc.nnz:
-                dM.append(w * Mc)
-    dKX = sum(dK[1:], dK[0]) @ X if dK else np.zeros(X.shape)
-    dMX = sum(dM[1:], dM[0]) @ X if dM else np.zeros(X.shape)
+                dM.append((w, Mc))
+    dKX = _weighted_sum(dK) @ X if dK else np.zeros(X.shape)
+    dMX = _weighted_sum(dM) @ X if dM else np.zeros(X.shape)
     return dKX, dMX
+
+
+def _weighted_sum(terms: list[tuple[float, sp.csr_matrix]]) -> sp.csr_matrix:
+    """``sum w A`` over the (w, A) in order, as a sparse sum of the terms one after another
+    would give it: the first run of terms on the same index arrays (a group's,
+    :meth:`~femcal.assembly.repeated.RepeatedAssembly.matrix`) is summed on its data
+    vectors (the same additions in the same order, without a sparse addition per term;
+    explicit zeros it may keep add nothing to a product), every later term added to the sum
+    as a sparse matrix."""
+    w, A = terms[0]
+    data = w * A.data
+    k = 1
+    while k < len(terms) and terms[k][1].indices is A.indices and terms[k][1].indptr is A.indptr:
+        data = data + terms[k][0] * terms[k][1].data
+        k += 1
+    total = sp.csr_matrix((data, A.indices, A.indptr), shape=A.shape)
+    for w, B in terms[k:]:
+        total = total + w * B
+    return total
