@@ -234,3 +234,31 @@ def test_element_units_follow_the_unit_system():
     assert [element_unit("m", k) for k in ("translation", "rotation", "mass")] == [
         "N/m", "N m/rad", "kg"]
     assert element_unit(None, "mass") == ""
+
+
+def test_the_single_precision_screen_keeps_the_double_precision_candidates(frf, monkeypatch):
+    """The screen ranks candidates in single precision; with a misfit no one element
+    explains (measurement-like scatter on top of a missing spring), the candidates kept,
+    their sizes and falls are those of a screen in double precision."""
+    import femcal.calibrate.modelform as mf
+
+    f = np.geomspace(10.0, 400.0, 200)
+    model, modes, H_model = frf(plate_deck(), f)
+    _, _, H_test = frf(plate_deck().replace("ENDDATA", "CELAS2,600,300.,19,3\nENDDATA"), f)
+    rng = np.random.default_rng(11)
+    H_test = H_test * np.exp(0.05 * (rng.standard_normal(H_test.shape)
+                                     + 1j * rng.standard_normal(H_test.shape)))  # fmt: skip
+    eps = residuals(H_model, H_test, "complex-log")
+
+    def search() -> tuple:
+        return missing_elements(model, modes, OUTS, INS, f, ZETA, eps, H_model, H_test,
+                                "complex-log")  # fmt: skip
+
+    single = search()
+    monkeypatch.setattr(mf, "SCREEN_DTYPE", np.complex128)
+    double = search()
+    assert len(single) == len(double) > 1
+    for a, b in zip(single, double, strict=True):
+        assert (a.kind, a.grid, a.component) == (b.kind, b.grid, b.component)
+        assert a.fall == pytest.approx(b.fall, rel=1e-9, abs=1e-12)
+        assert a.value == pytest.approx(b.value, rel=1e-9)

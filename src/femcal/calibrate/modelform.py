@@ -72,6 +72,10 @@ USEFUL_FALL = 0.05
 #: dynamic stiffness in the band: from a thousandth of it (a small change, where the first
 #: order holds) to ten times it (the DOF nearly held, or a mass that dominates there).
 SCREEN_SIZES = 10.0 ** np.arange(-3.0, 1.01, 1.0)
+#: The screen's ratios and deviations are single precision: they only rank candidates (to
+#: about 1e-5 of the deviation), and every candidate kept is sized and its fall computed in
+#: double precision; single precision halves the screen's memory traffic.
+SCREEN_DTYPE = np.complex64
 
 #: The screen's candidates go in blocks whose every complex temporary stays within this many
 #: bytes (a handful are alive at once), so a test with many channels and inputs screens in
@@ -329,15 +333,16 @@ def missing_elements(model: Model, modes: Modes, outputs: Sequence[Channel],
         (2 sin(arg r / 2))^2 = 2 (1 - Re r / |r|); each part's sum over o, i, f is one
         product with its weights."""
         n_c = ratio.shape[0]
+        real = ratio.real.dtype
         with np.errstate(divide="ignore", invalid="ignore"):
             a2 = ratio.real**2 + ratio.imag**2
             log_a2 = np.log(a2)
             dev = (log_a2 * log_a2).reshape(n_c, -1) @ (
-                wparts[0][..., fsel] / (4.0 * _LN10**2)).ravel()
+                wparts[0][..., fsel] / (4.0 * _LN10**2)).ravel().astype(real)
             if complex_log:
                 dev += (1.0 - ratio.real / np.sqrt(a2)).reshape(n_c, -1) @ (
-                    wparts[1][..., fsel] * (2.0 / _LN10**2)).ravel()
-        return np.where(np.isfinite(dev), dev, np.inf)
+                    wparts[1][..., fsel] * (2.0 / _LN10**2)).ravel().astype(real)
+        return np.where(np.isfinite(dev), dev.astype(float), np.inf)
 
     def screen(dofs: np.ndarray, mass: bool, fsel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(fall, size) of the best of ``SCREEN_SIZES`` for candidates on ``dofs`` (n_c, k):
@@ -354,7 +359,8 @@ def missing_elements(model: Model, modes: Modes, outputs: Sequence[Channel],
         base = (H_model / H_test)[..., fsel]
         with np.errstate(divide="ignore", invalid="ignore"):
             g = base / R[..., fsel]  # (o, i, f)
-        ref_dev = deviations(base[None], fsel)[0]
+        ref_dev = deviations(base[None].astype(SCREEN_DTYPE), fsel)[0]
+        base, g = base.astype(SCREEN_DTYPE), g.astype(SCREEN_DTYPE)
         # candidates per block: each complex (c, o, i, f) temporary within SCREEN_BLOCK_BYTES
         per = 16 * max(len(outputs) * len(inputs) * len(fsel), dofs.shape[1] * len(fsel)
                        * (len(outputs) + len(inputs) + dofs.shape[1]))  # fmt: skip
@@ -371,20 +377,20 @@ def missing_elements(model: Model, modes: Modes, outputs: Sequence[Channel],
             ref = np.where(reach, 1.0 / np.where(reach, flex, 1.0), 0.0)
             eye = np.eye(k)[None, None]
             if k == 1:  # (c, o, 1, f) and (c, 1, i, f) g: their product is R_o. R_.i g
-                out_d = np.ascontiguousarray(Rod[..., 0].transpose(1, 2, 0))[:, :, None, :]
-                d_in = Rdi[..., 0, :].transpose(1, 2, 0)[:, None, :, :] * g[None]
+                out_d = Rod[..., 0].transpose(1, 2, 0).astype(SCREEN_DTYPE)[:, :, None, :]
+                d_in = Rdi[..., 0, :].transpose(1, 2, 0).astype(SCREEN_DTYPE)[:, None] * g[None]
             for rel in SCREEN_SIZES:
                 size = ref * rel  # (c,)
                 dz = (-w2[:, None] * size[None, :] if mass
                       else np.broadcast_to(size[None, :], (len(fsel), len(size))))  # fmt: skip
                 if k == 1:  # Sherman-Morrison
-                    core = (dz / (1.0 + Rdd[..., 0, 0] * dz)).T  # (c, f)
+                    core = (dz / (1.0 + Rdd[..., 0, 0] * dz)).T.astype(SCREEN_DTYPE)  # (c, f)
                     ratio = base[None] - (out_d * core[:, None, None, :]) * d_in
                 else:
                     core = np.linalg.solve(eye + Rdd * dz[..., None, None],
                                            eye * dz[..., None, None])  # fmt: skip
                     dR = np.einsum("fcok,fckl,fcli->coif", Rod, core, Rdi, optimize=True)
-                    ratio = base[None] - dR * g[None]
+                    ratio = base[None] - dR.astype(SCREEN_DTYPE) * g[None]
                 got = 1.0 - deviations(ratio, fsel) / ref_dev
                 got = np.where(reach, got, -np.inf)
                 sl = slice(a, a + len(size))
