@@ -338,8 +338,8 @@ def test_a_part_assembled_again_is_its_share_of_the_whole(write):
 def test_a_part_assembled_again_keeps_its_shape_not_its_sections(write):
     """The quadrilaterals' shape-only kernel data are kept between assemblies of the same
     elements (RepeatedAssembly): assemblies with other thicknesses, moduli and transverse
-    shear (MID3 given, or shear-rigid) in any order equal a fresh assembly of each, bit for
-    bit, and the whole model's matrices."""
+    shear (MID3 given, or shear-rigid) in any order equal a fresh assembly of each (to
+    rounding: the kernels' products are BLAS's) and the whole model's matrices."""
     from femcal.assembly import assemble
     from femcal.assembly.repeated import RepeatedAssembly
     from femcal.model.build import load_model
@@ -367,7 +367,8 @@ def test_a_part_assembled_again_keeps_its_shape_not_its_sections(write):
     for k, model in enumerate(models):
         Kd, Md = repeated.data(model)
         fresh_K, fresh_M = RepeatedAssembly(model).data(model)
-        assert np.array_equal(Kd, fresh_K) and np.array_equal(Md, fresh_M), k
+        assert np.abs(Kd - fresh_K).max() <= 1e-13 * np.abs(fresh_K).max(), k
+        assert np.abs(Md - fresh_M).max() <= 1e-13 * np.abs(fresh_M).max(), k
         whole = assemble(model)
         assert np.abs((repeated.matrix(Kd) - whole.K).toarray()).max() < (
             1e-12 * np.abs(whole.K.data).max())

@@ -595,10 +595,6 @@ class QuadGeometry:
     Nint: np.ndarray
     Mcons: np.ndarray
 
-    @property
-    def nbytes(self) -> int:
-        return sum(x.nbytes for x in (self.rows, self.drill, self.Nint, self.Mcons, self.cov))
-
 
 def quad_geometry(xl: np.ndarray, drilling: bool = True) -> QuadGeometry:
     """The shape-only part of :func:`_quad4_local` for corner coordinates xl (n, 4, 2).
