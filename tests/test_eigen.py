@@ -83,3 +83,39 @@ def test_cli_solve_writes_table_json_results_and_pictures(tmp_path, capsys):
     pngs = sorted((tmp_path / "png").glob("mode_*.png"))
     assert [p.name for p in pngs] == ["mode_001.png", "mode_002.png", "mode_003.png"]
     assert all(p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" for p in pngs)
+
+
+def test_a_flat_plate_solved_in_parts_gives_the_whole_problems_modes(write, monkeypatch):
+    """A flat cantilever plate's membrane and bending DOF do not couple: solved as two
+    parts (the membrane's roots checked to lie above the bending's 12th, never iterated
+    on), it gives the modes of the problem solved whole."""
+    from femcal.deck import read_deck
+    from femcal.model.build import build_model
+    from femcal.solve.normal_modes import solve_normal_modes
+
+    n = 32
+    lines = ["SOL 103", "CEND", "METHOD = 1", "SPC = 1", "BEGIN BULK", "EIGRL,1,,,12",
+             "PSHELL,1,1,2.,1,,1", "MAT1,1,2.1e5,,0.3,7.85e-9"]  # fmt: skip
+    gid = lambda i, j: j * (n + 1) + i + 1  # noqa: E731
+    for j in range(n + 1):
+        for i in range(n + 1):
+            lines.append(f"GRID,{gid(i, j)},,{500.0 * i / n},{400.0 * j / n},0.")
+        lines.append(f"SPC1,1,123456,{gid(0, j)}")
+    for j in range(n):
+        for i in range(n):
+            g = gid(i, j)
+            lines.append(f"CQUAD4,{j * n + i + 1},1,{g},{g + 1},{g + n + 2},{g + n + 1}")
+    model = build_model(read_deck(write("\n".join([*lines, "ENDDATA", ""]))))
+    said: list[str] = []
+    parts, _ = solve_normal_modes(model, progress=said.append)
+    assert any("2 independent parts" in s for s in said)
+    assert any("no root of it is wanted" in s for s in said)
+    monkeypatch.setattr(modal, "independent_parts", lambda K, M: [np.arange(K.shape[0])])
+    said.clear()
+    whole, _ = solve_normal_modes(model, progress=said.append)
+    assert not any("independent parts" in s for s in said)
+    np.testing.assert_allclose(parts.eigenvalues, whole.eigenvalues, rtol=1e-9)
+    mac = (parts.shapes.T @ whole.shapes) ** 2 / np.outer(
+        (parts.shapes**2).sum(0), (whole.shapes**2).sum(0))
+    # the first five roots are apart: each mode is the same (the rest may pair up)
+    assert np.diag(mac)[:5] == pytest.approx(1.0, abs=1e-8)

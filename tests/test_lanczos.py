@@ -139,3 +139,84 @@ def test_v2_request_is_answered_in_one_block_iteration():
     np.testing.assert_allclose(res.eigenvalues, ref[:70], rtol=1e-9)
     assert sum("Lanczos: " in line and "roots of" in line for line in lines) == 1
     assert any("going on" in line for line in lines)
+
+
+def test_independent_parts_follow_the_values_and_leave_the_matrices_alone(monkeypatch):
+    """Two chains side by side are two parts, also when an explicit zero joins them; a
+    coupling mass joins them; K and M are not changed (the graph is built on copies)."""
+    import femcal.solve.parts as parts_module
+    from femcal.solve.parts import independent_parts
+
+    monkeypatch.setattr(parts_module, "PART_MIN", 100)
+    K, M = twin_chains(300)
+    assert [len(p) for p in independent_parts(K, M)] == [300, 300]
+    np.testing.assert_array_equal(independent_parts(K, M)[1], np.arange(300, 600))
+    c = K.tocoo()  # the same with a stored zero between the chains
+    joined = sp.csr_matrix((np.r_[c.data, 0.0, 0.0],
+                            (np.r_[c.row, 0, 300], np.r_[c.col, 300, 0])), shape=K.shape)
+    assert joined.nnz == K.nnz + 2
+    before = (joined.data.copy(), joined.indices.copy(), joined.indptr.copy())
+    assert len(independent_parts(joined, M)) == 2
+    for a, b in zip(before, (joined.data, joined.indices, joined.indptr), strict=True):
+        np.testing.assert_array_equal(a, b)
+    Mc = M.tolil()
+    Mc[299, 300] = Mc[300, 299] = 0.1  # a consistent mass across
+    assert len(independent_parts(K, sp.csr_matrix(Mc))) == 1
+    # a small set of DOF is gathered with the other small ones, not a part of its own
+    small = sp.block_diag([K, sp.identity(50)]).tocsr()
+    assert [len(p) for p in independent_parts(small, sp.block_diag([M, sp.identity(50)]))] \
+        == [300, 300, 50]  # fmt: skip
+    monkeypatch.setattr(parts_module, "PART_MIN", 400)
+    assert len(independent_parts(K, M)) == 1  # parts below PART_MIN are not split
+
+
+def soft_and_stiff(n: int = 700) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+    """A chain of n DOF beside the same chain 1e4 times stiffer: the stiff one's lowest
+    root lies above the soft one's 60 lowest."""
+    K, M = twin_chains(n)
+    stiff = sp.diags(np.r_[np.ones(n), np.full(n, 1e4)])
+    return sp.csr_matrix(stiff @ K), M
+
+
+@pytest.mark.parametrize("request_", [EigenRequest(nd=20), EigenRequest(nd=None, v2=None)])
+def test_a_part_without_wanted_roots_is_not_iterated_on(monkeypatch, request_):
+    """Solved part by part, the roots are the dense reference's; the stiff part's lowest
+    root, checked, lies above what the request reaches, so only the soft part gets a basis.
+    For a V2 request the bound is V2 from the start."""
+    import femcal.solve.parts as parts_module
+
+    monkeypatch.setattr(parts_module, "PART_MIN", 500)
+    K, M = soft_and_stiff()
+    ref = reference(K, M, 40)
+    if request_.nd is None:  # every root below a V2 between the 30th and 31st
+        request_ = EigenRequest(nd=None, v2=np.sqrt(0.5 * (ref[29] + ref[30])) / (2 * np.pi))
+    lines: list[str] = []
+    res = solve_modes(K, M, request_, progress=lines.append)
+    want = 20 if request_.nd else 30
+    np.testing.assert_allclose(res.eigenvalues, ref[:want], rtol=1e-9)
+    assert any("2 independent parts (700, 700 DOF)" in line for line in lines)
+    assert sum("Lanczos: " in line and "roots of 700 DOF" in line for line in lines) == 1
+    assert any("no root of it is wanted" in line for line in lines)
+    assert np.all(res.vectors[700:] == 0.0)  # the soft chain's modes
+    res_k = K @ res.vectors - (M @ res.vectors) * res.eigenvalues
+    assert np.abs(res_k).max() <= 1e-4 * np.abs(K @ res.vectors).max()
+
+
+def test_parts_with_the_same_roots_give_every_copy(monkeypatch):
+    """Two identical chains, each a part: every root twice, as the dense reference has them,
+    and the factor handed to the caller solves with the whole K - sigma M."""
+    import femcal.solve.parts as parts_module
+
+    monkeypatch.setattr(parts_module, "PART_MIN", 500)
+    K, M = twin_chains(700)
+    kept: list = []
+    res = solve_modes(K, M, EigenRequest(nd=16), on_factor=lambda s, sig: kept.append((s, sig)))
+    ref = reference(K, M, 16)
+    np.testing.assert_allclose(res.eigenvalues, ref, rtol=1e-9)
+    assert np.allclose(ref[0::2], ref[1::2], rtol=1e-12)
+    np.testing.assert_allclose(res.vectors.T @ (M @ res.vectors), np.eye(16), atol=1e-9)
+    (solve, sigma), = kept
+    b = np.random.default_rng(1).standard_normal((1400, 3))
+    A = (K - sigma * M).tocsc()
+    np.testing.assert_allclose(A @ solve(b), b, atol=1e-9 * np.abs(b).max())
+    np.testing.assert_allclose(A @ solve(b[:, 0]), b[:, 0], atol=1e-9 * np.abs(b).max())

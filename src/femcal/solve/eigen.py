@@ -29,6 +29,7 @@ from ..model.analysis import EigenRequest
 from ..resources import check_memory
 from .factor import NotPositiveDefinite, factorize
 from .lanczos import LanczosNotConverged, block_lanczos
+from .parts import independent_parts
 
 #: Below this a-set size the dense solver is used.
 DENSE_LIMIT = 600
@@ -45,6 +46,10 @@ SHIFT_RANGE = (1e-10, 1e-6)
 #: Above this share of the DOF wanted as roots, a model up to DENSE_ALL_LIMIT DOF is solved
 #: dense: a Lanczos basis of nearly every vector costs more than the dense solution.
 DENSE_SHARE, DENSE_ALL_LIMIT = 0.5, 8000
+#: The lower bound of an independent part's lowest root (:func:`_lowest_root`): the block's
+#: columns and the relative residual of theta the bound allows for. A few steps of a small
+#: block decide whether a part holds any root wanted.
+CHECK_BLOCK, CHECK_TOL = 4, 1e-4
 
 
 @dataclass(frozen=True)
@@ -283,10 +288,115 @@ def _dense(K, M, sigma):
 
 def _lanczos(K, M, sigma, request, lam_lo, lam_hi, backend, progress, on_factor=None,
              method="block"):  # fmt: skip
-    n = K.shape[0]
+    parts = independent_parts(K, M)
+    if len(parts) > 1:
+        return _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, backend, progress,
+                         on_factor, method)  # fmt: skip
     solve, name = _shifted_factor(K, M, sigma, backend)
     if on_factor is not None:
         on_factor(solve, sigma)
+    lam, vec = _iterate(K, M, sigma, solve, name, request, lam_lo, lam_hi, progress, method)
+    return lam, vec, name
+
+
+def _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, backend, progress, on_factor,
+              method):  # fmt: skip
+    """The roots of a problem that splits into independent parts (:mod:`femcal.solve.parts`),
+    part by part. Each part is factored at sigma and its lowest root bounded from below
+    (:func:`_lowest_root`); the parts are solved from the lowest up. Once the roots found
+    answer the request up to a root lambda_cut (the ND-th, or V2), a part whose lowest root
+    lies above lambda_cut has no root wanted and is not iterated on: a flat shell's membrane,
+    whose roots lie far above its bending's, then costs a few steps instead of a basis."""
+    say = progress or (lambda _s: None)
+    n = K.shape[0]
+    say(f"{len(parts)} independent parts ({', '.join(str(len(p)) for p in parts)} DOF): "
+        "solved one by one")  # fmt: skip
+    K, M = sp.csr_matrix(K), sp.csr_matrix(M)
+    subs = []
+    name = ""
+    for idx in parts:
+        Kp, Mp = K[idx][:, idx], M[idx][:, idx]
+        solve, name = _shifted_factor(Kp, Mp, sigma, backend)
+        subs.append((idx, Kp, Mp, solve))
+    if on_factor is not None:
+        on_factor(_block_solve(n, [(s[0], s[3]) for s in subs]), sigma)
+    ranked = []
+    for idx, Kp, Mp, solve in subs:
+        if not Mp.count_nonzero():
+            continue  # no mass: every root of the part is infinite
+        if len(idx) <= DENSE_LIMIT:
+            dense = _dense(Kp, Mp, sigma)[:2]
+            ranked.append((dense[0][0] if len(dense[0]) else np.inf, idx, Kp, Mp, solve, dense))
+        else:
+            ranked.append((_lowest_root(solve, Mp, sigma), idx, Kp, Mp, solve, None))
+    ranked.sort(key=lambda r: r[0])
+    found_lam: list[np.ndarray] = []
+    found_vec: list[np.ndarray] = []
+    for lowest, idx, Kp, Mp, solve, dense in ranked:
+        cut = _cutoff(np.concatenate([np.zeros(0), *found_lam]), request, lam_lo, lam_hi)
+        if cut is not None and lowest > cut:
+            say(f"a part of {len(idx)} DOF has its lowest root at {_hz(lowest):.6g} Hz or "
+                f"above, beyond the {_hz(cut):.6g} Hz the request reaches: no root of it is "
+                "wanted")  # fmt: skip
+            continue
+        if dense is not None:
+            lam, vec = dense
+        else:
+            lam, vec = _iterate(Kp, Mp, sigma, solve, name, request, lam_lo, lam_hi,
+                                progress, method)  # fmt: skip
+        full = np.zeros((n, vec.shape[1]))
+        full[idx] = vec
+        found_lam.append(lam)
+        found_vec.append(full)
+    lam = np.concatenate([np.zeros(0), *found_lam])
+    vec = np.hstack([np.zeros((n, 0)), *found_vec])
+    order = np.argsort(lam, kind="stable")
+    return lam[order], vec[:, order], name
+
+
+def _hz(lam: float) -> float:
+    return float(np.sqrt(max(lam, 0.0)) / (2.0 * np.pi))
+
+
+def _cutoff(lam: np.ndarray, request: EigenRequest, lam_lo: float, lam_hi: float
+            ) -> float | None:  # fmt: skip
+    """The highest root the request can still want, given the roots found so far: the ND-th
+    in range once ND are found, else V2's; None when nothing bounds it yet."""
+    in_range = np.sort(lam[(lam >= lam_lo) & (lam <= lam_hi)])
+    if request.nd is not None and len(in_range) >= request.nd:
+        return float(in_range[request.nd - 1])
+    return float(lam_hi) if np.isfinite(lam_hi) else None
+
+
+def _lowest_root(solve: Callable, M: sp.spmatrix, sigma: float) -> float:
+    """A lower bound of a part's lowest root. The block Lanczos (:data:`CHECK_BLOCK`
+    vectors) runs until its largest theta = 1 / (lambda - sigma) has a residual below
+    :data:`CHECK_TOL` theta; the eigenvalue it approximates then lies within that of it, so
+    that root is at least sigma + (lambda - sigma) / (1 + CHECK_TOL). It is the lowest as
+    any Lanczos root is: the random start block has a component along every mode."""
+    with ThreadpoolController().limit(limits=1, user_api="blas"):
+        lam = block_lanczos(solve, M, sigma, 1, block=CHECK_BLOCK, tol=CHECK_TOL)[0]
+    if not len(lam):
+        return np.inf
+    return float(sigma + (lam[0] - sigma) / (1.0 + CHECK_TOL))
+
+
+def _block_solve(n: int, parts: list[tuple[np.ndarray, Callable]]) -> Callable:
+    """x = (K - sigma M)^-1 b for b (n,) or (n, k) from the parts' own factors."""
+
+    def solve(b: np.ndarray) -> np.ndarray:
+        b = np.asarray(b)
+        x = np.empty(b.shape)
+        for idx, part in parts:
+            x[idx] = part(b[idx])
+        return x
+
+    return solve
+
+
+def _iterate(K, M, sigma, solve, name, request, lam_lo, lam_hi, progress, method):
+    """The Lanczos iteration on a factor of K - sigma M: (lam ascending, vectors)."""
+    n = K.shape[0]
     want = request.nd if request.nd is not None else 20
     k = min(max(want + 2, 12), n - 2)
     blas = ThreadpoolController()
@@ -341,5 +451,5 @@ def _lanczos(K, M, sigma, request, lam_lo, lam_hi, backend, progress, on_factor=
         order = np.argsort(lam)
         lam, vec = lam[order], vec[:, order]
         if finished or answered(lam) or k >= n - 2:
-            return lam, vec, name
+            return lam, vec
         k = min(2 * k, n - 2)
