@@ -220,3 +220,25 @@ def test_parts_with_the_same_roots_give_every_copy(monkeypatch):
     A = (K - sigma * M).tocsc()
     np.testing.assert_allclose(A @ solve(b), b, atol=1e-9 * np.abs(b).max())
     np.testing.assert_allclose(A @ solve(b[:, 0]), b[:, 0], atol=1e-9 * np.abs(b).max())
+
+
+def test_a_part_whose_check_does_not_converge_is_solved(monkeypatch):
+    """The check of a part's lowest root bounds nothing when it does not converge: the part
+    is then solved as any, and the roots are the dense reference's."""
+    import femcal.solve.eigen as modal
+    import femcal.solve.parts as parts_module
+
+    monkeypatch.setattr(parts_module, "PART_MIN", 500)
+    real = modal.block_lanczos
+
+    def failing_check(solve, M, sigma, k, **kw):
+        if k == 1:
+            raise LanczosNotConverged("no convergence", 0)
+        return real(solve, M, sigma, k, **kw)
+
+    monkeypatch.setattr(modal, "block_lanczos", failing_check)
+    K, M = soft_and_stiff()
+    lines: list[str] = []
+    res = solve_modes(K, M, EigenRequest(nd=20), progress=lines.append)
+    np.testing.assert_allclose(res.eigenvalues, reference(K, M, 20), rtol=1e-9)
+    assert sum("Lanczos: " in line and "roots of 700 DOF" in line for line in lines) == 2

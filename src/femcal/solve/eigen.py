@@ -373,9 +373,14 @@ def _lowest_root(solve: Callable, M: sp.spmatrix, sigma: float) -> float:
     vectors) runs until its largest theta = 1 / (lambda - sigma) has a residual below
     :data:`CHECK_TOL` theta; the eigenvalue it approximates then lies within that of it, so
     that root is at least sigma + (lambda - sigma) / (1 + CHECK_TOL). It is the lowest as
-    any Lanczos root is: the random start block has a component along every mode."""
-    with ThreadpoolController().limit(limits=1, user_api="blas"):
-        lam = block_lanczos(solve, M, sigma, 1, block=CHECK_BLOCK, tol=CHECK_TOL)[0]
+    any Lanczos root is: the random start block has a component along every mode. A check
+    that does not converge bounds nothing: the shift itself is returned (the part is
+    solved)."""
+    try:
+        with ThreadpoolController().limit(limits=1, user_api="blas"):
+            lam = block_lanczos(solve, M, sigma, 1, block=CHECK_BLOCK, tol=CHECK_TOL)[0]
+    except LanczosNotConverged:
+        return float(sigma)
     if not len(lam):
         return np.inf
     return float(sigma + (lam[0] - sigma) / (1.0 + CHECK_TOL))
