@@ -24,6 +24,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from threadpoolctl import ThreadpoolController
 
+from ..assembly.constraints import select_symmetric
 from ..errors import FemcalWarning, SolverError
 from ..model.analysis import EigenRequest
 from ..resources import check_memory
@@ -311,11 +312,10 @@ def _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, backend, progress, on
     n = K.shape[0]
     say(f"{len(parts)} independent parts ({', '.join(str(len(p)) for p in parts)} DOF): "
         "solved one by one")  # fmt: skip
-    K, M = sp.csr_matrix(K), sp.csr_matrix(M)
     subs = []
     name = ""
     for idx in parts:
-        Kp, Mp = K[idx][:, idx], M[idx][:, idx]
+        Kp, Mp = select_symmetric(K, idx), select_symmetric(M, idx)
         solve, name = _shifted_factor(Kp, Mp, sigma, backend)
         subs.append((idx, Kp, Mp, solve))
     if on_factor is not None:

@@ -182,9 +182,15 @@ def mass_product(M: sp.spmatrix) -> Callable[[np.ndarray], np.ndarray]:
     """X (n, b) -> M X, as a row scaling when M is diagonal (a lumped mass)."""
     M = sp.csr_matrix(M)
     d = M.diagonal()
-    if M.nnz == 0 or np.count_nonzero(M.data) == np.count_nonzero(d):
+    if is_diagonal(M):
         return lambda X: d[:, None] * X
     return lambda X: np.asarray(M @ X)
+
+
+def is_diagonal(A: sp.spmatrix) -> bool:
+    """Whether A's nonzero values all lie on its diagonal (an empty A is)."""
+    A = sp.csr_matrix(A)
+    return int(np.count_nonzero(A.data)) == int(np.count_nonzero(A.diagonal()))
 
 
 def _orthonormalize(

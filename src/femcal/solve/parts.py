@@ -17,6 +17,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from .lanczos import is_diagonal
+
 #: A connected set of DOF is a part of its own when it holds at least this share of the DOF
 #: and PART_MIN DOF; smaller sets are gathered in one part (any union of connected sets is
 #: independent of the rest), since a split of small problems saves nothing.
@@ -38,23 +40,23 @@ def independent_parts(K: sp.spmatrix, M: sp.spmatrix) -> list[np.ndarray]:
     if n < 2 * PART_MIN:
         return whole
     graph = _coupling(K)
-    if M.nnz and not _diagonal(M):
+    if not is_diagonal(M):
         graph = graph + _coupling(M)
     count, label = connected_components(graph, directed=True, connection="weak")
     if count < 2:
         return whole
     size = np.bincount(label, minlength=count)
     own = size >= max(PART_SHARE * n, PART_MIN)
-    if not own.any() or (own.sum() == 1 and own[label].all()):
+    if not own.any():
         return whole
     order = np.argsort(label, kind="stable")  # DOF grouped by label, ascending within
     starts = np.concatenate([[0], np.cumsum(size)])
     parts = [order[starts[c] : starts[c + 1]] for c in np.flatnonzero(own)]
     parts.sort(key=len, reverse=True)
     rest = np.flatnonzero(~own[label])
-    if len(rest):
+    if len(rest):  # (with two sets or more, one part of its own leaves a rest)
         parts.append(rest)
-    return parts if len(parts) > 1 else whole
+    return parts
 
 
 def _coupling(A: sp.spmatrix) -> sp.csr_matrix:
@@ -64,8 +66,3 @@ def _coupling(A: sp.spmatrix) -> sp.csr_matrix:
     G = sp.csr_matrix((keep, A.indices.copy(), A.indptr.copy()), shape=A.shape)
     G.eliminate_zeros()
     return G
-
-
-def _diagonal(A: sp.spmatrix) -> bool:
-    """Whether A's nonzero values all lie on its diagonal."""
-    return int(np.count_nonzero(A.diagonal())) == int(np.count_nonzero(sp.csr_matrix(A).data))
