@@ -14,10 +14,11 @@ from ..parallel import executor, ordered
 from ..properties.materials import MaterialTables
 from .pattern import Assembler
 
-#: Elements per kernel call. It bounds the kernels' temporaries to about 10 MB each, small
+#: Elements per kernel call. It bounds the kernels' temporaries to about 5 MB each, small
 #: enough for the C library to reuse freed memory rather than map fresh pages per call (which
-#: costs more than the arithmetic), large enough to amortise NumPy's per-call overhead.
-KERNEL_CHUNK = 2048
+#: costs more than the arithmetic), large enough to amortise NumPy's per-call overhead, and
+#: splits a group of a few thousand elements into enough calls to keep the threads busy.
+KERNEL_CHUNK = 1024
 
 
 def chunks(rows: np.ndarray) -> list[np.ndarray]:
