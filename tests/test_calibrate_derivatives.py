@@ -224,9 +224,9 @@ def test_a_groups_degree_is_found_on_a_sample_first(tmp_path, monkeypatch):
     sizes: list[tuple] = []  # (element types, elements) of each assembly
     data = RepeatedAssembly.data
 
-    def counted(self, part):
+    def counted(self, part, **kw):
         sizes.append((tuple(part.elements), sum(len(b.ids) for b in part.elements.values())))
-        return data(self, part)
+        return data(self, part, **kw)
 
     monkeypatch.setattr(RepeatedAssembly, "data", counted)
     runs = {}
@@ -284,3 +284,62 @@ def test_a_polynomials_derivative_sums_its_terms_as_a_sparse_sum_does():
         dKX, dMX = polynomial_derivative(polys, center, j, X)
         for got, want in ((dKX, dK @ X), (dMX, dM @ X)):
             assert np.abs(got - want).max() <= 1e-14 * np.abs(want).max()
+
+
+def test_assemblies_side_by_side_give_the_same_polynomials(tmp_path):
+    """A group's assemblies run side by side (one kernel thread each), placed in order: the
+    polynomials are bitwise those of one assembly at a time."""
+    import femcal.calibrate.derivatives as derivatives
+    from femcal.assembly import Options
+
+    (tmp_path / "d.bdf").write_text(plate_deck(12, 6))
+    (tmp_path / "p.toml").write_text(PARAMS_TOML)
+    model = build_model(read_deck(tmp_path / "d.bdf"))
+    params = read_parameters(tmp_path / "p.toml", model)
+    polys = {}
+    for threads in (1, 2):
+        polys[threads] = derivatives.group_polynomials(
+            model, params, np.zeros(len(params)), options=Options(threads=threads),
+            constant=True)  # fmt: skip
+    for a, b in zip(polys[1], polys[2], strict=True):
+        assert a.params == b.params
+        np.testing.assert_array_equal(a.exponents, b.exponents)
+        for X, Y in zip(a.K + a.M, b.K + b.M, strict=True):
+            assert (X != Y).nnz == 0
+
+
+def test_alike_groups_are_probed_once(tmp_path, monkeypatch):
+    """What a sample found for a parameter, a raised degree or the field's own, holds for the
+    alike parameters of later groups: they are not probed again."""
+    import re
+
+    import femcal.calibrate.derivatives as derivatives
+
+    # two plates' halves with their own thickness each, one material
+    deck = re.sub(r"CQUAD4,(\d*[02468]),1,", r"CQUAD4,\1,6,", plate_deck(8, 4))
+    (tmp_path / "d.bdf").write_text(deck.replace("PSHELL,1,1,5.,1,,1",
+                                                 "PSHELL,1,1,5.,1,,1\nPSHELL,6,1,5.,1,,1"))
+    (tmp_path / "p.toml").write_text(PARAMS_TOML + '''
+[[parameter]]
+name = "t2"
+card = "PSHELL"
+id = 6
+field = "T"
+lower_rel = -0.2
+upper_rel = 0.2
+''')  # fmt: skip
+    model = build_model(read_deck(tmp_path / "d.bdf"))
+    params = read_parameters(tmp_path / "p.toml", model)
+    probed: list[tuple[str, ...]] = []
+    probe = derivatives._GroupFit._probe
+
+    def counted(self, k, alike):
+        probed.append(tuple(p.name for p in self.pars))
+        return probe(self, k, alike)
+
+    monkeypatch.setattr(derivatives, "_PROBE", 2)
+    monkeypatch.setattr(derivatives._GroupFit, "_probe", counted)
+    derivatives.group_polynomials(model, params, np.zeros(len(params)), constant=True)
+    plates = sorted(set(probed))
+    assert [("t" in g, "t2" in g) for g in plates] == [(True, False)]  # the first plate only
+    assert len(probed) == 3  # its T (raised), E and RHO (the fields' own degrees)

@@ -23,8 +23,9 @@ from .pattern import Assembler, Pattern
 #: Memory the kernels may keep between assemblies (what depends on the elements' shape
 #: alone, :class:`femcal.elements.shell.QuadGeometry`); beyond it they recompute it.
 KEEP_BYTES = 512 << 20
-#: What a quadrilateral keeps: strain rows (4 x 9 x 28), drilling rows (4 x 24) and the rest.
-QUAD_KEPT_BYTES = 8 * (4 * 9 * 28 + 4 * 24 + 4 * 4 + 16 + 4 + 8)
+#: What a quadrilateral keeps: in-plane rows (4 x 4 x 16), out-of-plane rows (4 x 5 x 12),
+#: int(N_a N_b), int(N_a), det J, area and area covariance.
+QUAD_KEPT_BYTES = 8 * (4 * 4 * 16 + 4 * 5 * 12 + 16 + 4 + 4 + 1 + 4)
 
 
 class RepeatedAssembly:
@@ -60,9 +61,12 @@ class RepeatedAssembly:
         """Length of the data vectors."""
         return self.pattern.nnz
 
-    def data(self, model: Model) -> tuple[np.ndarray, np.ndarray]:
+    def data(self, model: Model, *, threads: int | None = None
+             ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
         """K and M data (nnz,) of ``model``: the elements given at construction (the same
-        blocks, in the same order) with other property or material values.
+        blocks, in the same order) with other property or material values. ``threads``: the
+        kernels' worker threads (default: the options'; the sums are the same for any).
+        Assemblies of one instance may run in several threads at once.
 
         Raises
         ------
@@ -70,8 +74,8 @@ class RepeatedAssembly:
             As :func:`femcal.assembly.assemble` does.
         """
         asm = Assembler(self.pattern, model.cd_frames, n_matrices=2, positions=self._positions)
-        add_elements(Context(model, self.coupled, self.k6rot, self.threads, self.normals,
-                             self._kept), asm)  # fmt: skip
+        add_elements(Context(model, self.coupled, self.k6rot, threads or self.threads,
+                             self.normals, self._kept), asm)  # fmt: skip
         M = asm.data(1)
         if self.wtmass != 1.0:
             M *= self.wtmass

@@ -43,6 +43,7 @@ from ..assembly import Options
 from ..assembly.repeated import RepeatedAssembly
 from ..errors import FemcalError
 from ..model.model import Model
+from ..parallel import executor
 from .parameters import Parameter, affected_elements, current_value, subset, with_values
 
 #: Relative half-width of the interpolation points around P.
@@ -146,7 +147,7 @@ class Nodes:
 
 def interpolation_nodes(assemble_at, degree: int, interval: tuple[float, float],
                         what: str, at_zero=None, first_try: int | None = None,
-                        align=None) -> Nodes:  # fmt: skip
+                        align=None, assemble_all=None) -> Nodes:  # fmt: skip
     """Offsets ``d`` and the matrices ``assemble_at(d)`` = (K, M) there, on which the
     interpolating polynomial reproduces the matrices (see the module docstring).
 
@@ -159,6 +160,7 @@ def interpolation_nodes(assemble_at, degree: int, interval: tuple[float, float],
     to try before all others (the one an alike group of elements needed); it is checked as
     any other, and the usual ladder follows if it fails. ``align``: turns a list of what
     ``assemble_at`` returned into pairs (K, M) of one shape (default: as they are).
+    ``assemble_all``: ``assemble_at`` of a list of offsets at once (default: one by one).
 
     Raises
     ------
@@ -169,6 +171,7 @@ def interpolation_nodes(assemble_at, degree: int, interval: tuple[float, float],
         at_zero = assemble_at(0.0)
     lo, hi = min(interval[0], -SPREAD), max(interval[1], SPREAD)
     align = align or (lambda items: items)
+    assemble_all = assemble_all or (lambda offsets: [assemble_at(d) for d in offsets])
 
     def misfit(nodes: np.ndarray, series: list, at: float, exact) -> tuple[float, str]:
         *series, exact = align([*series, exact])
@@ -176,10 +179,10 @@ def interpolation_nodes(assemble_at, degree: int, interval: tuple[float, float],
 
     def raised_fit(raised: int) -> tuple[Nodes, float]:
         nodes = _chebyshev_points(raised + 1, lo, hi)
-        series = [assemble_at(d) for d in nodes]
         between = 0.5 * (nodes[-2] + nodes[-1])
+        *series, at_between = assemble_all([*nodes, between])
         miss = max(misfit(nodes, series, 0.0, at_zero)[0],
-                   misfit(nodes, series, between, assemble_at(between))[0])  # fmt: skip
+                   misfit(nodes, series, between, at_between)[0])  # fmt: skip
         return Nodes(nodes, series, True), miss
 
     if first_try is not None and first_try > degree:
@@ -187,7 +190,7 @@ def interpolation_nodes(assemble_at, degree: int, interval: tuple[float, float],
         if miss <= DEGREE_CHECK:
             return found
     nodes = np.linspace(-SPREAD, SPREAD, degree + 1)
-    series = [assemble_at(d) for d in nodes]
+    series = assemble_all(list(nodes))
     miss, which = misfit(nodes, series, 0.0, at_zero)
     if miss <= DEGREE_CHECK:
         return Nodes(nodes, series, False)
@@ -318,7 +321,7 @@ def group_polynomials(model: Model, params: list[Parameter], center: np.ndarray,
     center = np.asarray(center, float)
     out: list[GroupPolynomial] = []
     groups = element_groups(model, params)
-    raised: dict[tuple, int] = {}  # the degrees alike groups needed
+    raised: dict[tuple, int | None] = {}  # the degrees alike groups needed (None: their own)
     for n, (idx, rows) in enumerate(groups.items(), start=1):
         fit = _GroupFit(model, rows, [params[i] for i in idx], center[list(idx)], options,
                         raised)  # fmt: skip
@@ -361,9 +364,10 @@ class _GroupFit:
     grow if an assembly puts a value elsewhere."""
 
     def __init__(self, model: Model, rows: dict, pars: list[Parameter], centre: np.ndarray,
-                 options: Options | None, raised: dict[tuple, int]):  # fmt: skip
-        """``raised``: per (card, field, element types) the raised degree a group needed
-        (tried first for an alike parameter; what this group needs is put there)."""
+                 options: Options | None, raised: dict[tuple, int | None]):  # fmt: skip
+        """``raised``: per (card, field, element types) the raised degree a group needed,
+        None for the field's own (tried first for an alike parameter; what this group needs
+        is put there)."""
         self.raised = raised
         self._model, self._rows, self._options = model, rows, options
         self.sub = subset(model, rows)
@@ -385,24 +389,46 @@ class _GroupFit:
         return self._placed(self._centre)
 
     def _assemble(self, offsets: tuple[float, ...]) -> tuple:
+        return self._place(self._data(offsets))
+
+    def _assemble_all(self, keys: list[tuple[float, ...]]) -> list[tuple]:
+        """:meth:`_assemble` of each of ``keys``: up to as many at once as the assembly has
+        threads, each on one (the main thread's share of an assembly, its sections and
+        scatter, is then not waited for), placed in order."""
+        workers = min(self.repeated.threads, len(keys))
+        if workers < 2:
+            return [self._assemble(key) for key in keys]
+        with executor("threads", workers, name="femcal-fit") as pool:
+            made = list(pool.map(lambda key: self._data(key, threads=1), keys))
+        return [self._place(data) for data in made]
+
+    def _data(self, offsets: tuple[float, ...], threads: int | None = None
+              ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+        """The group's K and M data (nnz,) at the offsets."""
         values = [p.value(c + d) for p, c, d in zip(self.pars, self.centre, offsets, strict=True)]
+        return self.repeated.data(with_values(self.sub, self.pars, values), threads=threads)
+
+    def _place(self, data: tuple[np.ndarray, np.ndarray]) -> tuple:
+        """An assembly's data on :attr:`places` (grown if it has values elsewhere)."""
         out = []
-        for which, X in enumerate(self.repeated.data(with_values(self.sub, self.pars, values))):
+        for which, X in enumerate(data):
             at = self.places[which]
             if np.count_nonzero(X) != np.count_nonzero(X[at]):  # values elsewhere too
                 held = np.zeros(len(X), bool)
                 held[at] = True
                 held |= X != 0.0
                 at = self.places[which] = np.flatnonzero(held)
-            out.append((X[at], at))
+            out.append([X[at], at])
         return tuple(out)
 
     def _placed(self, made: tuple) -> tuple[np.ndarray, np.ndarray]:
         """K and M data of an assembly on the present :attr:`places`: an older assembly's
         data, on fewer places, go where their places rank among the present ones (the rank
-        of every place of the pattern is made once per growth of the places)."""
+        of every place of the pattern is made once per growth of the places), and are kept
+        so in ``made`` (whoever holds it)."""
         out = []
-        for which, ((X, at), now) in enumerate(zip(made, self.places, strict=True)):
+        for which, (pair, now) in enumerate(zip(made, self.places, strict=True)):
+            X, at = pair
             if len(at) != len(now):
                 ranked = self._rank[which]
                 if ranked is None or ranked[0] is not now:
@@ -411,7 +437,8 @@ class _GroupFit:
                     ranked = self._rank[which] = (now, rank)
                 grown = np.zeros(len(now))
                 grown[ranked[1][at]] = X
-                X = grown
+                X = pair[0] = grown
+                pair[1] = now
             out.append(X)
         return out[0], out[1]
 
@@ -419,37 +446,45 @@ class _GroupFit:
         """Parameter k's interpolation offsets, the others at the centre."""
         par = self.pars[k]
 
+        def key(d: float) -> tuple[float, ...]:
+            return tuple(d if j == k else 0.0 for j in range(len(self.pars)))
+
         def assemble_at(d: float) -> tuple:
-            key = tuple(d if j == k else 0.0 for j in range(len(self.pars)))
-            if key not in self._made:
-                self._made[key] = self._assemble(key)
-            return self._made[key]
+            return assemble_all([d])[0]
+
+        def assemble_all(offsets: list[float]) -> list[tuple]:
+            keys = [key(d) for d in offsets]
+            missing = list(dict.fromkeys(k for k in keys if k not in self._made))
+            for k, made in zip(missing, self._assemble_all(missing), strict=True):
+                self._made[k] = made
+            return [self._made[k] for k in keys]
 
         interval = (par.p_lower - self.centre[k], par.p_upper - self.centre[k])
         degree = max(par.spec.k_degree, par.spec.m_degree)
         alike = (par.card, par.field, tuple(sorted(self.kinds)))
         if alike not in self.raised and sum(map(len, self._rows.values())) > 4 * _PROBE:
-            self._probe(k, alike)
+            self._probe(k, alike)  # (once per alike kind: what it found, raised or not)
         found = interpolation_nodes(assemble_at, degree, interval, _describe(par, self.kinds),
                                     self._centre, self.raised.get(alike),
-                                    lambda items: [self._placed(m) for m in items])  # fmt: skip
+                                    lambda items: [self._placed(m) for m in items],
+                                    assemble_all)  # fmt: skip
         if found.raised:
             self.raised[alike] = len(found.offsets) - 1
         return found
 
     def _probe(self, k: int, alike: tuple) -> None:
         """Find the degree parameter k needs on a sample of the group's elements (about
-        :data:`_PROBE`, spread over each type's rows) and, if raised, note it in
-        :attr:`raised` for the whole group to try first: the ladder of degrees then climbs
-        on the sample, not on every element. The whole group's fit is checked as any."""
+        :data:`_PROBE`, spread over each type's rows) and note it in :attr:`raised` (None:
+        the field's own) for the whole group, and alike groups after it, to try first: the
+        ladder of degrees then climbs on the sample, not on every element. The whole
+        group's fit is checked as any."""
         sample = {t: r[:: max(1, -(-len(r) // _PROBE))] for t, r in self._rows.items()}
         probe = _GroupFit(self._model, sample, self.pars, self.centre, self._options, {})
         try:
             found = probe._alone(k)
         except DerivativeError:  # the whole group's fit says what fails
             return
-        if found.raised:
-            self.raised[alike] = len(found.offsets) - 1
+        self.raised[alike] = len(found.offsets) - 1 if found.raised else None
 
     def _scales(self, k: int, found: Nodes) -> str | None:
         """Which of the group's matrices ("K" or "M") parameter k, moving alone, scales in
@@ -498,10 +533,12 @@ class _GroupFit:
         base = list(itertools.product(*[range(len(x)) for x in grid]))
         W = np.array([[np.prod([inv[k][a[k], g[k]] for k in range(n)]) for g in base]
                       for a in base])  # fmt: skip
-        check = self._made.pop(off, None) or self._assemble(off)
+        missing = [pt for pt in dict.fromkeys([off, *points]) if pt not in self._made]
+        self._made.update(zip(missing, self._assemble_all(missing), strict=True))
+        check = self._made.pop(off)
         # the coefficients, sum_g W[a, g] X(g): the grid's assemblies in rows (the alone
         # lines' moved there), turned into coefficients in place a block of columns at a time
-        made = [self._made.pop(pt, None) or self._assemble(pt) for pt in points]
+        made = [self._made.pop(pt) for pt in points]
         CK = np.empty((len(base), len(self.places[0])))
         CM = np.empty((len(base), len(self.places[1])))
         for g in range(len(points)):
