@@ -303,7 +303,8 @@ def group_polynomials(model: Model, params: list[Parameter], center: np.ndarray,
     :func:`interpolation_nodes` (the field's degree, raised on Chebyshev points where the
     dependence is rational; a raised degree one group needed is tried first for the alike
     parameters of the next). A parameter that, moving alone, scales the group's K or M in
-    proportion to its value takes no grid: its terms are the others' scaled. Then the
+    proportion to its value (found so at one offset) takes no grid: its terms are the
+    others' scaled. Then the
     group is assembled on the tensor grid of the other parameters' offsets, with the centre
     in place of one offset of every parameter whose polynomial is exact (the same
     polynomial, and the grid shares the assemblies of the parameters moving alone), and the
@@ -461,6 +462,10 @@ class _GroupFit:
 
         interval = (par.p_lower - self.centre[k], par.p_upper - self.centre[k])
         degree = max(par.spec.k_degree, par.spec.m_degree)
+        if (par.spec.k_degree, par.spec.m_degree) in ((1, 0), (0, 1)):
+            scaling = Nodes(np.array([SPREAD]), assemble_all([SPREAD]), False)
+            if self._scales(k, scaling):  # (checked at -SPREAD too, by the whole polynomial)
+                return scaling
         alike = (par.card, par.field, tuple(sorted(self.kinds)))
         if alike not in self.raised and sum(map(len, self._rows.values())) > 4 * _PROBE:
             self._probe(k, alike)  # (once per alike kind: what it found, raised or not)
@@ -512,13 +517,13 @@ class _GroupFit:
         scales = [self._scales(k, a) for k, a in enumerate(alone)]
         # grid offsets: an exact polynomial's with the centre for its first offset (which
         # stays off the grid, the check's coordinate); a raised one's as found (the check
-        # between its first two); a scaling parameter's the centre only (the check at its
-        # first offset)
+        # between its first two); a scaling parameter's the centre only (the check on the
+        # other side of the centre from the offset it was found to scale at)
         grid, off = [], []
         for a, scale in zip(alone, scales, strict=True):
             if scale is not None:
                 grid.append(np.zeros(1))
-                off.append(float(a.offsets[0]))
+                off.append(-float(a.offsets[0]))
             elif a.raised:
                 grid.append(a.offsets)
                 off.append(0.5 * float(a.offsets[0] + a.offsets[1]))
