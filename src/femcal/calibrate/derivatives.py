@@ -454,11 +454,10 @@ class _GroupFit:
             return assemble_all([d])[0]
 
         def assemble_all(offsets: list[float]) -> list[tuple]:
-            keys = [key(d) for d in offsets]
-            missing = list(dict.fromkeys(k for k in keys if k not in self._made))
-            for k, made in zip(missing, self._assemble_all(missing), strict=True):
-                self._made[k] = made
-            return [self._made[k] for k in keys]
+            points = [key(d) for d in offsets]
+            missing = list(dict.fromkeys(pt for pt in points if pt not in self._made))
+            self._made.update(zip(missing, self._assemble_all(missing), strict=True))
+            return [self._made[pt] for pt in points]
 
         interval = (par.p_lower - self.centre[k], par.p_upper - self.centre[k])
         degree = max(par.spec.k_degree, par.spec.m_degree)
