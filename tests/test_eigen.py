@@ -119,3 +119,31 @@ def test_a_flat_plate_solved_in_parts_gives_the_whole_problems_modes(write, monk
         (parts.shapes**2).sum(0), (whole.shapes**2).sum(0))
     # the first five roots are apart: each mode is the same (the rest may pair up)
     assert np.diag(mac)[:5] == pytest.approx(1.0, abs=1e-8)
+
+
+def test_fill_ordering_is_amd_for_surfaces_and_cholmods_choice_with_solids(tmp_path):
+    """Shells, bars and springs make a two-dimensional graph: AMD. A solid element
+    anywhere: CHOLMOD's own choice (METIS where AMD fills much). Either ordering gives the
+    same roots."""
+    from femcal.deck import read_deck
+    from femcal.model.build import build_model
+    from femcal.solve.factor import factorize
+    from femcal.solve.normal_modes import fill_ordering
+
+    shell = ["BEGIN BULK", "PSHELL,1,1,2.,1,,1", "MAT1,1,2.1e5,,0.3,7.85e-9",
+             "GRID,1,,0.,0.,0.", "GRID,2,,1.,0.,0.", "GRID,3,,1.,1.,0.", "GRID,4,,0.,1.,0.",
+             "CQUAD4,1,1,1,2,3,4"]  # fmt: skip
+    solid = ["PSOLID,2,1", *[f"GRID,{g + 4},,{x},{y},1." for g, (x, y) in
+                             enumerate(((0., 0.), (1., 0.), (1., 1.), (0., 1.)), start=1)],
+             "CHEXA,2,2,1,2,3,4,5,6,", ",7,8"]  # fmt: skip
+    (tmp_path / "shell.bdf").write_text("\n".join([*shell, "ENDDATA", ""]))
+    (tmp_path / "solid.bdf").write_text("\n".join([*shell, *solid, "ENDDATA", ""]))
+    assert fill_ordering(build_model(read_deck(tmp_path / "shell.bdf"))) == "amd"
+    assert fill_ordering(build_model(read_deck(tmp_path / "solid.bdf"))) == "default"
+    K, M = chain(3000)
+    if HAVE_CHOLMOD:
+        roots = {o: solve_modes(K, M, EigenRequest(nd=6), ordering=o).eigenvalues
+                 for o in ("default", "amd")}  # fmt: skip
+        np.testing.assert_allclose(roots["amd"], roots["default"], rtol=1e-10, atol=1e-8)
+    with pytest.raises(ValueError, match="ordering 'metis'"):
+        factorize(K, ordering="metis")

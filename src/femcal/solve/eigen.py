@@ -131,6 +131,7 @@ def solve_modes(
     method: str = "block",
     progress: Callable[[str], None] | None = None,
     on_factor: Callable[[Callable[[np.ndarray], np.ndarray], float], None] | None = None,
+    ordering: str = "default",
 ) -> EigenResult:
     """Lowest eigenpairs of K phi = lambda M phi satisfying the request.
 
@@ -148,6 +149,7 @@ def solve_modes(
     on_factor : called as ``on_factor(solve, sigma)`` with the sparse path's factor of
         K - sigma M (``solve(b)`` for b (n,) or (n, k)), for callers that solve with the
         same matrix afterwards (not called on the dense path).
+    ordering : the factor's fill-reducing ordering (:data:`femcal.solve.factor.ORDERINGS`).
 
     An ND above the number of DOF is capped at it, with a :class:`FemcalWarning`.
 
@@ -169,8 +171,8 @@ def solve_modes(
         check_memory(8.0 * n * n * 6, f"the dense eigensolution of {n} DOF")
         lam, vec, name = _dense(K, M, sigma)
     else:
-        lam, vec, name = _lanczos(K, M, sigma, request, lam_lo, lam_hi, backend, progress,
-                                  on_factor, method)
+        lam, vec, name = _lanczos(K, M, sigma, request, lam_lo, lam_hi, (backend, ordering),
+                                  progress, on_factor, method)  # fmt: skip
     keep = (lam >= lam_lo) & (lam <= lam_hi)
     lam, vec = lam[keep], vec[:, keep]
     if request.nd is not None:
@@ -254,10 +256,12 @@ def _arpack(K, M, sigma, solve, k):
         raise SolverError(f"Lanczos (ARPACK) failed for {k} roots of {n} DOF: {e}") from None
 
 
-def _shifted_factor(K, M, sigma, backend):
+def _shifted_factor(K, M, sigma, factoring):
+    """The factor of K - sigma M; ``factoring``: (backend, ordering) as :func:`factorize`
+    takes them."""
     A = (K - sigma * M).tocsc()
     try:
-        return factorize(A, backend=backend)
+        return factorize(A, backend=factoring[0], ordering=factoring[1])
     except NotPositiveDefinite as e:
         raise SolverError(
             "K - sigma M is singular or not positive definite: the model has a mechanism "
@@ -287,20 +291,20 @@ def _dense(K, M, sigma):
     return lam, vec, "dense"
 
 
-def _lanczos(K, M, sigma, request, lam_lo, lam_hi, backend, progress, on_factor=None,
+def _lanczos(K, M, sigma, request, lam_lo, lam_hi, factoring, progress, on_factor=None,
              method="block"):  # fmt: skip
     parts = independent_parts(K, M)
     if len(parts) > 1:
-        return _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, backend, progress,
+        return _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, factoring, progress,
                          on_factor, method)  # fmt: skip
-    solve, name = _shifted_factor(K, M, sigma, backend)
+    solve, name = _shifted_factor(K, M, sigma, factoring)
     if on_factor is not None:
         on_factor(solve, sigma)
     lam, vec = _iterate(K, M, sigma, solve, name, request, lam_lo, lam_hi, progress, method)
     return lam, vec, name
 
 
-def _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, backend, progress, on_factor,
+def _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, factoring, progress, on_factor,
               method):  # fmt: skip
     """The roots of a problem that splits into independent parts (:mod:`femcal.solve.parts`),
     part by part. Each part is factored at sigma and its lowest root bounded from below
@@ -316,7 +320,7 @@ def _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, backend, progress, on
     name = ""
     for idx in parts:
         Kp, Mp = select_symmetric(K, idx), select_symmetric(M, idx)
-        solve, name = _shifted_factor(Kp, Mp, sigma, backend)
+        solve, name = _shifted_factor(Kp, Mp, sigma, factoring)
         subs.append((idx, Kp, Mp, solve))
     if on_factor is not None:
         on_factor(_block_solve(n, [(s[0], s[3]) for s in subs]), sigma)

@@ -21,8 +21,14 @@ class NotPositiveDefinite(ValueError):
     """The matrix could not be factorised as positive definite."""
 
 
+#: CHOLMOD's fill-reducing orderings femcal asks for: "default", CHOLMOD's own choice (AMD,
+#: then METIS where AMD's fill is large, keeping the smaller fill whatever METIS's own time),
+#: and "amd" (approximate minimum degree alone).
+ORDERINGS = ("default", "amd")
+
+
 def factorize(
-    A: sp.spmatrix, *, backend: str = "auto"
+    A: sp.spmatrix, *, backend: str = "auto", ordering: str = "default"
 ) -> tuple[Callable[[np.ndarray], np.ndarray], str]:
     """Factor a sparse symmetric positive definite matrix.
 
@@ -30,6 +36,8 @@ def factorize(
     ----------
     A : (n, n) symmetric positive definite.
     backend : "auto" (CHOLMOD if available), "cholmod" or "superlu".
+    ordering : CHOLMOD's fill-reducing ordering, one of :data:`ORDERINGS` (SuperLU takes
+        its own).
 
     Returns
     -------
@@ -43,12 +51,14 @@ def factorize(
     """
     if backend not in ("auto", "cholmod", "superlu"):
         raise ValueError(f"backend {backend!r}: expected 'auto', 'cholmod' or 'superlu'")
+    if ordering not in ORDERINGS:
+        raise ValueError(f"ordering {ordering!r}: expected one of {', '.join(ORDERINGS)}")
     A = sp.csc_matrix(A)
     if backend == "cholmod" and not HAVE_CHOLMOD:
         raise ValueError("CHOLMOD (scikit-sparse) is not installed")
     if backend in ("auto", "cholmod") and HAVE_CHOLMOD:
         try:
-            factor = cholesky(A)
+            factor = cholesky(A, ordering_method=ordering)
         except CholmodNotPositiveDefiniteError as e:
             raise NotPositiveDefinite(str(e)) from None
         return factor, "cholmod"

@@ -61,6 +61,23 @@ class Modes:
         return self.shapes[starts[:, None] + np.arange(6), mode]
 
 
+#: Element types whose meshes make a three-dimensional matrix graph.
+SOLIDS = ("CHEXA", "CPENTA", "CTETRA", "CPYRAM")
+
+
+def fill_ordering(model: Model) -> str:
+    """The fill-reducing ordering of the model's factors (:data:`femcal.solve.factor.
+    ORDERINGS`): AMD where the model has no solid elements, CHOLMOD's own choice otherwise.
+
+    A mesh of surfaces, lines and points makes a two-dimensional graph: nested dissection
+    (METIS) saves 20-30 % of AMD's fill there, but CHOLMOD tries it after AMD when the fill
+    is large and keeps it whatever its own time, which is most of a large factor's
+    (benchmarks/RESULTS.md: each half of a 1 M DOF plate 7 s with METIS, 3.4 s with AMD).
+    On a solid AMD's fill is several times METIS's, so CHOLMOD chooses there.
+    """
+    return "default" if any(t in model.elements for t in SOLIDS) else "amd"
+
+
 def solve_normal_modes(
     model: Model,
     *,
@@ -87,7 +104,7 @@ def solve_normal_modes(
     """
     problem = a_set_problem(model, matrices=matrices, request=request, progress=progress)
     res: EigenResult = solve_modes(problem.K, problem.M, problem.request, progress=progress,
-                                   on_factor=on_factor)  # fmt: skip
+                                   on_factor=on_factor, ordering=fill_ordering(model))  # fmt: skip
     return g_set_modes(model, problem.reduction, res), problem.reduction
 
 
