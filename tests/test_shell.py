@@ -677,3 +677,43 @@ def test_coupling_without_membrane_stiffness_does_not_fail() -> None:
     assert np.isfinite(K).all()
     np.testing.assert_allclose(K, K.swapaxes(1, 2), atol=1e-9 * np.abs(K).max())
 
+
+
+@pytest.mark.parametrize("drilling", [False, True])
+@pytest.mark.parametrize("coupled", [False, True])
+def test_quad_stiffness_by_dof_sets_is_the_whole_product(drilling: bool, coupled: bool) -> None:
+    """The CQUAD4 / CQUADR kernel forms ``sum_q B_q^T C B_q`` on its in-plane and
+    out-of-plane DOF sets apart: the same as the whole product of the generalised strains
+    (membrane, curvature, transverse shear, drilling residual) over every DOF and
+    incompatible mode, condensed, with an anisotropic laminate, membrane-bending coupling or
+    none, and distorted elements."""
+    rng = np.random.default_rng(11)
+    xl = np.stack([random_quad(rng)[:, :2] for _ in range(6)]) * 0.2
+    n = len(xl)
+    Q = iso(70e9, 0.3, 1.0)[0]
+    Q[0, 0] *= 1.8
+    Q[0, 2] = Q[2, 0] = 0.15 * Q[1, 1]
+    t = 0.004
+    A, D = np.broadcast_to(Q * t, (n, 3, 3)), np.broadcast_to(Q * t**3 / 12, (n, 3, 3))
+    B = np.broadcast_to(Q * t**2 * (0.3 if coupled else 0.0), (n, 3, 3))
+    S = np.broadcast_to(np.array([[2.1e8, 0.3e8], [0.3e8, 1.6e8]]) * t, (n, 2, 2))
+    alpha = rng.uniform(1e3, 1e6, n)
+    K, _, _ = shell._quad4_local(xl, A, D, S, B, alpha, drilling)
+
+    geo = shell.quad_geometry(xl, drilling)
+    Seff = shell._with_residual_bending(S, geo.cov, A, B, D)
+    m = 0 if drilling else 4
+    ref = np.zeros((n, 24 + m, 24 + m))
+    plane = np.r_[shell._QUAD_PLANE, np.arange(24, 24 + m)]
+    for q in range(4):  # the whole generalised strain rows, 9 x (24 + modes)
+        rows = np.zeros((n, 9, 24 + m))
+        rows[:, np.r_[0:3, 8][:, None], plane] = geo.plane[:, q]
+        rows[:, 3:8, shell._QUAD_OUT] = geo.bending[:, q]
+        C = np.zeros((n, 9, 9))
+        C[:, :3, :3], C[:, :3, 3:6], C[:, 3:6, :3] = A, B, np.swapaxes(B, 1, 2)
+        C[:, 3:6, 3:6], C[:, 6:8, 6:8], C[:, 8, 8] = D, Seff, alpha
+        ref += np.swapaxes(rows, 1, 2) @ C @ rows
+    if m:
+        ref = ref[:, :24, :24] - ref[:, :24, 24:] @ np.linalg.solve(ref[:, 24:, 24:],
+                                                                   ref[:, 24:, :24])
+    assert np.abs(K - ref).max() <= 1e-12 * np.abs(ref).max()

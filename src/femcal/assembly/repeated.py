@@ -23,8 +23,9 @@ from .pattern import Assembler, Pattern
 #: Memory the kernels may keep between assemblies (what depends on the elements' shape
 #: alone, :class:`femcal.elements.shell.QuadGeometry`); beyond it they recompute it.
 KEEP_BYTES = 512 << 20
-#: What a quadrilateral keeps: strain rows (4 x 9 x 28), drilling rows (4 x 24) and the rest.
-QUAD_KEPT_BYTES = 8 * (4 * 9 * 28 + 4 * 24 + 4 * 4 + 16 + 4 + 8)
+#: What a quadrilateral keeps: in-plane rows (4 x 4 x 16), out-of-plane rows (4 x 5 x 12),
+#: int(N_a N_b), int(N_a), det J, area and area covariance.
+QUAD_KEPT_BYTES = 8 * (4 * 4 * 16 + 4 * 5 * 12 + 16 + 4 + 4 + 1 + 4)
 
 
 class RepeatedAssembly:

@@ -571,6 +571,13 @@ _TRI_EDGES = ((0, 1), (1, 2), (2, 0))
 # ----------------------------------------------------------------------------------------
 
 
+#: A quadrilateral's in-plane DOFs (u, v, Rz of each node, in the element's 24) and its
+#: out-of-plane ones (w, Rx, Ry): membrane and drilling strains take only the first (and
+#: the incompatible modes), curvatures and transverse shear only the second.
+_QUAD_PLANE = np.array([6 * a + i for a in range(4) for i in (0, 1, 5)])
+_QUAD_OUT = np.array([6 * a + i for a in range(4) for i in (2, 3, 4)])
+
+
 @dataclass(frozen=True)
 class QuadGeometry:
     """What CQUAD4 elements' stiffness and mass take from their shape alone (the element
@@ -578,20 +585,20 @@ class QuadGeometry:
     other section properties (:class:`femcal.assembly.repeated.RepeatedAssembly`).
 
     detJ : per Gauss point (n,) Jacobian determinants; area (n,); cov (n, 2, 2) the area
-        covariance (length^2). rows : (n, 4, 9, k) per Gauss point the strain rows
-        ``sqrt(w det J) B_q`` (8 generalised strains; the drilling residual's row 8 zero),
-        k = 24, or 28 with Taylor's incompatible modes. drill : (n, 4, 24) the drilling
-        residual's rows, unscaled; modes : (n, 4, 2, 2) the incompatible modes' gradients
-        (scaled by det0 / sqrt(det J)), None with the Allman membrane. Nint (n, 4),
-        Mcons (n, 4, 4): int(N_a) and int(N_a N_b).
+        covariance (length^2). plane : (n, 4, 4, k) per Gauss point ``sqrt(w det J)`` times
+        the membrane strain rows (3) and the drilling residual's row (``Rz - omega``, for a
+        unit modulus) over the in-plane DOFs :data:`_QUAD_PLANE` and, with Taylor's
+        incompatible modes, their four amplitudes (k = 16; 12 with the Allman membrane).
+        bending : (n, 4, 5, 12) per Gauss point ``sqrt(w det J)`` times the curvature (3)
+        and transverse shear (2) rows over the out-of-plane DOFs :data:`_QUAD_OUT`.
+        Nint (n, 4), Mcons (n, 4, 4): int(N_a) and int(N_a N_b).
     """
 
     detJ: list[np.ndarray]  # noqa: N815 (the formulas' symbol)
     area: np.ndarray
     cov: np.ndarray
-    rows: np.ndarray
-    drill: np.ndarray
-    modes: np.ndarray | None
+    plane: np.ndarray
+    bending: np.ndarray
     Nint: np.ndarray
     Mcons: np.ndarray
 
@@ -627,12 +634,11 @@ def quad_geometry(xl: np.ndarray, drilling: bool = True) -> QuadGeometry:
         Gal = np.zeros((n, 2, len(_QUAD_EDGES), 4))
         J0inv = np.linalg.inv(np.einsum("ra,eai->eri", _quad_shape(0.0, 0.0)[1], xl))
         det0 = area / 4.0  # det J at the centre of a bilinear map is the mean
-    k = 24 if drilling else 28  # + u, v times (1 - xi^2), (1 - eta^2), condensed below
-    # Per Gauss point q: weighted rows sqrt(w det J) B_q (8 generalised strains + 1 drilling
-    # residual), stacked so that K is one batched product over all points.
-    rows = np.zeros((n, 4, 9, k))
-    drill = np.zeros((n, 4, 24))
-    modes = None if drilling else np.zeros((n, 4, 2, 2))
+    k = 12 if drilling else 16  # + u, v times (1 - xi^2), (1 - eta^2), condensed below
+    # Per Gauss point q: weighted rows sqrt(w det J) B_q, stacked so that K is one batched
+    # product over all points per DOF set.
+    plane = np.zeros((n, 4, 4, k))
+    bending = np.zeros((n, 4, 5, 12))
     Nint = np.zeros((n, 4))
     Mcons = np.zeros((n, 4, 4))
     for q, ((xi, eta), J, dJ) in enumerate(zip(_GAUSS_2X2, jac, detJ, strict=True)):
@@ -640,26 +646,28 @@ def quad_geometry(xl: np.ndarray, drilling: bool = True) -> QuadGeometry:
         Jinv = np.linalg.inv(J)
         dNxy = np.einsum("eir,ra->eia", Jinv, dN)
         dNbxy = np.einsum("eir,rk->eik", Jinv, _quad_bubbles(xi, eta))
-        Bg = np.zeros((n, 8, 24))
-        Bg[:, 0:6] = _membrane_bending_rows(dNxy, dNbxy, Gal)
+        root = np.sqrt(dJ)[:, None, None]
+        Bg = _membrane_bending_rows(dNxy, dNbxy, Gal)
+        plane[:, q, :3, :12] = root * Bg[:, :3, _QUAD_PLANE]
+        bending[:, q, :3] = root * Bg[:, 3:6, _QUAD_OUT]
         e_xi = 0.5 * (1.0 - eta) * tie[0.0, -1.0][:, 0] + 0.5 * (1.0 + eta) * tie[0.0, 1.0][:, 0]
         e_eta = 0.5 * (1.0 - xi) * tie[-1.0, 0.0][:, 1] + 0.5 * (1.0 + xi) * tie[1.0, 0.0][:, 1]
-        Bg[:, 6:8] = Jinv @ np.stack([e_xi, e_eta], axis=1)
-
-        rows[:, q, :8, :24] = np.sqrt(dJ)[:, None, None] * Bg
-        drill[:, q] = _drill_row(N, dNxy, dNbxy, Gal)
+        bending[:, q, 3:] = root * (Jinv @ np.stack([e_xi, e_eta], axis=1))[:, :, _QUAD_OUT]
+        plane[:, q, 3, :12] = root[:, 0] * _drill_row(N, dNxy, dNbxy, Gal)[:, _QUAD_PLANE]
         if not drilling:  # Taylor: centre Jacobian, det0 / det J, so the modes' strains
             g = np.einsum("eir,rk->eik", J0inv, np.diag([-2.0 * xi, -2.0 * eta]))  # mean 0
             g *= (det0 / np.sqrt(dJ))[:, None, None]
-            rows[:, q, 0, 24:26] = g[:, 0]  # u modes: eps_xx = du/dx, gamma = du/dy
-            rows[:, q, 2, 24:26] = g[:, 1]
-            rows[:, q, 1, 26:28] = g[:, 1]  # v modes: eps_yy = dv/dy, gamma = dv/dx
-            rows[:, q, 2, 26:28] = g[:, 0]
-            modes[:, q] = g
+            plane[:, q, 0, 12:14] = g[:, 0]  # u modes: eps_xx = du/dx, gamma = du/dy
+            plane[:, q, 2, 12:14] = g[:, 1]
+            plane[:, q, 1, 14:16] = g[:, 1]  # v modes: eps_yy = dv/dy, gamma = dv/dx
+            plane[:, q, 2, 14:16] = g[:, 0]
+            # their in-plane rotation omega = (v,x - u,y) / 2 in the residual Rz - omega
+            plane[:, q, 3, 12:14] = 0.5 * g[:, 1]
+            plane[:, q, 3, 14:16] = -0.5 * g[:, 0]
         Nint += dJ[:, None] * N
         Mcons += dJ[:, None, None] * np.outer(N, N)
-    return QuadGeometry(detJ, area, _area_covariance(xl, detJ, area), rows, drill, modes,
-                        Nint, Mcons)  # fmt: skip
+    return QuadGeometry(detJ, area, _area_covariance(xl, detJ, area), plane, bending, Nint,
+                        Mcons)  # fmt: skip
 
 
 def _quad4_local(
@@ -677,38 +685,63 @@ def _quad4_local(
     ``drilling``: the Allman membrane (CQUADR); else the bilinear membrane with Taylor's
     incompatible modes (CQUAD4), ``Rz`` only in the drilling penalty. ``geometry``: the
     elements' :func:`quad_geometry` (for the same ``drilling``) if at hand.
+
+    ``sum_q B_q^T C B_q`` is formed on the two DOF sets apart (:class:`QuadGeometry`): the
+    in-plane one with the membrane stiffness and the drilling modulus, the out-of-plane one
+    with the bending and transverse shear stiffness, and their coupling with ``B`` where
+    there is any.
     """
-    own = geometry is None  # (a geometry given is kept for later calls: not written to)
+    own = geometry is None
     geo = quad_geometry(xl, drilling) if own else geometry
     n = xl.shape[0]
     S = (_shear_penalty(D, geo.area) if S is None
          else _with_residual_bending(S, geo.cov, A, B, D))  # fmt: skip
-    C = _constitutive(A, D, S, B)
-    # the drilling residual's rows, sqrt(alpha w det J) times its row; the incompatible
-    # modes' in-plane rotation omega = (v,x - u,y) / 2 in the residual Rz - omega
-    rows = geo.rows if own else geo.rows.copy()
-    k = rows.shape[3]
-    for q, dJ in enumerate(geo.detJ):
-        rows[:, q, 8, :24] = np.sqrt(alpha * dJ)[:, None] * geo.drill[:, q]
-        if geo.modes is not None:
-            g = geo.modes[:, q]
-            rows[:, q, 8, 24:26] = 0.5 * np.sqrt(alpha)[:, None] * g[:, 1]
-            rows[:, q, 8, 26:28] = -0.5 * np.sqrt(alpha)[:, None] * g[:, 0]
-
-    # sum_q rows_q^T diag(C, 1) rows_q as one product over the stacked points.
-    C9 = np.zeros((n, 9, 9))
-    C9[:, :8, :8] = C
-    C9[:, 8, 8] = 1.0
-    CR = (C9[:, None] @ rows).reshape(n, 36, k)
-    K = np.swapaxes(rows.reshape(n, 36, k), 1, 2) @ CR
-    if not drilling:  # static condensation of the incompatible modes (none without membrane)
-        Kaa = K[:, 24:, 24:]
-        scale = np.abs(Kaa).max(axis=(1, 2))
-        ok = np.abs(np.linalg.det(Kaa)) > (1e-12 * scale) ** 4
-        Kaa_inv = np.zeros_like(Kaa)
-        Kaa_inv[ok] = np.linalg.inv(Kaa[ok])
-        K = K[:, :24, :24] - K[:, :24, 24:] @ Kaa_inv @ K[:, 24:, :24]
+    P, O = geo.plane, geo.bending
+    k = P.shape[3]
+    Cp = np.zeros((n, 4, 4))
+    Cp[:, :3, :3] = A
+    Cp[:, 3, 3] = alpha
+    Kp = np.swapaxes(P.reshape(n, 16, k), 1, 2) @ (Cp[:, None] @ P).reshape(n, 16, k)
+    Co = np.zeros((n, 5, 5))
+    Co[:, :3, :3] = D
+    Co[:, 3:, 3:] = S
+    Ko = np.swapaxes(O.reshape(n, 20, 12), 1, 2) @ (Co[:, None] @ O).reshape(n, 20, 12)
+    coupled = B.any()
+    if coupled:  # membrane-bending coupling: N = B kappa, M = B^T eps
+        Kc = (np.swapaxes(P[:, :, :3].reshape(n, 12, k), 1, 2)
+              @ (B[:, None] @ O[:, :, :3]).reshape(n, 12, 12))  # fmt: skip
+    if drilling:
+        K = np.zeros((n, 24, 24))
+        K[:, _QUAD_PLANE[:, None], _QUAD_PLANE] = Kp
+    elif not coupled:  # the modes meet the in-plane DOFs alone: condensed there
+        K = np.zeros((n, 24, 24))
+        K[:, _QUAD_PLANE[:, None], _QUAD_PLANE] = _condense(Kp, 4)
+    else:
+        K = np.zeros((n, 28, 28))
+        modes = np.concatenate([_QUAD_PLANE, np.arange(24, 28)])
+        K[:, modes[:, None], modes] = Kp
+        K[:, modes[:, None], _QUAD_OUT] = Kc
+        K[:, _QUAD_OUT[:, None], modes] = np.swapaxes(Kc, 1, 2)
+    K[:, _QUAD_OUT[:, None], _QUAD_OUT] = Ko
+    if coupled and drilling:
+        K[:, _QUAD_PLANE[:, None], _QUAD_OUT] = Kc
+        K[:, _QUAD_OUT[:, None], _QUAD_PLANE] = np.swapaxes(Kc, 1, 2)
+    elif coupled:
+        K = _condense(K, 4)
     return (K, geo.Nint, geo.Mcons) if own else (K, geo.Nint.copy(), geo.Mcons.copy())
+
+
+def _condense(K: np.ndarray, m: int) -> np.ndarray:
+    """Static condensation of the last ``m`` DOFs of K (n, k, k) (the incompatible modes;
+    an element whose modes' block is singular, such as one without membrane, keeps K's
+    other DOFs as they are)."""
+    k = K.shape[1] - m
+    Kaa = K[:, k:, k:]
+    scale = np.abs(Kaa).max(axis=(1, 2))
+    ok = np.abs(np.linalg.det(Kaa)) > (1e-12 * scale) ** m
+    Kaa_inv = np.zeros_like(Kaa)
+    Kaa_inv[ok] = np.linalg.inv(Kaa[ok])
+    return K[:, :k, :k] - K[:, :k, k:] @ Kaa_inv @ K[:, k:, :k]
 
 
 def _triangle_covariance(xl: np.ndarray) -> np.ndarray:
