@@ -707,26 +707,19 @@ def _quad4_local(
     Co[:, 3:, 3:] = S
     Ko = np.swapaxes(O.reshape(n, 20, 12), 1, 2) @ (Co[:, None] @ O).reshape(n, 20, 12)
     coupled = B.any()
+    if not drilling and not coupled:  # the modes meet the in-plane DOFs alone: condensed there
+        Kp = _condense(Kp, 4)
+    size = 12 + Kp.shape[1]  # 24, or 28 with the incompatible modes still in
+    plane = np.concatenate([_QUAD_PLANE, np.arange(24, size)])
+    K = np.zeros((n, size, size))
+    K[:, plane[:, None], plane] = Kp
+    K[:, _QUAD_OUT[:, None], _QUAD_OUT] = Ko
     if coupled:  # membrane-bending coupling: N = B kappa, M = B^T eps
         Kc = (np.swapaxes(P[:, :, :3].reshape(n, 12, k), 1, 2)
               @ (B[:, None] @ O[:, :, :3]).reshape(n, 12, 12))  # fmt: skip
-    if drilling:
-        K = np.zeros((n, 24, 24))
-        K[:, _QUAD_PLANE[:, None], _QUAD_PLANE] = Kp
-    elif not coupled:  # the modes meet the in-plane DOFs alone: condensed there
-        K = np.zeros((n, 24, 24))
-        K[:, _QUAD_PLANE[:, None], _QUAD_PLANE] = _condense(Kp, 4)
-    else:
-        K = np.zeros((n, 28, 28))
-        modes = np.concatenate([_QUAD_PLANE, np.arange(24, 28)])
-        K[:, modes[:, None], modes] = Kp
-        K[:, modes[:, None], _QUAD_OUT] = Kc
-        K[:, _QUAD_OUT[:, None], modes] = np.swapaxes(Kc, 1, 2)
-    K[:, _QUAD_OUT[:, None], _QUAD_OUT] = Ko
-    if coupled and drilling:
-        K[:, _QUAD_PLANE[:, None], _QUAD_OUT] = Kc
-        K[:, _QUAD_OUT[:, None], _QUAD_PLANE] = np.swapaxes(Kc, 1, 2)
-    elif coupled:
+        K[:, plane[:, None], _QUAD_OUT] = Kc
+        K[:, _QUAD_OUT[:, None], plane] = np.swapaxes(Kc, 1, 2)
+    if size > 24:  # the modes, coupled to the bending through B: condensed on the whole
         K = _condense(K, 4)
     return (K, geo.Nint, geo.Mcons) if own else (K, geo.Nint.copy(), geo.Mcons.copy())
 

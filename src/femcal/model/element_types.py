@@ -5,11 +5,13 @@ check an element's property against these."""
 from __future__ import annotations
 
 _SHELL_PROPS = ("PSHELL", "PCOMP", "PCOMPG")
+#: Solid elements: their meshes make a three-dimensional matrix graph.
+SOLIDS = ("CHEXA", "CPENTA", "CTETRA", "CPYRAM")
 #: Property cards each element may reference (None: the element has no PID).
 ELEMENT_PROPERTIES: dict[str, tuple[str, ...] | None] = {
     **{e: _SHELL_PROPS for e in ("CQUAD4", "CTRIA3", "CQUAD8", "CTRIA6", "CQUADR", "CTRIAR")},
     "CSHEAR": ("PSHEAR",),
-    **{e: ("PSOLID",) for e in ("CHEXA", "CPENTA", "CTETRA", "CPYRAM")},
+    **{e: ("PSOLID",) for e in SOLIDS},
     "CBAR": ("PBAR", "PBARL"),
     "CBEAM": ("PBEAM", "PBEAML"),
     "CROD": ("PROD",),

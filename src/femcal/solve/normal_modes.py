@@ -14,6 +14,7 @@ from ..assembly import Matrices, Options, assemble
 from ..assembly.constraints import Reduction, autospc, build_reduction
 from ..errors import FemcalWarning, ModelError
 from ..model.analysis import EigenRequest
+from ..model.element_types import SOLIDS
 from ..model.model import Model
 from .eigen import EigenResult, check_finite, solve_modes
 
@@ -61,19 +62,15 @@ class Modes:
         return self.shapes[starts[:, None] + np.arange(6), mode]
 
 
-#: Element types whose meshes make a three-dimensional matrix graph.
-SOLIDS = ("CHEXA", "CPENTA", "CTETRA", "CPYRAM")
-
-
 def fill_ordering(model: Model) -> str:
     """The fill-reducing ordering of the model's factors (:data:`femcal.solve.factor.
     ORDERINGS`): AMD where the model has no solid elements, CHOLMOD's own choice otherwise.
 
     A mesh of surfaces, lines and points makes a two-dimensional graph: nested dissection
-    (METIS) saves 20-30 % of AMD's fill there, but CHOLMOD tries it after AMD when the fill
-    is large and keeps it whatever its own time, which is most of a large factor's
-    (benchmarks/RESULTS.md: each half of a 1 M DOF plate 7 s with METIS, 3.4 s with AMD).
-    On a solid AMD's fill is several times METIS's, so CHOLMOD chooses there.
+    (METIS) saves little of AMD's fill there, but CHOLMOD tries it after AMD when the fill
+    is large and keeps it whatever its own time, which is then most of a large factor's.
+    On a solid AMD's fill is several times METIS's, so CHOLMOD chooses there. (The
+    measurements are in benchmarks/RESULTS.md.)
     """
     return "default" if any(t in model.elements for t in SOLIDS) else "amd"
 
