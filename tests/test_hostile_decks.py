@@ -271,6 +271,32 @@ def test_temporary_files_of_killed_writers_are_removed_by_the_next_writer(tmp_pa
         [live.name, other_host.name, other_target.name, "other.txt"])
 
 
+@pytest.mark.parametrize("when", ["made", "written"])
+def test_ctrl_c_while_a_file_is_written_leaves_no_temporary_file(tmp_path, monkeypatch, when):
+    """Ctrl-C right after the temporary file is made (before its name is returned by the
+    call that makes it), or while it is written: the interruption goes on, and neither the
+    target nor the temporary file is left."""
+    import femcal.atomic
+
+    real_open = os.open
+
+    def open_then_interrupt(name, flags, mode=0o777, *args, **kwargs):
+        fd = real_open(name, flags, mode, *args, **kwargs)
+        if when == "made" and Path(name).parent == tmp_path:
+            raise KeyboardInterrupt
+        return fd
+
+    def write(tmp):
+        Path(tmp).write_text("part")
+        if when == "written":
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(femcal.atomic.os, "open", open_then_interrupt)
+    with pytest.raises(KeyboardInterrupt):
+        femcal.atomic.write_atomic(tmp_path / "start_001.json", write)
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_an_unwritable_output_is_named_not_its_temporary_file(tmp_path):
     """The writer's temporary file is femcal's business: an error names the file asked for
     (/proc takes no new files, even for root)."""

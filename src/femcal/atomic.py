@@ -3,11 +3,12 @@ in a folder is written by one run at a time."""
 
 from __future__ import annotations
 
+import errno
 import fcntl
 import os
+import random
 import re
 import socket
-import tempfile
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -59,6 +60,10 @@ def _alive(pid: int) -> bool:
     return True
 
 
+#: The letters of a temporary file's random part (:func:`tempfile.mkstemp`'s).
+_NAME_LETTERS = "abcdefghijklmnopqrstuvwxyz0123456789_"
+
+
 def write_atomic(path: str | os.PathLike[str], write: Callable[[str], None]) -> Path:
     """Call ``write(tmp)`` to write a temporary file beside ``path`` (same suffix, so writers
     that go by the suffix behave), give it the usual permissions and rename it to ``path``.
@@ -70,13 +75,23 @@ def write_atomic(path: str | os.PathLike[str], write: Callable[[str], None]) -> 
     remove_stale_temporaries(path)
     tmp = ""
     try:
-        fd, tmp = tempfile.mkstemp(prefix=_temporary_prefix(path, os.getpid()),
-                                   suffix=path.suffix, dir=path.parent)  # fmt: skip
-        os.close(fd)
+        for _ in range(100):
+            # the name is held before the file exists, so that an interruption (Ctrl-C) at
+            # any point after the file is made finds it to remove (tempfile.mkstemp makes
+            # the file before it returns the name: an interruption between would leave it)
+            tmp = str(path.parent / f"{_temporary_prefix(path, os.getpid())}"
+                      f"{''.join(random.choices(_NAME_LETTERS, k=8))}{path.suffix}")  # fmt: skip
+            try:
+                os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+                break
+            except FileExistsError:
+                tmp = ""  # another thread's of this process: not this writer's to remove
+        else:
+            raise FileExistsError(errno.EEXIST, "no free temporary name beside it", str(path))
         write(tmp)
         mask = os.umask(0)
         os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)  # mkstemp makes it private
+        os.chmod(tmp, 0o666 & ~mask)  # made private
         os.replace(tmp, path)
     except OSError as e:
         if tmp:
