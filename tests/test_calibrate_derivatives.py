@@ -249,14 +249,22 @@ def test_a_groups_degree_is_found_on_a_sample_first(tmp_path, monkeypatch):
 def test_a_polynomials_derivative_sums_its_terms_as_a_sparse_sum_does():
     """dK/dp_j X from the group polynomials sums a group's terms on their data (they share
     their index arrays) and adds the other groups' as sparse matrices: the same matrix as
-    the sparse sum of every weighted term, in the same order."""
-    from femcal.calibrate.derivatives import GroupPolynomial, polynomial_derivative, shift_weight
+    the sparse sum of every weighted term, in the same order; its rows version gives the
+    rows the parameter touches and their values."""
+    from femcal.calibrate.derivatives import (
+        GroupPolynomial,
+        polynomial_derivative,
+        polynomial_derivative_rows,
+        shift_weight,
+    )
 
     rng = np.random.default_rng(5)
     n = 40
 
     def terms(count: int, density: float) -> list[sp.csr_matrix]:
-        shared = sp.random(n, n, density=density, format="csr", random_state=rng)
+        shared = sp.random(n, n, density=density, format="lil", random_state=rng)
+        shared[n - 8 :, :] = shared[:, n - 8 :] = 0  # DOF the elements do not touch
+        shared = sp.csr_matrix(shared)
         out = []
         for _ in range(count):  # one pattern, other values (a group's terms)
             A = sp.csr_matrix((rng.standard_normal(shared.nnz), shared.indices,
@@ -284,6 +292,12 @@ def test_a_polynomials_derivative_sums_its_terms_as_a_sparse_sum_does():
         dKX, dMX = polynomial_derivative(polys, center, j, X)
         for got, want in ((dKX, dK @ X), (dMX, dM @ X)):
             assert np.abs(got - want).max() <= 1e-14 * np.abs(want).max()
+        # the rows the parameter touches alone: those where either product is not zero
+        rows, dKr, dMr = polynomial_derivative_rows(polys, center, j, X)
+        touched = np.flatnonzero(np.any(dKX != 0, axis=1) | np.any(dMX != 0, axis=1))
+        assert 0 < len(rows) < n and np.array_equal(rows, touched)
+        for got, whole in ((dKr, dKX), (dMr, dMX)):
+            assert np.abs(got - whole[rows]).max() <= 1e-15 * np.abs(whole).max()
 
 
 def test_assemblies_side_by_side_give_the_same_polynomials(tmp_path):

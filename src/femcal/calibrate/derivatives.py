@@ -616,10 +616,23 @@ def shift_weight(a, b, c) -> float:
 
 def polynomial_derivative(polys: list[GroupPolynomial], center: np.ndarray, j: int,
                            X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
-    """dK/dp_j X and dM/dp_j X (n_g, m) at ``center`` from the group polynomials about 0.
+    """dK/dp_j X and dM/dp_j X (n_g, m) at ``center`` from the group polynomials about 0
+    (:func:`polynomial_derivative_rows` spread over every row)."""
+    rows, dKX, dMX = polynomial_derivative_rows(polys, center, j, X)
+    fullK, fullM = np.zeros(X.shape), np.zeros(X.shape)
+    fullK[rows], fullM[rows] = dKX, dMX
+    return fullK, fullM
+
+
+def polynomial_derivative_rows(polys: list[GroupPolynomial], center: np.ndarray, j: int,
+                               X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The rows (ascending) where dK/dp_j X or dM/dp_j X at ``center`` is not zero, and
+    those rows of the two, (n_rows, m) each, from the group polynomials about 0.
 
     The terms' matrices are summed with their weights first (one pass over their entries
-    each), then multiplied once: a group of high degree has many terms, and X many columns.
+    each), then their stored rows (the parameter's elements' DOF) alone are multiplied: a
+    group of high degree has many terms, and X many columns. Each row of a sparse product
+    is its own sum, so these rows are those of the whole product, to the bit.
     """
     dK, dM = [], []
     for g in polys:
@@ -637,9 +650,13 @@ def polynomial_derivative(polys: list[GroupPolynomial], center: np.ndarray, j: i
                 dK.append((w, Kc))
             if Mc.nnz:
                 dM.append((w, Mc))
-    dKX = _weighted_sum(dK) @ X if dK else np.zeros(X.shape)
-    dMX = _weighted_sum(dM) @ X if dM else np.zeros(X.shape)
-    return dKX, dMX
+    sums = [_weighted_sum(terms) if terms else None for terms in (dK, dM)]
+    stored = np.unique(np.concatenate([np.zeros(0, np.int64)] + [
+        np.flatnonzero(np.diff(A.indptr)) for A in sums if A is not None]))  # fmt: skip
+    dKX, dMX = (A[stored] @ X if A is not None else np.zeros((len(stored), X.shape[1]))
+                for A in sums)  # fmt: skip
+    keep = np.any(dKX != 0, axis=1) | np.any(dMX != 0, axis=1)
+    return stored[keep], dKX[keep], dMX[keep]
 
 
 def _weighted_sum(terms: list[tuple[float, sp.csr_matrix]]) -> sp.csr_matrix:

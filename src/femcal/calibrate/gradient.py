@@ -37,7 +37,7 @@ import scipy.sparse as sp
 
 from ..response.modal import modal_factors_and_slopes, static_factor
 from ..solve.factor import factorize
-from .derivatives import GroupPolynomial, polynomial_derivative
+from .derivatives import GroupPolynomial, polynomial_derivative_rows
 from .metric import jacobian
 from .sensitivity import eigen_derivatives, inverse_gaps
 from .surrogate import STATIC_SHIFT, Surrogate
@@ -144,8 +144,9 @@ def centre_derivatives(polys: list[GroupPolynomial], center: np.ndarray, M: sp.s
     Pa = np.ascontiguousarray(Phi[red.a_dofs])  # the modes' a-set rows (T u_a = u_g)
 
     def off_modes(Y: np.ndarray, passes: int = 1) -> np.ndarray:
+        """Y less its M-projection on the modes, in place (Y is a solve's own result)."""
         for _ in range(passes):
-            Y = Y - Pa @ (Pa.T @ (Ma @ Y))
+            Y -= Pa @ (Pa.T @ (Ma @ Y))
         return Y
 
     inv_gap = inverse_gaps(lm, lam)  # (r, m)
@@ -156,9 +157,8 @@ def centre_derivatives(polys: list[GroupPolynomial], center: np.ndarray, M: sp.s
     # its elements touch (kept for the series)
     loads: list[tuple[np.ndarray, np.ndarray]] = []
     for i in range(n_p):
-        dKX, dMX = polynomial_derivative(polys, center, i, Phi[:, :m])
-        rows = np.flatnonzero(np.any(dKX != 0, axis=1) | np.any(dMX != 0, axis=1))
-        dKX, dMX, Pr = dKX[rows], dMX[rows], Phi[rows]
+        rows, dKX, dMX = polynomial_derivative_rows(polys, center, i, Phi[:, :m])
+        Pr = Phi[rows]
         G, N = Pr.T @ dKX, Pr.T @ dMX  # (r, m)
         dlam[i], Cc = eigen_derivatives(G, N, lm, inv_gap)
         dSP[i] = Sr @ Cc
@@ -167,7 +167,8 @@ def centre_derivatives(polys: list[GroupPolynomial], center: np.ndarray, M: sp.s
     # the sensors' solve holds the modes in full: twice (the first pass leaves rounding of
     # their size); a later solve of a vector without them makes them again only from
     # rounding, amplified by (lam_r - s) / (lam_k - s): one pass removes that
-    Y = off_modes(shifted_solve(np.asarray((Tt @ Sg.T).todense())), passes=2)
+    Y = off_modes(np.ascontiguousarray(shifted_solve(np.asarray((Tt @ Sg.T).todense()))),
+                  passes=2)  # fmt: skip
     # parameters whose elements touch the same rows (a group's thickness and modulus) share
     # their rows of each Z_n
     first_of: dict[bytes, int] = {}
@@ -187,7 +188,10 @@ def centre_derivatives(polys: list[GroupPolynomial], center: np.ndarray, M: sp.s
                     taken[share[i]] = Zn[rows]
                 dSP[i][:, cols] -= (taken[share[i]].T @ neg_f[:, cols]) * w[None, :]
         if n + 1 < terms:
-            Y = off_modes(top * shifted_solve(Ma @ Y))
+            # (CHOLMOD answers column-major; the sparse products below want rows)
+            Y = np.ascontiguousarray(shifted_solve(Ma @ Y))
+            Y *= top
+            Y = off_modes(Y)
     S, P = Sr[:n_out, :m], Sr[n_out:, :m]
     dS, dP = dSP[:, :n_out], dSP[:, n_out:]
     R = dR = None
@@ -202,9 +206,10 @@ def centre_derivatives(polys: list[GroupPolynomial], center: np.ndarray, M: sp.s
         R = np.asarray(Cg @ XB) - (S / lm) @ P.T
         dR = np.zeros((n_p, n_out, P.shape[0]))
         for i in range(n_p):
-            dKXB, _ = polynomial_derivative(polys, center, i, XB)
-            rows = np.flatnonzero(np.any(dKXB != 0, axis=1))
-            static = -(XC[rows].T @ dKXB[rows]) if rows.size else 0.0
+            rows, dKXB, _ = polynomial_derivative_rows(polys, center, i, XB)
+            touched = np.any(dKXB != 0, axis=1)
+            rows, dKXB = rows[touched], dKXB[touched]
+            static = -(XC[rows].T @ dKXB) if rows.size else 0.0
             dR[i] = (static - (dS[i] / lm) @ P.T - (S / lm) @ dP[i].T
                      + (S * (dlam[i] / lm**2)) @ P.T)  # fmt: skip
     converged = np.flatnonzero(need <= MAX_TERMS)
