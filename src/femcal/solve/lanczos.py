@@ -184,7 +184,9 @@ def mass_product(M: sp.spmatrix) -> Callable[[np.ndarray], np.ndarray]:
     d = M.diagonal()
     if is_diagonal(M):
         return lambda X: d[:, None] * X
-    return lambda X: np.asarray(M @ X)
+    # (SciPy's product reads X row-major, copying a column-major X, a basis block or a
+    # factor's answer, less quickly than NumPy does)
+    return lambda X: np.asarray(M @ np.ascontiguousarray(X))
 
 
 def is_diagonal(A: sp.spmatrix) -> bool:
