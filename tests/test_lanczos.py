@@ -195,6 +195,11 @@ def test_a_part_without_wanted_roots_is_not_iterated_on(monkeypatch, request_):
     want = 20 if request_.nd else 30
     np.testing.assert_allclose(res.eigenvalues, ref[:want], rtol=1e-9)
     assert any("2 independent parts (700, 700 DOF)" in line for line in lines)
+    # each part's factor and check is said as it ends (the steps of a long solve)
+    for k in (1, 2):
+        assert any(line.startswith(f"part {k} of 2 (700 DOF): K - sigma M factored (")
+                   for line in lines)  # fmt: skip
+        assert any(line.startswith(f"part {k} of 2: its lowest root lies at ") for line in lines)
     assert sum("Lanczos: " in line and "roots of 700 DOF" in line for line in lines) == 1
     assert any("no root of it is wanted" in line for line in lines)
     assert np.all(res.vectors[700:] == 0.0)  # the soft chain's modes

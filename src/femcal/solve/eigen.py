@@ -318,30 +318,37 @@ def _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, factoring, progress, 
         "solved one by one")  # fmt: skip
     subs = []
     name = ""
-    for idx in parts:
+    for k, idx in enumerate(parts):
         Kp, Mp = select_symmetric(K, idx), select_symmetric(M, idx)
         solve, name = _shifted_factor(Kp, Mp, sigma, factoring)
+        say(f"part {k + 1} of {len(parts)} ({len(idx)} DOF): K - sigma M factored ({name})")
         subs.append((idx, Kp, Mp, solve))
     if on_factor is not None:
         on_factor(_block_solve(n, [(s[0], s[3]) for s in subs]), sigma)
     ranked = []
-    for idx, Kp, Mp, solve in subs:
+    for k, (idx, Kp, Mp, solve) in enumerate(subs):
         if not Mp.count_nonzero():
             continue  # no mass: every root of the part is infinite
         if len(idx) <= DENSE_LIMIT:
             dense = _dense(Kp, Mp, sigma)[:2]
-            ranked.append((dense[0][0] if len(dense[0]) else np.inf, idx, Kp, Mp, solve, dense))
+            ranked.append((dense[0][0] if len(dense[0]) else np.inf, k, idx, Kp, Mp, solve,
+                           dense))  # fmt: skip
         else:
-            ranked.append((_lowest_root(solve, Mp, sigma), idx, Kp, Mp, solve, None))
+            lowest = _lowest_root(solve, Mp, sigma)
+            say(f"part {k + 1} of {len(parts)}: " + (
+                "no root of finite frequency" if not np.isfinite(lowest) else
+                "the check bounds nothing, so the part is solved" if lowest <= sigma else
+                f"its lowest root lies at {_hz(lowest):.6g} Hz or above"))  # fmt: skip
+            ranked.append((lowest, k, idx, Kp, Mp, solve, None))
     ranked.sort(key=lambda r: r[0])
     found_lam: list[np.ndarray] = []
     found_vec: list[np.ndarray] = []
-    for lowest, idx, Kp, Mp, solve, dense in ranked:
+    for lowest, k, idx, Kp, Mp, solve, dense in ranked:
         cut = _cutoff(np.concatenate([np.zeros(0), *found_lam]), request, lam_lo, lam_hi)
         if cut is not None and lowest > cut:
-            say(f"a part of {len(idx)} DOF has its lowest root at {_hz(lowest):.6g} Hz or "
-                f"above, beyond the {_hz(cut):.6g} Hz the request reaches: no root of it is "
-                "wanted")  # fmt: skip
+            say(f"part {k + 1} of {len(parts)} ({len(idx)} DOF) has its lowest root at "
+                f"{_hz(lowest):.6g} Hz or above, beyond the {_hz(cut):.6g} Hz the request "
+                "reaches: no root of it is wanted")  # fmt: skip
             continue
         if dense is not None:
             lam, vec = dense
