@@ -21,6 +21,7 @@ import sys
 from pathlib import Path
 
 import eigen_vs_calculix as plate
+from commits import median
 
 HERE = Path(__file__).resolve().parent
 
@@ -76,12 +77,6 @@ def one_run(deck: Path) -> list[tuple[str, float]]:
         name = stage_of(what)
         merged[name] = merged.get(name, 0.0) + seconds
     return list(merged.items())
-
-
-def median(xs: list[float]) -> float:
-    xs = sorted(xs)
-    mid = len(xs) // 2
-    return xs[mid] if len(xs) % 2 else 0.5 * (xs[mid - 1] + xs[mid])
 
 
 def main(argv: list[str] | None = None) -> int:
