@@ -47,16 +47,18 @@ for what, t in stamps:
 print(json.dumps(out))
 """
 
-#: Progress lines -> stage names (the line that ends a stage names it).
+#: Progress lines -> stage names (the line that ends a stage names it; the lines of one
+#: stage add up).
 _STAGES = [
     (r"^assembled K and M", "assembly"),
     (r"^a-set \d+ DOF", "constraints, AUTOSPC (a-set)"),
     (r"^(\d+) independent parts", "split into parts"),
     (r"^part (\d+) of \d+ \(\d+ DOF\): K - sigma M factored", "part {0}: factor"),
+    (r"^K - sigma M factored", "factor"),
     (r"^part (\d+) of \d+: ", "part {0}: lowest-root check"),
-    (r"^Lanczos: ", "Lanczos iteration"),
-    (r"^part (\d+) of \d+ \(\d+ DOF\) has its lowest root", "Lanczos iteration"),
-    (r"^\d+ modes", "Lanczos iteration"),
+    (r"^part (\d+) of \d+ \(\d+ DOF\) has", "(parts skipped)"),
+    (r"^Lanczos: \d+ roots converged", "Lanczos iteration"),
+    (r"^Lanczos: ", "(to the Lanczos)"),
 ]
 
 

@@ -264,11 +264,15 @@ def test_a_polynomials_derivative_sums_its_terms_as_a_sparse_sum_does():
     def terms(count: int, density: float) -> list[sp.csr_matrix]:
         shared = sp.random(n, n, density=density, format="lil", random_state=rng)
         shared[n - 8 :, :] = shared[:, n - 8 :] = 0  # DOF the elements do not touch
+        shared[n - 9, : n - 8] = 1.0  # a row the pattern stores ...
         shared = sp.csr_matrix(shared)
+        stored_zeros = np.arange(shared.indptr[n - 9], shared.indptr[n - 8])
         out = []
         for _ in range(count):  # one pattern, other values (a group's terms)
-            A = sp.csr_matrix((rng.standard_normal(shared.nnz), shared.indices,
-                               shared.indptr), shape=(n, n))  # fmt: skip
+            data = rng.standard_normal(shared.nnz)
+            data[stored_zeros] = 0.0  # ... as zeros in every term
+            A = sp.csr_matrix((data, shared.indices, shared.indptr), shape=(n, n))
+            A.indices, A.indptr = shared.indices, shared.indptr  # shared, as a group's are
             out.append(A)
         return out
 
@@ -293,11 +297,12 @@ def test_a_polynomials_derivative_sums_its_terms_as_a_sparse_sum_does():
         for got, want in ((dKX, dK @ X), (dMX, dM @ X)):
             assert np.abs(got - want).max() <= 1e-14 * np.abs(want).max()
         # the rows the parameter touches alone: those where either product is not zero
+        # (not the stored row of zeros, nor the rows no element has)
         rows, dKr, dMr = polynomial_derivative_rows(polys, center, j, X)
-        touched = np.flatnonzero(np.any(dKX != 0, axis=1) | np.any(dMX != 0, axis=1))
-        assert 0 < len(rows) < n and np.array_equal(rows, touched)
-        for got, whole in ((dKr, dKX), (dMr, dMX)):
-            assert np.abs(got - whole[rows]).max() <= 1e-15 * np.abs(whole).max()
+        touched = np.flatnonzero(np.any(dK @ X != 0, axis=1) | np.any(dM @ X != 0, axis=1))
+        assert np.array_equal(rows, touched) and n - 9 not in rows and len(rows) == n - 9
+        for got, want in ((dKr, dK @ X), (dMr, dM @ X)):
+            assert np.abs(got - want[rows]).max() <= 1e-14 * np.abs(want).max()
 
 
 def test_assemblies_side_by_side_give_the_same_polynomials(tmp_path):

@@ -283,6 +283,7 @@ def test_ctrl_c_while_a_file_is_written_leaves_no_temporary_file(tmp_path, monke
     def open_then_interrupt(name, flags, mode=0o777, *args, **kwargs):
         fd = real_open(name, flags, mode, *args, **kwargs)
         if when == "made" and Path(name).parent == tmp_path:
+            os.close(fd)
             raise KeyboardInterrupt
         return fd
 

@@ -3,6 +3,8 @@ ARPACK fallback."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 import scipy.linalg as sl
@@ -139,6 +141,10 @@ def test_v2_request_is_answered_in_one_block_iteration():
     np.testing.assert_allclose(res.eigenvalues, ref[:70], rtol=1e-9)
     assert sum("Lanczos: " in line and "roots of" in line for line in lines) == 1
     assert any("going on" in line for line in lines)
+    # the factor and the iteration's end are said (the steps of a long solve)
+    assert any(line.startswith("K - sigma M factored (") for line in lines)
+    ended = [line for line in lines if re.match(r"Lanczos: \d+ roots converged in \d+ block", line)]
+    assert len(ended) == 1 and int(ended[0].split()[1]) >= 70
 
 
 def test_independent_parts_follow_the_values_and_leave_the_matrices_alone(monkeypatch):

@@ -6,8 +6,8 @@ from __future__ import annotations
 import errno
 import fcntl
 import os
-import random
 import re
+import secrets
 import socket
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
@@ -60,7 +60,8 @@ def _alive(pid: int) -> bool:
     return True
 
 
-#: The letters of a temporary file's random part (:func:`tempfile.mkstemp`'s).
+#: The letters of a temporary file's random part: those :func:`remove_stale_temporaries`'
+#: pattern takes (``[a-z0-9_]``).
 _NAME_LETTERS = "abcdefghijklmnopqrstuvwxyz0123456789_"
 
 
@@ -79,8 +80,9 @@ def write_atomic(path: str | os.PathLike[str], write: Callable[[str], None]) -> 
             # the name is held before the file exists, so that an interruption (Ctrl-C) at
             # any point after the file is made finds it to remove (tempfile.mkstemp makes
             # the file before it returns the name: an interruption between would leave it)
-            tmp = str(path.parent / f"{_temporary_prefix(path, os.getpid())}"
-                      f"{''.join(random.choices(_NAME_LETTERS, k=8))}{path.suffix}")  # fmt: skip
+            letters = "".join(secrets.choice(_NAME_LETTERS) for _ in range(8))
+            tmp = str(path.parent / f"{_temporary_prefix(path, os.getpid())}{letters}"
+                                    f"{path.suffix}")  # fmt: skip
             try:
                 os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
                 break
@@ -91,7 +93,7 @@ def write_atomic(path: str | os.PathLike[str], write: Callable[[str], None]) -> 
         write(tmp)
         mask = os.umask(0)
         os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)  # made private
+        os.chmod(tmp, 0o666 & ~mask)  # (created 0o600 above)
         os.replace(tmp, path)
     except OSError as e:
         if tmp:

@@ -627,7 +627,8 @@ def polynomial_derivative(polys: list[GroupPolynomial], center: np.ndarray, j: i
 def polynomial_derivative_rows(polys: list[GroupPolynomial], center: np.ndarray, j: int,
                                X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The rows (ascending) where dK/dp_j X or dM/dp_j X at ``center`` is not zero, and
-    those rows of the two, (n_rows, m) each, from the group polynomials about 0.
+    those rows of the two, (n_rows, m) each, from the group polynomials about 0; X (n_g, m)
+    real.
 
     The terms' matrices are summed with their weights first (one pass over their entries
     each), then their stored rows (the parameter's elements' DOF) alone are multiplied: a

@@ -106,7 +106,8 @@ def centre_derivatives(polys: list[GroupPolynomial], center: np.ndarray, M: sp.s
     Phi : (n_g, r) the mass-normalised modes at the centre, lam (r,) their eigenvalues.
     Cg, Bg : (n_out, n_g), (n_in, n_g) output and input rows.
     m : the FRFs sum the m lowest modes.
-    shifted_solve : the a-set's (K - STATIC_SHIFT M)^-1 (the eigen solution's factor).
+    shifted_solve : the a-set's (K - STATIC_SHIFT M)^-1 (the eigen solution's factor); its
+        answers are new arrays of the caller's (they are worked on in place).
     static_solve : the a-set's K^-1, needed with ``residual``.
     """
     center = np.asarray(center, float)

@@ -298,6 +298,8 @@ def _lanczos(K, M, sigma, request, lam_lo, lam_hi, factoring, progress, on_facto
         return _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, factoring, progress,
                          on_factor, method)  # fmt: skip
     solve, name = _shifted_factor(K, M, sigma, factoring)
+    if progress:
+        progress(f"K - sigma M factored ({name}, {K.shape[0]} DOF)")
     if on_factor is not None:
         on_factor(solve, sigma)
     lam, vec = _iterate(K, M, sigma, solve, name, request, lam_lo, lam_hi, progress, method)
@@ -346,9 +348,10 @@ def _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, factoring, progress, 
     for lowest, k, idx, Kp, Mp, solve, dense in ranked:
         cut = _cutoff(np.concatenate([np.zeros(0), *found_lam]), request, lam_lo, lam_hi)
         if cut is not None and lowest > cut:
-            say(f"part {k + 1} of {len(parts)} ({len(idx)} DOF) has its lowest root at "
-                f"{_hz(lowest):.6g} Hz or above, beyond the {_hz(cut):.6g} Hz the request "
-                "reaches: no root of it is wanted")  # fmt: skip
+            say(f"part {k + 1} of {len(parts)} ({len(idx)} DOF) " + (
+                f"has its lowest root at {_hz(lowest):.6g} Hz or above, beyond the "
+                f"{_hz(cut):.6g} Hz the request reaches" if np.isfinite(lowest) else
+                "has no root of finite frequency") + ": no root of it is wanted")  # fmt: skip
             continue
         if dense is not None:
             lam, vec = dense
@@ -423,6 +426,7 @@ def _iterate(K, M, sigma, solve, name, request, lam_lo, lam_hi, progress, method
         return blas.limit(limits=threads, user_api="blas")
 
     lam = vec = None
+    solves = 0
 
     def answered(lam: np.ndarray) -> bool:
         """Whether the roots found (ascending) answer the request: the ND lowest roots in
@@ -455,8 +459,8 @@ def _iterate(K, M, sigma, solve, name, request, lam_lo, lam_hi, progress, method
                 try:
                     # more roots wanted on the same basis, not from scratch: it returns
                     # when enough() says so or when every root of the problem is found
-                    lam, vec, _ = block_lanczos(solve, M, sigma, k, enough=enough,
-                                                wide=wide)  # fmt: skip
+                    lam, vec, solves = block_lanczos(solve, M, sigma, k, enough=enough,
+                                                     wide=wide)  # fmt: skip
                     finished = True
                 except LanczosNotConverged as e:
                     if progress:
@@ -467,5 +471,8 @@ def _iterate(K, M, sigma, solve, name, request, lam_lo, lam_hi, progress, method
         order = np.argsort(lam)
         lam, vec = lam[order], vec[:, order]
         if finished or answered(lam) or k >= n - 2:
+            if progress:
+                progress(f"Lanczos: {len(lam)} roots converged" + (
+                    f" in {solves} block solves" if finished else " (ARPACK)"))  # fmt: skip
             return lam, vec
         k = min(2 * k, n - 2)
