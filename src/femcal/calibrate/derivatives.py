@@ -652,12 +652,21 @@ def polynomial_derivative_rows(polys: list[GroupPolynomial], center: np.ndarray,
             if Mc.nnz:
                 dM.append((w, Mc))
     sums = [_weighted_sum(terms) if terms else None for terms in (dK, dM)]
-    stored = np.unique(np.concatenate([np.zeros(0, np.int64)] + [
-        np.flatnonzero(np.diff(A.indptr)) for A in sums if A is not None]))  # fmt: skip
+    present = [A for A in sums if A is not None]
+    stored = touched_rows(present) if present else np.zeros(0, np.int64)
     dKX, dMX = (A[stored] @ X if A is not None else np.zeros((len(stored), X.shape[1]))
                 for A in sums)  # fmt: skip
     keep = np.any(dKX != 0, axis=1) | np.any(dMX != 0, axis=1)
     return stored[keep], dKX[keep], dMX[keep]
+
+
+def touched_rows(mats: list[sp.csr_matrix]) -> np.ndarray:
+    """Sorted indices of the rows with a stored entry in any of the CSR matrices (symmetric
+    matrices: the same indices are their columns)."""
+    hit = np.zeros(mats[0].shape[0], bool)
+    for A in mats:
+        hit[np.flatnonzero(np.diff(A.indptr))] = True
+    return np.flatnonzero(hit)
 
 
 def _weighted_sum(terms: list[tuple[float, sp.csr_matrix]]) -> sp.csr_matrix:

@@ -19,7 +19,13 @@ from ..response.frf import channel_matrix
 from ..response.modal import QUANTITIES
 from ..solve.factor import NotPositiveDefinite, factorize
 from ..solve.normal_modes import solve_normal_modes
-from .derivatives import GroupPolynomial, group_polynomials, polynomial_derivative, shift_weight
+from .derivatives import (
+    GroupPolynomial,
+    group_polynomials,
+    polynomial_derivative,
+    shift_weight,
+    touched_rows,
+)
 from .gradient import centre_derivatives
 from .parameters import Parameter, with_values
 from .surrogate import ORDERS, STATIC_SHIFT, Surrogate
@@ -27,15 +33,6 @@ from .surrogate import ORDERS, STATIC_SHIFT, Surrogate
 #: Derivative vectors whose own eigenvalue is above this times the basis's largest are
 #: dropped (frequencies 100 times the basis's top).
 STIFF_CUTOFF = 1e4
-
-
-def _touched_rows(mats: list) -> np.ndarray:
-    """Sorted indices of the rows with a stored entry in any of the CSR matrices (symmetric
-    matrices: the same indices are their columns)."""
-    hit = np.zeros(mats[0].shape[0], bool)
-    for A in mats:
-        hit[np.flatnonzero(np.diff(A.indptr))] = True
-    return np.flatnonzero(hit)
 
 
 def _reexpand(polys: list[GroupPolynomial], Phi: np.ndarray, center: np.ndarray, n_p: int, *,
@@ -47,7 +44,7 @@ def _reexpand(polys: list[GroupPolynomial], Phi: np.ndarray, center: np.ndarray,
     for g in polys:
         idx = list(g.params)
         # a group's matrices touch only its elements' DOF: reduce on those rows of Phi
-        rows = _touched_rows(g.K + g.M)
+        rows = touched_rows(g.K + g.M)
         P = np.ascontiguousarray(Phi[rows])
 
         def on_basis(A, rows=rows, P=P) -> np.ndarray:
