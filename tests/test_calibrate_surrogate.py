@@ -116,6 +116,33 @@ def test_metric_jacobian_equals_central_differences(setup, metric):
     assert not wide[:, ~which].any()
 
 
+@pytest.mark.parametrize("metric", ["log-magnitude", "complex-log"])
+def test_metric_jacobian_of_many_outputs_is_the_complex_quotient(metric):
+    """The Jacobian is formed a few outputs at a time: with 40 outputs of 300 frequencies
+    that is several blocks and a short last one, each in its place, whole or at given
+    columns."""
+    rng = np.random.default_rng(12)
+    n_p, n_o, n_i, n_f = 5, 40, 3, 300
+
+    def cplx(*shape):
+        return rng.normal(size=shape) + 1j * rng.normal(size=shape)
+
+    H, H_test, dH = cplx(n_o, n_i, n_f), cplx(n_o, n_i, n_f), cplx(n_p, n_o, n_i, n_f)
+    X = np.concatenate([dH.real, dH.imag], axis=-1)
+    q = (dH / H).reshape(n_p, -1).T / np.log(10.0)
+    want = q.real
+    if metric == "complex-log":
+        half = np.cos(np.angle(H / H_test) / 2.0).ravel()
+        want = np.vstack([q.real, half[:, None] * q.imag])
+    J = jacobian_of_parts(H, X, metric, H_test)
+    assert J.shape == want.shape
+    assert np.abs(J - want).max() <= 1e-12 * np.abs(want).max()
+    cols = np.array([0, 3, 4, 6, 7])  # into a wider Jacobian, at these columns
+    wide = jacobian_of_parts(H, X, metric, H_test, out=np.zeros((len(want), 9)), columns=cols)
+    assert np.array_equal(wide[:, cols], J)
+    assert not np.delete(wide, cols, axis=1).any()
+
+
 def test_log_frequencies_have_n_samples_per_half_power_bandwidth():
     f = log_frequencies(10.0, 100.0, 0.01, 3.0)
     assert f[0] == 10.0 and f[-1] == pytest.approx(100.0)

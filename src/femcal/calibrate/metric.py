@@ -67,17 +67,33 @@ def jacobian_of_parts(H_model: np.ndarray, X: np.ndarray, metric: str = "log-mag
         raise ValueError(f"metric must be one of {', '.join(METRICS)}, not {metric!r}")
     n_p, n_f = X.shape[0], H_model.shape[2]
     n = H_model.size
-    inv = 1.0 / H_model
-    Xr, Xi = X[..., :n_f], X[..., n_f:]
-    J = np.empty((n if metric == "log-magnitude" else 2 * n, n_p)) if out is None else out
-    cols = slice(None) if columns is None else columns
-    J[:n, cols] = ((Xr * inv.real - Xi * inv.imag) / _LN10).reshape(n_p, -1).T
-    if metric == "log-magnitude":
-        return J
-    if H_test is None:
+    complex_log = metric == "complex-log"
+    if complex_log and H_test is None:
         raise ValueError("the complex-log Jacobian needs the test FRFs")
-    half = np.cos(np.angle(H_model / H_test) / 2.0) / _LN10
-    J[n:, cols] = (half * (Xr * inv.imag + Xi * inv.real)).reshape(n_p, -1).T
+    inv = 1.0 / H_model
+    inv_re, inv_im = np.ascontiguousarray(inv.real), np.ascontiguousarray(inv.imag)
+    half = np.cos(np.angle(H_model / H_test) / 2.0) / _LN10 if complex_log else None
+    J = np.empty((2 * n if complex_log else n, n_p)) if out is None else out
+    cols = slice(None) if columns is None else columns
+    # a few outputs at a time: their buffers stay in cache and each is written into J as
+    # whole rows (the same element-wise operations as on the whole array, so the same numbers)
+    n_o, n_i = H_model.shape[:2]
+    step = max(1, 32768 // max(n_p * n_i * n_f, 1))
+    for o in range(0, n_o, step):
+        rows = slice(o * n_i * n_f, min(o + step, n_o) * n_i * n_f)
+        Xr, Xi = X[:, o : o + step, :, :n_f], X[:, o : o + step, :, n_f:]
+        ir, ii = inv_re[o : o + step], inv_im[o : o + step]
+        a = np.multiply(Xr, ir)
+        b = np.multiply(Xi, ii)
+        np.subtract(a, b, out=a)
+        np.divide(a, _LN10, out=a)
+        J[rows, cols] = a.reshape(n_p, -1).T
+        if complex_log:
+            np.multiply(Xr, ii, out=a)
+            np.multiply(Xi, ir, out=b)
+            np.add(a, b, out=a)
+            np.multiply(half[o : o + step], a, out=a)
+            J[n + rows.start : n + rows.stop, cols] = a.reshape(n_p, -1).T
     return J
 
 

@@ -42,25 +42,39 @@ class Term:
             r = r + self.correction @ (q - self.surrogate.p_center)
         return r if self.rows is None else r[self.rows]
 
-    def jacobian(self, p: np.ndarray, which: np.ndarray | None = None
-                 ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    @property
+    def n_residuals(self) -> int:
+        """How many residuals the term gives (``rows`` only)."""
+        n = self.H_test.size * (2 if self.metric == "complex-log" else 1)
+        return n if self.rows is None else int(np.count_nonzero(self.rows))
+
+    def jacobian(self, p: np.ndarray, which: np.ndarray | None = None,
+                 out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
         """(J (n_residuals, n_p_c), eps) at the shared p (unweighted; ``rows`` only), the
         correction included (at the centre of a corrected term: the full model's); with
         ``which`` (shared, bool) only those parameters' columns are computed (the others:
-        the correction's alone)."""
+        the correction's alone). J is written into ``out`` (n_residuals, n_p_c), a zero
+        array, if given, and is otherwise a new array."""
         q = np.asarray(p, float)[self.index]
         mine = None if which is None else np.asarray(which)[self.index]
         H, sel, X = self.surrogate.frf_and_jacobian_parts(q, self.freq, mine)
         r = residuals(H, self.H_test, self.metric)
+        into = out if self.rows is None else None
         if len(sel) == len(q):
-            J = jacobian_of_parts(H, X, self.metric, self.H_test)
+            J = jacobian_of_parts(H, X, self.metric, self.H_test, out=into)
         else:  # (the other columns are zero)
-            J = jacobian_of_parts(H, X, self.metric, self.H_test,
-                                  out=np.zeros((len(r), len(q))), columns=sel)  # fmt: skip
+            J = jacobian_of_parts(H, X, self.metric, self.H_test, columns=sel,
+                                  out=np.zeros((len(r), len(q))) if into is None else into)
         if self.correction is not None:
-            J += self.correction  # (J is this call's own array)
+            J += self.correction  # (J is this call's own array, or out)
             r = r + self.correction @ (q - self.surrogate.p_center)
-        return (J, r) if self.rows is None else (J[self.rows], r[self.rows])
+        if self.rows is None:
+            return J, r
+        J, r = J[self.rows], r[self.rows]
+        if out is not None:
+            out[:] = J
+            J = out
+        return J, r
 
     def transformed(self, eps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(t, dt/de) of residuals under the term's loss (t = eps under least squares)."""
@@ -95,28 +109,32 @@ class Problem:
     def _data_residuals(self, p: np.ndarray) -> np.ndarray:
         return np.concatenate([t.factor * t.transformed(t.residuals(p))[0] for t in self.terms])
 
-    def data_jacobian(self, p: np.ndarray, which: np.ndarray | None = None
-                      ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
-        """(J (n_residuals, n_p), r (n_residuals,)) of the data part at p: every term's
-        transformed residuals and their Jacobian, weighed by its factor, the corrections
-        included; with ``which`` (n_p,) bool only those columns (:meth:`Term.jacobian`)."""
-        Js, rs = [], []
+    def data_jacobian(self, p: np.ndarray, which: np.ndarray | None = None, *,
+                      extra_rows: int = 0) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+        """(J (n_residuals + extra_rows, n_p), r (n_residuals,)) of the data part at p: every
+        term's transformed residuals and their Jacobian, weighed by its factor, the
+        corrections included, and ``extra_rows`` rows of zeros after them (room for the
+        prior's rows); with ``which`` (n_p,) bool only those columns (:meth:`Term.jacobian`)."""
         n_p = len(self.lower)
-        for t in self.terms:
-            Jt, et = t.jacobian(p, which)
+        sizes = [t.n_residuals for t in self.terms]
+        J = np.zeros((sum(sizes) + extra_rows, n_p))
+        rs = []
+        at = 0
+        for t, size in zip(self.terms, sizes, strict=True):
+            block = J[at : at + size]
+            whole = len(t.index) == n_p and bool((t.index == np.arange(n_p)).all())
+            Jt, et = t.jacobian(p, which, out=block if whole else None)
             rt, dt = t.transformed(et)
+            # (in place: Jt is the term's own array or its block of J)
             if t.huber is not None:  # (least squares: dt = 1)
-                Jt = dt[:, None] * Jt
+                Jt *= dt[:, None]
             if t.factor != 1.0:
-                Jt = t.factor * Jt
-            if len(t.index) == n_p and (t.index == np.arange(n_p)).all():
-                Js.append(Jt)
-            else:
-                J = np.zeros((len(rt), n_p))
-                J[:, t.index] = Jt
-                Js.append(J)
+                Jt *= t.factor
+            if not whole:
+                block[:, t.index] = Jt
             rs.append(t.factor * rt)
-        return (Js[0] if len(Js) == 1 else np.vstack(Js)), np.concatenate(rs)
+            at += size
+        return J, np.concatenate(rs)
 
     def fun(self, p: np.ndarray):
         """Residuals and a callable for their Jacobian (computed for accepted points only)."""
@@ -124,8 +142,11 @@ class Problem:
         w = self.weights
 
         def jac() -> np.ndarray:  # (a parameter held by its bounds needs no column)
-            J = self.data_jacobian(p, self.lower < self.upper)[0]
-            return J if w is None else np.vstack([J, np.diag(w)])
+            if w is None:
+                return self.data_jacobian(p, self.lower < self.upper)[0]
+            J = self.data_jacobian(p, self.lower < self.upper, extra_rows=len(w))[0]
+            J[-len(w) :] = np.diag(w)
+            return J
 
         return (r if w is None else np.concatenate([r, w * p])), jac
 

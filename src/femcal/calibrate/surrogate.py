@@ -141,7 +141,21 @@ class Surrogate:
         STATIC_SHIFT): the dense solver's error is eps times the largest |eigenvalue|, which
         is the stiffest direction's for ``K~ psi = lam M~ psi`` (an enriched basis holds
         directions 1e4 times stiffer than its modes, and that rounding in the deviation is
-        enough to stall LM) but the softest mode's here."""
+        enough to stall LM) but the softest mode's here.
+
+        The last point's answer is kept (read-only): a search asks for the modes at an
+        accepted point twice, for its residuals and then for its Jacobian."""
+        key = np.asarray(p, float).tobytes()
+        last = self.__dict__.get("_modes_at")
+        if last is not None and last[0] == key:
+            return last[1]
+        lam, psi = self._solve_modes(p)
+        lam.flags.writeable = psi.flags.writeable = False
+        object.__setattr__(self, "_modes_at", (key, (lam, psi)))  # (a cache, not a field)
+        return lam, psi
+
+    def _solve_modes(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`modes` without the kept answer."""
         K, M = self.matrices(p)
         try:
             mu, psi = sla.eigh(M, K - STATIC_SHIFT * M)
