@@ -74,6 +74,21 @@ def test_exact_centre_jacobian_equals_central_differences_of_the_full_model(setu
         assert max(err_sur) > 5 * max(err_exact)
 
 
+def test_exact_derivatives_with_half_the_sensors_beside_are_one_process_s(setup):
+    """The series of half the sensors in a forked process beside (two cores) gives every
+    sensor's derivatives in its place, as one process does, but for the last bits that the
+    solves' block widths decide."""
+    model, params = setup
+    c = np.linspace(0.05, -0.05, len(params))
+    kw = dict(n_modes=20, zeta=0.02, frf_modes=5, exact_gradient=True)
+    one, _ = build_surrogate(model, params, c, OUTS, INS, **kw)
+    two, _ = build_surrogate(model, params, c, OUTS, INS, beside_ok=True, **kw)
+    for name in ("dlam", "d_S", "d_P"):
+        a, b = getattr(one.exact, name), getattr(two.exact, name)
+        assert a.shape == b.shape and np.abs(a).max() > 0, name
+        assert np.abs(a - b).max() <= 1e-10 * np.abs(a).max(), name
+
+
 def test_first_order_correction_gives_the_full_jacobian_at_the_centre(setup):
     model, params = setup
     n = len(params)

@@ -34,7 +34,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from threadpoolctl import threadpool_limits
 
+from ..parallel.cluster import result_of
+from ..parallel.executors import beside
 from ..response.modal import modal_factors_and_slopes, static_factor
 from ..solve.factor import factorize
 from .derivatives import GroupPolynomial, polynomial_derivative_rows
@@ -95,7 +98,8 @@ def centre_derivatives(polys: list[GroupPolynomial], center: np.ndarray, M: sp.s
                        red: object, Phi: np.ndarray, lam: np.ndarray, Cg: sp.spmatrix,
                        Bg: sp.spmatrix, m: int, *, shifted_solve: Callable | None = None,
                        static_solve: Callable | None = None, residual: bool = False,
-                       K: sp.spmatrix | None = None) -> CentreDerivatives:  # fmt: skip
+                       K: sp.spmatrix | None = None, beside_ok: bool = False
+                       ) -> CentreDerivatives:  # fmt: skip
     """Exact derivatives of the FRF ingredients at ``center`` (see the module docstring).
 
     Parameters
@@ -109,6 +113,10 @@ def centre_derivatives(polys: list[GroupPolynomial], center: np.ndarray, M: sp.s
     shifted_solve : the a-set's (K - STATIC_SHIFT M)^-1 (the eigen solution's factor); its
         answers are new arrays of the caller's (they are worked on in place).
     static_solve : the a-set's K^-1, needed with ``residual``.
+    beside_ok : the series of half the sensors may run in a forked process beside this one
+        (:func:`femcal.parallel.executors.beside`; where the OS forks and there are two
+        cores): about twice as fast; each sensor's numbers then differ from one process's
+        in their last bits (the solves' blocks hold fewer columns).
     """
     center = np.asarray(center, float)
     Phi = np.asarray(Phi)
@@ -164,35 +172,53 @@ def centre_derivatives(polys: list[GroupPolynomial], center: np.ndarray, M: sp.s
         dlam[i], Cc = eigen_derivatives(G, N, lm, inv_gap)
         dSP[i] = Sr @ Cc
         loads.append((rows, dKX - dMX * lm[None, :]))
-    # the modes above the basis: term n adds (lam_j - s)^n Z_n^T f_j, one Z_n at a time
-    # the sensors' solve holds the modes in full: twice (the first pass leaves rounding of
-    # their size); a later solve of a vector without them makes them again only from
-    # rounding, amplified by (lam_r - s) / (lam_k - s): one pass removes that
-    Y = off_modes(np.ascontiguousarray(shifted_solve(np.asarray((Tt @ Sg.T).todense()))),
-                  passes=2)  # fmt: skip
+    # the modes above the basis: term n adds (lam_j - s)^n Z_n^T f_j, one Z_n at a time;
+    # each sensor's series is its own (its column of Z_n), so that two halves of them can
+    # run side by side
     # parameters whose elements touch the same rows (a group's thickness and modulus) share
     # their rows of each Z_n
     first_of: dict[bytes, int] = {}
     share = [first_of.setdefault(rows.tobytes(), i) for i, (rows, _) in enumerate(loads)]
-    for n in range(terms):
-        Zn = T @ Y
-        # the modes whose series is still running: the highest ones (their terms grow with
-        # the mode), so a slice of the columns, not a copy of them
-        active = np.flatnonzero(per_mode > n)
-        cols = (slice(active[0], active[-1] + 1)
-                if active.size and active[-1] - active[0] + 1 == active.size else active)
-        w = ((lm[cols] - STATIC_SHIFT) / top) ** n
-        taken: dict[int, np.ndarray] = {}
-        for i, (rows, neg_f) in enumerate(loads):
-            if rows.size:
-                if share[i] not in taken:
-                    taken[share[i]] = Zn[rows]
-                dSP[i][:, cols] -= (taken[share[i]].T @ neg_f[:, cols]) * w[None, :]
-        if n + 1 < terms:
-            # (CHOLMOD answers column-major; the sparse products below want rows)
-            Y = np.ascontiguousarray(shifted_solve(Ma @ Y))
-            Y *= top
-            Y = off_modes(Y)
+    sensors_t = np.asarray((Tt @ Sg.T).todense())  # (n_a, n_s)
+
+    def series(sensors: slice) -> np.ndarray:
+        """dSP[:, sensors] with the modes above the basis added: (n_p, n_sensors, m)."""
+        out = dSP[:, sensors].copy()
+        # the sensors' solve holds the modes in full: twice (the first pass leaves rounding
+        # of their size); a later solve of a vector without them makes them again only from
+        # rounding, amplified by (lam_r - s) / (lam_k - s): one pass removes that
+        Y = off_modes(np.ascontiguousarray(shifted_solve(sensors_t[:, sensors])), passes=2)
+        for n in range(terms):
+            Zn = T @ Y
+            # the modes whose series is still running: the highest ones (their terms grow
+            # with the mode), so a slice of the columns, not a copy of them
+            active = np.flatnonzero(per_mode > n)
+            cols = (slice(active[0], active[-1] + 1)
+                    if active.size and active[-1] - active[0] + 1 == active.size else active)
+            w = ((lm[cols] - STATIC_SHIFT) / top) ** n
+            taken: dict[int, np.ndarray] = {}
+            for i, (rows, neg_f) in enumerate(loads):
+                if rows.size:
+                    if share[i] not in taken:
+                        taken[share[i]] = Zn[rows]
+                    out[i][:, cols] -= (taken[share[i]].T @ neg_f[:, cols]) * w[None, :]
+            if n + 1 < terms:
+                # (CHOLMOD answers column-major; the sparse products below want rows)
+                Y = np.ascontiguousarray(shifted_solve(Ma @ Y))
+                Y *= top
+                Y = off_modes(Y)
+        return out
+
+    if beside_ok and n_s > 1:
+        # the second half in a forked process (it shares this one's factor and arrays), one
+        # BLAS thread each: the solves are the time, and one solve does not use two cores
+        half = slice(n_s // 2, n_s)
+        with beside(series, half) as call, threadpool_limits(1):
+            first = series(slice(0, n_s // 2))
+            second = result_of(call.future, "the exact FRF derivatives' second half")
+        dSP[:, : n_s // 2], dSP[:, half] = first, second
+    else:
+        dSP = series(slice(None))
     S, P = Sr[:n_out, :m], Sr[n_out:, :m]
     dS, dP = dSP[:, :n_out], dSP[:, n_out:]
     R = dR = None

@@ -266,7 +266,7 @@ def build_surrogate(model: Model, params: list[Parameter], p_center: np.ndarray,
                     enrich_hz: float | None = None, n_enrich: int | None = None,
                     residual: bool = False, frf_modes: int | None = None,
                     frf_hz: float | None = None, exact_gradient: bool = False,
-                    centre_only: bool = False,
+                    centre_only: bool = False, beside_ok: bool = False,
                     progress: Callable[[str], None] | None = None,
                     ) -> tuple[Surrogate, object]:  # fmt: skip
     """Reduce the (nominal) model at ``p_center`` on its first ``n_modes`` modes there.
@@ -296,6 +296,8 @@ def build_surrogate(model: Model, params: list[Parameter], p_center: np.ndarray,
     centre_only : the surrogate is wanted at its centre only (the full model's FRFs there):
         its basis is the same, but the polynomial terms are not reduced on it, so that it
         does not depend on the parameters (its FRFs at the centre are the same numbers).
+    beside_ok : the exact derivatives may use a forked process beside this one
+        (:func:`femcal.calibrate.gradient.centre_derivatives`).
 
     Returns
     -------
@@ -373,7 +375,8 @@ def build_surrogate(model: Model, params: list[Parameter], p_center: np.ndarray,
         exact = centre_derivatives(polynomials, np.asarray(p_center, float), mats.M, red,
                                    modes.shapes, modes.eigenvalues, Cg, Bg, n_frf,
                                    shifted_solve=factor.get("solve"), static_solve=static_solve,
-                                   residual=residual, K=mats.K)  # fmt: skip
+                                   residual=residual, K=mats.K,
+                                   beside_ok=beside_ok)  # fmt: skip
         sur = replace(sur, exact=exact)
         say(f"the full model's exact FRF derivatives at the centre ({exact.terms} series terms "
             "for the modes above the basis" + (")" if exact.tail == 0.0 else

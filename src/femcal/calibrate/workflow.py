@@ -299,6 +299,8 @@ def _calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *, truth: np.nda
     weighing: dict[str, object] = {}  # the prior's rows and the terms' factors, set below
 
     frf_modes: dict[int, int] = {}  # per configuration the FRFs' mode count, fixed at the nominal
+    # more than one local core: a surrogate built here may use a forked process beside
+    two_here = session.engine.kind == "local" and session.engine.workers > 1
 
     def build_arguments(k: int, p: np.ndarray) -> tuple[tuple, dict]:
         """:func:`build_surrogate`'s arguments for configuration k at p (no progress)."""
@@ -320,7 +322,7 @@ def _calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *, truth: np.nda
         case = cases[k]
         if built is None:
             args, kwargs = build_arguments(k, p)
-            built = build_surrogate(*args, **kwargs, progress=say)
+            built = build_surrogate(*args, **kwargs, progress=say, beside_ok=two_here)
         sur, modes = built
         if k not in frf_modes:
             frf_modes[k] = sur.n_frf
@@ -568,7 +570,7 @@ def _calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *, truth: np.nda
                     cfg.noise_sigma) for k, case in enumerate(cases)]  # fmt: skip
     # the model-form diagnostics (NumPy on what is at hand) run in a forked process of their
     # own while the hold-out folds (which factorise) run here, when there are cores for both
-    aside = bool(plan[1]) and session.engine.kind == "local" and session.engine.workers > 1
+    aside = bool(plan[1]) and two_here
     with (beside(_model_forms, form_inputs) if aside
           else contextlib.nullcontext()) as call:
         holdout = (validate(cases, problem.terms, terms0, params, p_final, prior, plan,
