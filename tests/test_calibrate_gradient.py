@@ -6,10 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from femcal.calibrate import gradient
 from femcal.calibrate.gradient import first_order_correction
 from femcal.calibrate.metric import jacobian, log_frequencies, residuals
 from femcal.calibrate.problem import Problem
 from femcal.calibrate.reduction import build_surrogate
+from femcal.parallel.executors import beside
 from femcal.testdata.data import Channel
 
 from .calib_decks import write_plate
@@ -74,15 +76,21 @@ def test_exact_centre_jacobian_equals_central_differences_of_the_full_model(setu
         assert max(err_sur) > 5 * max(err_exact)
 
 
-def test_exact_derivatives_with_half_the_sensors_beside_are_one_process_s(setup):
+def test_exact_derivatives_with_half_the_sensors_beside_are_one_process_s(setup,
+                                                                          monkeypatch):
     """The series of half the sensors in a forked process beside (two cores) gives every
     sensor's derivatives in its place, as one process does, but for the last bits that the
-    solves' block widths decide."""
+    solves' block widths decide. (The test plate's series is below the size that splits:
+    the size is lowered here.)"""
     model, params = setup
     c = np.linspace(0.05, -0.05, len(params))
     kw = dict(n_modes=20, zeta=0.02, frf_modes=5, exact_gradient=True)
     one, _ = build_surrogate(model, params, c, OUTS, INS, **kw)
+    calls = []
+    monkeypatch.setattr(gradient, "SPLIT_WORK", 0)
+    monkeypatch.setattr(gradient, "beside", lambda *a, **k: calls.append(1) or beside(*a, **k))
     two, _ = build_surrogate(model, params, c, OUTS, INS, beside_ok=True, **kw)
+    assert calls == [1]
     for name in ("dlam", "d_S", "d_P"):
         a, b = getattr(one.exact, name), getattr(two.exact, name)
         assert a.shape == b.shape and np.abs(a).max() > 0, name

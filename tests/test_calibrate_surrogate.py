@@ -308,3 +308,70 @@ def test_jacobian_of_some_parameters_is_theirs_and_zero_elsewhere(setup):
     # may split otherwise for fewer of them)
     np.testing.assert_allclose(dH_w[which], dH[which], rtol=0, atol=1e-13 * np.abs(dH).max())
     assert not dH_w[~which].any() and np.abs(dH[~which]).max() > 0
+
+
+def test_problem_jacobian_is_its_terms_stacked_with_the_prior_rows(setup):
+    """Problem.fun's Jacobian, made in one array with the prior's rows after the data's, is
+    the terms' own Jacobians weighed (Huber, factor), placed at their parameters' columns
+    and stacked: one term on every parameter, another on some of them in another order with
+    some residuals left out (a hold-out fold), a third on every parameter with some left
+    out, and a parameter held by its bounds."""
+    from femcal.calibrate.problem import Problem, Term
+
+    model, params = setup
+    n = len(params)
+    sur, _ = build_surrogate(model, params, np.zeros(n), OUTS, INS, n_modes=20, zeta=0.02)
+    f = log_frequencies(10.0, 250.0, 0.02, 2.0)
+    rng = np.random.default_rng(3)
+    H_test = sur.frf(np.zeros(n), f) * (1 + 0.1 * rng.normal(size=(len(OUTS), len(INS), len(f))))
+    index = np.array([n - 1, 0, 2])[: min(3, n)]
+    sub, _ = build_surrogate(model, [params[i] for i in index], np.zeros(len(index)), OUTS,
+                             INS, n_modes=20, zeta=0.02)  # fmt: skip
+    H_sub = sub.frf(np.zeros(len(index)), f) * (1 + 0.1 * rng.normal(size=H_test.shape))
+    rows = rng.random(2 * H_sub.size) < 0.7
+    rows_all = rng.random(H_test.size) < 0.5
+    terms = (Term(sur, f, H_test, "complex-log", np.arange(n), factor=0.7, huber=0.05),
+             Term(sub, f, H_sub, "complex-log", index, factor=1.3, rows=rows),
+             Term(sur, f, H_test, "log-magnitude", np.arange(n), rows=rows_all))
+    lower, upper = -0.2 * np.ones(n), 0.2 * np.ones(n)
+    lower[1] = upper[1] = 0.0  # held by its bounds: no column computed
+    weights = np.linspace(1.0, 2.0, n)
+    problem = Problem(terms, lower, upper, 10, weights)
+    p = rng.uniform(-0.1, 0.1, n)
+    p[1] = 0.0
+    J = problem.fun(p)[1]()
+    which = lower < upper
+    blocks = []
+    for t in terms:
+        Jt, e = t.jacobian(p, which)
+        _, dt = t.transformed(e)
+        placed = np.zeros((len(e), n))
+        placed[:, t.index] = t.factor * (dt[:, None] * Jt)
+        blocks.append(placed)
+    want = np.vstack([*blocks, np.diag(weights)])
+    n_rows = terms[0].n_residuals + int(rows.sum()) + int(rows_all.sum())
+    assert J.shape == want.shape == (n_rows + n, n)
+    assert np.abs(J - want).max() <= 1e-14 * np.abs(want).max()
+    assert not J[: -n, 1].any()  # the held parameter's column
+
+
+def test_surrogate_keeps_the_modes_of_its_last_point_only(setup):
+    """The modes at the last point are kept, read-only, and are those of a fresh solution;
+    another point solves anew; a copy made by replace() or by pickling keeps none."""
+    import dataclasses
+    import pickle
+
+    model, params = setup
+    n = len(params)
+    sur, _ = build_surrogate(model, params, np.zeros(n), OUTS, INS, n_modes=20, zeta=0.02)
+    p, q = np.full(n, 0.05), np.full(n, -0.05)
+    lam, psi = sur.modes(p)
+    assert not lam.flags.writeable and not psi.flags.writeable
+    assert sur.modes(p)[0] is lam
+    fresh = sur._solve_modes(q)
+    lam_q = sur.modes(q)[0]
+    assert lam_q is not lam and np.array_equal(lam_q, fresh[0])
+    assert np.array_equal(sur.modes(p)[0], lam)
+    for copy in (dataclasses.replace(sur), pickle.loads(pickle.dumps(sur))):
+        assert "_modes_at" not in copy.__dict__
+        assert np.array_equal(copy.modes(p)[0], lam)

@@ -36,6 +36,7 @@ import numpy as np
 import scipy.sparse as sp
 from threadpoolctl import threadpool_limits
 
+from ..parallel import usable_cores
 from ..parallel.cluster import result_of
 from ..parallel.executors import beside
 from ..response.modal import modal_factors_and_slopes, static_factor
@@ -47,6 +48,9 @@ from .surrogate import STATIC_SHIFT, Surrogate
 
 #: Relative accuracy asked of the series for the out-of-basis part.
 SERIES_TOL = 1e-10
+#: The series' size (a-set DOF x sensors x terms) from which half the sensors' series runs
+#: beside (with ``beside_ok``): below it, a fork costs about what it saves.
+SPLIT_WORK = 2e7
 #: At most this many series terms per mode (each one block solve with n_out + n_in
 #: columns); a mode 0.28 of the basis's top frequency converges in 12 (ratio 0.08).
 MAX_TERMS = 12
@@ -114,9 +118,10 @@ def centre_derivatives(polys: list[GroupPolynomial], center: np.ndarray, M: sp.s
         answers are new arrays of the caller's (they are worked on in place).
     static_solve : the a-set's K^-1, needed with ``residual``.
     beside_ok : the series of half the sensors may run in a forked process beside this one
-        (:func:`femcal.parallel.executors.beside`; where the OS forks and there are two
-        cores): about twice as fast; each sensor's numbers then differ from one process's
-        in their last bits (the solves' blocks hold fewer columns).
+        (:func:`femcal.parallel.executors.beside`; where the OS forks, there are two cores
+        and the series is large, :data:`SPLIT_WORK`): about twice as fast; each sensor's
+        numbers then differ from one process's in their last bits (the solves' blocks hold
+        fewer columns).
     """
     center = np.asarray(center, float)
     Phi = np.asarray(Phi)
@@ -209,11 +214,14 @@ def centre_derivatives(polys: list[GroupPolynomial], center: np.ndarray, M: sp.s
                 Y = off_modes(Y)
         return out
 
-    if beside_ok and n_s > 1:
-        # the second half in a forked process (it shares this one's factor and arrays), one
-        # BLAS thread each: the solves are the time, and one solve does not use two cores
+    if beside_ok and n_s > 1 and Ma.shape[0] * n_s * terms >= SPLIT_WORK:
+        # the second half in a forked process (it shares this one's factor and arrays), the
+        # cores shared out between the two: the solves are the time, and one solve gains
+        # little from a second core
         half = slice(n_s // 2, n_s)
-        with beside(series, half) as call, threadpool_limits(1):
+        threads = max(1, usable_cores() // 2)
+        with (beside(series, half, blas_threads=threads) as call,
+              threadpool_limits(threads)):  # fmt: skip
             first = series(slice(0, n_s // 2))
             second = result_of(call.future, "the exact FRF derivatives' second half")
         dSP[:, : n_s // 2], dSP[:, half] = first, second

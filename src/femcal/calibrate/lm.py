@@ -68,11 +68,12 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], tuple[np.ndarray, object]],
         if not free.any() or np.abs(g[free]).max() <= 1e-14 * max(1.0, cost):
             converged, message = True, "gradient zero within the bounds"
             break
-        # (a gather by index is 2.5x quicker than by mask; the second operand is its own
-        # copy so that the product stays the general one, not NumPy's symmetric rank-k
-        # update for X^T X of one array, whose last bits differ)
-        Jf = np.take(J, np.flatnonzero(free), axis=1)
-        A = Jf.T @ Jf.copy()
+        # J_f^T J_f from the free columns gathered as rows of J^T (quicker than by a mask),
+        # the second factor a column-major copy: the operands' layouts of J[:, free].T @
+        # J[:, free], so the same BLAS kernel and numbers, and two arrays, so not NumPy's
+        # symmetric rank-k update for X^T X of one array, whose last bits differ
+        JfT = J.T[np.flatnonzero(free)]
+        A = JfT @ JfT.T.copy(order="F")
         d = np.maximum(np.diag(A), 1e-12 * max(np.diag(A).max(), 1e-300))
         accepted = False
         while mu <= 1e12:

@@ -48,7 +48,7 @@ class Term:
         n = self.H_test.size * (2 if self.metric == "complex-log" else 1)
         return n if self.rows is None else int(np.count_nonzero(self.rows))
 
-    def jacobian(self, p: np.ndarray, which: np.ndarray | None = None,
+    def jacobian(self, p: np.ndarray, which: np.ndarray | None = None, *,
                  out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
         """(J (n_residuals, n_p_c), eps) at the shared p (unweighted; ``rows`` only), the
         correction included (at the centre of a corrected term: the full model's); with

@@ -154,6 +154,10 @@ class Surrogate:
         object.__setattr__(self, "_modes_at", (key, (lam, psi)))  # (a cache, not a field)
         return lam, psi
 
+    def __getstate__(self) -> dict:
+        """The fields for pickling, without the kept modes (a copy elsewhere keeps its own)."""
+        return {k: v for k, v in self.__dict__.items() if k != "_modes_at"}
+
     def _solve_modes(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`modes` without the kept answer."""
         K, M = self.matrices(p)

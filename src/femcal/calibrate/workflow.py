@@ -97,7 +97,7 @@ from .surrogate import Surrogate
 #: The surrogate's construction version: part of the resume fingerprint, so that starts
 #: finished by a version that built the surrogate (or its elements) differently are run
 #: again rather than mixed with new ones. Raise it with every such change.
-SURROGATE_VERSION = 9
+SURROGATE_VERSION = 10
 
 
 def _starts_task(name: str) -> str:
@@ -162,7 +162,8 @@ def _digest(value: object) -> str:
 
 def fingerprint(parts: Sequence[tuple[Model, Sequence[Parameter], np.ndarray, np.ndarray, float]],
                 cfg: Config, n_starts: int, *, channels: Sequence[object] = (),
-                sources: Sequence[str | Path] = ()) -> str:  # fmt: skip
+                sources: Sequence[str | Path] = (), derivatives_beside: bool = False
+                ) -> str:  # fmt: skip
     """What decides a calibration's starts, hashed: the surrogate's version, the number of
     starts, the settings (not file names or worker counts; each configuration's band,
     damping, identification and units) and, per configuration, its model's arrays and tables
@@ -172,7 +173,9 @@ def fingerprint(parts: Sequence[tuple[Model, Sequence[Parameter], np.ndarray, np
     compared, the FRFs' quantity). Besides, the content (not the name) of every file the
     models were read from, a deck's INCLUDEs among them (:attr:`Model.files`), and of the
     files in ``sources`` (a configuration's parameter, test, sensor and input files): a
-    change to any of them starts afresh, even one that leaves the arrays alone."""
+    change to any of them starts afresh, even one that leaves the arrays alone. And whether
+    the exact derivatives' series may run in two processes (``derivatives_beside``, more
+    than one local worker), which decides their last bits."""
     settings = {k: v for k, v in vars(cfg).items() if k not in _NOT_IN_FINGERPRINT}
     settings["configurations"] = [(c.band, c.zeta0, c.identify, c.model_units)
                                   for c in cfg.configurations]  # fmt: skip
@@ -184,7 +187,8 @@ def fingerprint(parts: Sequence[tuple[Model, Sequence[Parameter], np.ndarray, np
         physics.append((bare, list(params), freq, H_test, float(zeta0)))
         files += [file_digest(f) for f in model.files]
     files += [file_digest(f) for f in sources]
-    return _digest((SURROGATE_VERSION, n_starts, settings, physics, list(channels), files))
+    return _digest((SURROGATE_VERSION, n_starts, settings, physics, list(channels), files,
+                    bool(derivatives_beside)))
 
 
 def calibrate(model: Model, params: Sequence[Parameter], cfg: Config, *,
@@ -245,7 +249,9 @@ def calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *,
         the configuration's ``engine``, ``scheduler`` and ``workers``
         (:class:`~femcal.parallel.cluster.Engine`). The starts give the same numbers on
         every engine; surrogates built on a Dask worker (one BLAS thread) differ from those
-        built here in the last digits.
+        built here in the last digits, and so do exact derivatives made in one process
+        (one worker, or Dask) from those made in two (more local workers; the resume
+        fingerprint tells them apart).
     session : an engine already open (a job's, :class:`~femcal.parallel.cluster.Session`):
         used, and left open, in place of ``engine``.
     sources : the other files the run was read from (parameter, test, sensor and input
@@ -290,17 +296,17 @@ def _calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *, truth: np.nda
     n_starts = starts or cfg.starts
     lo = np.array([p.p_lower for p in params])
     hi = np.array([p.p_upper for p in params])
+    # more than one local worker: a surrogate built here may use a forked process beside
+    two_here = session.engine.kind == "local" and session.engine.workers > 1
     fp = fingerprint([(c.model, c.params, c.freq, c.H_test, c.zeta0) for c in cases], cfg,
                      n_starts, channels=[(c.outputs, c.inputs, c.quantity) for c in cases],
-                     sources=sources)  # fmt: skip
+                     sources=sources, derivatives_beside=two_here)  # fmt: skip
     state_dir = Path(state) if state is not None else None
     rng = np.random.default_rng(cfg.seed)
     prior = prior_of(params, cfg.bounds_sigma)
     weighing: dict[str, object] = {}  # the prior's rows and the terms' factors, set below
 
     frf_modes: dict[int, int] = {}  # per configuration the FRFs' mode count, fixed at the nominal
-    # more than one local core: a surrogate built here may use a forked process beside
-    two_here = session.engine.kind == "local" and session.engine.workers > 1
 
     def build_arguments(k: int, p: np.ndarray) -> tuple[tuple, dict]:
         """:func:`build_surrogate`'s arguments for configuration k at p (no progress)."""

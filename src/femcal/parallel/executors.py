@@ -225,7 +225,11 @@ class ForkedCall:
     def __init__(self, fn: Callable[..., R], *args, blas_threads: int | None = 1) -> None:
         self.pool = ProcessPool(1, mp_context=_process_context(), initializer=_inherit,
                                 initargs=((fn, args), blas_threads))  # fmt: skip
-        self.future: Future = self.pool.submit(_run_inherited)
+        try:
+            self.future: Future = self.pool.submit(_run_inherited)
+        except BaseException:  # (the fork failed: no worker to wait for)
+            self.pool.shutdown(wait=False, cancel_futures=True)
+            raise
 
     def __enter__(self) -> ForkedCall:
         return self
@@ -251,10 +255,16 @@ class _CallHere:
 
 def beside(fn: Callable[..., R], *args, blas_threads: int | None = 1
            ) -> ForkedCall | _CallHere:  # fmt: skip
-    """``fn(*args)`` in a :class:`ForkedCall` while the caller goes on, where the OS forks
-    and this process may use more than one core; else run here, now (the same interface)."""
-    if os.name == "posix" and usable_cores() > 1:
-        return ForkedCall(fn, *args, blas_threads=blas_threads)
+    """``fn(*args)`` in a :class:`ForkedCall` while the caller goes on, where the OS forks,
+    this process may use more than one core and may have children (not a pool's daemonic
+    worker); else, or when the fork fails (a limit on processes or memory), run here, now
+    (the same interface)."""
+    if (os.name == "posix" and usable_cores() > 1
+            and not multiprocessing.current_process().daemon):
+        try:
+            return ForkedCall(fn, *args, blas_threads=blas_threads)
+        except OSError:
+            pass
     return _CallHere(fn, *args)
 
 
