@@ -8,6 +8,11 @@ from pathlib import Path
 
 import pytest
 
+from femcal.parallel.executors import limit_openmp
+
+# as the command line does, before anything loads CHOLMOD: the suite runs what users run
+limit_openmp()
+
 ROOT = Path(__file__).resolve().parents[1]
 REFDECKS = ROOT.parent / "shared" / "refdecks"
 

@@ -217,3 +217,76 @@ def test_a_process_whose_parent_is_gone_ends_at_once():
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     if os.name == "posix":
         assert done.returncode == 1 and "ran on" not in done.stdout
+
+
+_FORK_FACTOR = r"""
+import os, sys
+from femcal.parallel.executors import ForkedCall, limit_openmp, openmp_forks_safely
+limit_openmp()
+import numpy as np
+import scipy.sparse as sp
+from femcal.solve.factor import HAVE_CHOLMOD, factorize
+n = 20000
+A = (sp.diags([-np.ones(n - 1), 2.5 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1])).tocsc()
+solve, name = factorize(A)  # this process's OpenMP runtime has run a factorisation
+b = np.ones(n)
+safe = openmp_forks_safely()
+print(os.environ.get("OMP_THREAD_LIMIT"), safe, name)
+if safe:
+    with ForkedCall(lambda: float(np.abs(A @ factorize(A)[0](b) - b).max())) as call:
+        print(call.future.result(timeout=60) < 1e-10)
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="GNU OpenMP on Linux")
+def test_openmp_capped_at_one_thread_lets_a_forked_process_factorise():
+    """The command line's cap on OpenMP (unless the user set one): with it, a process that
+    has factorised may fork a worker that factorises too (without it the worker would wait
+    forever in CHOLMOD's first parallel region); a cap the user set is kept, and the forked
+    path is then not offered."""
+    from femcal.solve.factor import HAVE_CHOLMOD
+
+    env = {k: v for k, v in os.environ.items() if k != "OMP_THREAD_LIMIT"}
+    run = subprocess.run([sys.executable, "-c", _FORK_FACTOR], env=env, capture_output=True,
+                         text=True, timeout=120)  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    limit, safe, name = run.stdout.split()[:3]
+    assert (limit, safe) == ("1", "True")
+    assert run.stdout.split()[3] == "True"  # the worker's factor solves A x = b
+    if HAVE_CHOLMOD:
+        assert name == "cholmod"
+        run = subprocess.run([sys.executable, "-c", _FORK_FACTOR],
+                             env={**env, "OMP_THREAD_LIMIT": "2"}, capture_output=True,
+                             text=True, timeout=120)  # fmt: skip
+        assert run.returncode == 0, run.stderr
+        assert run.stdout.split() == ["2", "False", "cholmod"]
+
+
+def _talk(outbox, n: int, fail: bool) -> str:
+    for k in range(n):
+        outbox.put(("line", k))
+    if fail:
+        raise ValueError("the worker's own error")
+    time.sleep(60 if n == 0 else 0)  # (a worker with nothing to say goes on working)
+    return "done"
+
+
+@pytest.mark.skipif(os.name != "posix", reason="forked workers only where the OS forks")
+def test_a_forked_peer_sends_in_order_raises_its_error_and_stops_when_asked():
+    from femcal.parallel.executors import ForkedPeer
+
+    with ForkedPeer(_talk, 3, False) as peer:
+        assert [peer.receive() for _ in range(3)] == [("line", 0), ("line", 1), ("line", 2)]
+        assert peer.future.result(timeout=60) == "done"
+        with pytest.raises(RuntimeError, match="returned without the message expected"):
+            peer.receive()
+    with ForkedPeer(_talk, 1, True) as peer:
+        assert peer.receive() == ("line", 0)
+        with pytest.raises(ValueError, match="the worker's own error"):
+            peer.receive()
+    with ForkedPeer(_talk, 0, False) as peer:
+        pids = [p.pid for p in peer.call.pool._processes.values()]
+        start = time.monotonic()
+        peer.stop()
+    assert time.monotonic() - start < 30
+    assert _wait_gone(pids, 10) == []

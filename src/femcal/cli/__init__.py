@@ -14,6 +14,7 @@ from types import ModuleType
 
 from .. import __version__
 from ..errors import FemcalError
+from ..parallel.executors import limit_openmp
 from .examples import annotate
 
 #: The subcommands and their modules (each with ``add_parser(subparsers)`` and ``run(args)``).
@@ -141,7 +142,10 @@ def entry() -> None:
     the process ends at once (``os._exit``): a Ctrl-C that lands inside the standard
     library's process pools can leave one of their locks held, and the interpreter's own
     exit (which joins the pools' threads) would then wait forever. femcal's files are whole
-    or absent by then, and the workers end with their parent."""
+    or absent by then, and the workers end with their parent. The OpenMP runtime is capped
+    at one thread first, before a command loads CHOLMOD
+    (:func:`femcal.parallel.executors.limit_openmp`)."""
+    limit_openmp()
     status = main()
     if status == EXIT_INTERRUPTED:
         sys.stdout.flush()

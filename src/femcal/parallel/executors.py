@@ -64,12 +64,54 @@ def usable_cores() -> int:
     return os.cpu_count() or 1
 
 
+#: The environment variable that caps the threads of GNU's OpenMP runtime (libgomp), read
+#: once, when the runtime is loaded.
+OPENMP_LIMIT = "OMP_THREAD_LIMIT"
+
+
+def limit_openmp() -> None:
+    """Cap the OpenMP runtime at one thread unless the environment already sets a cap
+    (:data:`OPENMP_LIMIT`): for a program's entry point, before anything loads the runtime
+    (CHOLMOD does, when scikit-sparse is imported). CHOLMOD's OpenMP regions (the supernodal
+    factorisation's assembly of updates) gain nothing on top of its BLAS's own threads:
+    on two cores they oversubscribe them, and a factor takes 15-30 % longer with them. And a
+    runtime that never started a pool of threads leaves a forked child free to run parallel
+    regions (:func:`openmp_forks_safely`)."""
+    os.environ.setdefault(OPENMP_LIMIT, "1")
+
+
+def openmp_forks_safely() -> bool:
+    """Whether a forked child of this process may run OpenMP parallel regions (CHOLMOD's
+    factorisation does). A child inherits the parent's GNU OpenMP runtime with the pool of
+    threads its parallel regions started, but not the threads, and waits for them forever
+    at its first region. It is safe when the runtime is not loaded, or is capped at one
+    thread (:func:`limit_openmp`), so that it never starts a pool."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        gomp = ctypes.CDLL("libgomp.so.1", mode=os.RTLD_NOLOAD)
+    except OSError:  # not loaded in this process: no pool to inherit
+        return True
+    try:
+        return int(gomp.omp_get_thread_limit()) == 1
+    except AttributeError:  # pragma: no cover - another library of that name
+        return False
+
+
+def may_fork_beside() -> bool:
+    """Whether a worker forked beside this process can help: the OS forks, this process
+    may use more than one core and may have children (it is not a pool's daemonic
+    worker)."""
+    return (os.name == "posix" and usable_cores() > 1
+            and not multiprocessing.current_process().daemon)  # fmt: skip
+
+
 def _process_context(fresh: bool = False) -> multiprocessing.context.BaseContext:
     """Forked workers where the OS can fork (they inherit the parent's arrays without
-    pickling them), spawned ones elsewhere or when ``fresh``: a forked child inherits the
-    parent's OpenMP runtime (GNU libgomp, which CHOLMOD's factorisation runs on) in a state
-    it cannot use, and hangs at its first parallel region; work that factorises needs
-    workers started afresh."""
+    pickling them), spawned ones elsewhere or when ``fresh``: unless the OpenMP runtime is
+    capped at one thread (:func:`openmp_forks_safely`), a forked child inherits it
+    (GNU libgomp, which CHOLMOD's factorisation runs on) in a state it cannot use, and hangs
+    at its first parallel region; work that factorises then needs workers started afresh."""
     return multiprocessing.get_context("fork" if os.name == "posix" and not fresh
                                        else "spawn")  # fmt: skip
 
@@ -218,9 +260,9 @@ class ForkedCall:
     suits work on large inputs the caller already holds; elsewhere they are pickled. The
     worker runs with ``blas_threads`` BLAS threads (None: the library's default), dies with
     this process and ignores Ctrl-C (:class:`ProcessPool`). Work that factorises sparse
-    matrices does not belong here (a forked worker cannot run CHOLMOD's OpenMP; see
-    :func:`_process_context`). Use it as a context manager: leaving the block waits for the
-    call, or, left by an exception, ends the worker at once."""
+    matrices belongs here only where :func:`openmp_forks_safely` says so (a forked worker
+    cannot run CHOLMOD's OpenMP otherwise). Use it as a context manager: leaving the block
+    waits for the call, or, left by an exception, ends the worker at once."""
 
     def __init__(self, fn: Callable[..., R], *args, blas_threads: int | None = 1) -> None:
         self.pool = ProcessPool(1, mp_context=_process_context(), initializer=_inherit,
@@ -237,6 +279,60 @@ class ForkedCall:
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
                  tb: TracebackType | None) -> bool:  # fmt: skip
         return self.pool.__exit__(exc_type, exc, tb)
+
+
+#: Seconds between a :class:`ForkedPeer`'s looks at whether its worker has ended, while it
+#: waits for the worker's next message.
+PEER_POLL = 0.2
+
+
+class ForkedPeer:
+    """``fn(outbox, *args)`` in a :class:`ForkedCall` of its own that tells the caller how
+    it gets on while it runs: what the worker puts on ``outbox`` (a queue inherited at the
+    fork, so this needs an OS that forks: :func:`may_fork_beside`) the caller
+    :meth:`receive` s, in order. ``future`` holds ``fn``'s result. The caller that needs no
+    more of it :meth:`stop` s it. Use it as a context manager: leaving the block waits for
+    ``fn`` to return (unless stopped), or, left by an exception, ends the worker at once."""
+
+    def __init__(self, fn: Callable[..., R], *args, blas_threads: int | None = None) -> None:
+        self.outbox = _process_context().Queue()
+        self.call = ForkedCall(fn, self.outbox, *args, blas_threads=blas_threads)
+        self.future = self.call.future
+
+    def receive(self) -> object:
+        """The worker's next message, waiting for it.
+
+        Raises
+        ------
+        Exception
+            The worker's own, when it ended with one before sending the message.
+        RuntimeError
+            When it returned without sending it.
+        """
+        while True:
+            try:
+                return self.outbox.get(timeout=PEER_POLL)
+            except queue.Empty:
+                if not self.future.done():
+                    continue
+            try:  # it has ended: what it sent before may still be on the way
+                return self.outbox.get(timeout=PEER_POLL)
+            except queue.Empty:
+                self.future.result()  # its exception, if it ended with one
+                raise RuntimeError("the forked worker returned without the message "
+                                   "expected") from None  # fmt: skip
+
+    def stop(self) -> None:
+        """End the worker now, whatever it is doing, and wait until it has ended."""
+        self.call.pool.terminate()
+        self.outbox.close()
+
+    def __enter__(self) -> ForkedPeer:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> bool:  # fmt: skip
+        return self.call.__exit__(exc_type, exc, tb)
 
 
 class _CallHere:
@@ -256,11 +352,10 @@ class _CallHere:
 def beside(fn: Callable[..., R], *args, blas_threads: int | None = 1
            ) -> ForkedCall | _CallHere:  # fmt: skip
     """``fn(*args)`` in a :class:`ForkedCall` while the caller goes on, where the OS forks,
-    this process may use more than one core and may have children (not a pool's daemonic
-    worker); else, or when the fork fails (a limit on processes or memory), run here, now
-    (the same interface)."""
-    if (os.name == "posix" and usable_cores() > 1
-            and not multiprocessing.current_process().daemon):
+    this process may use more than one core and may have children (:func:`may_fork_beside`);
+    else, or when the fork fails (a limit on processes or memory), run here, now (the same
+    interface)."""
+    if may_fork_beside():
         try:
             return ForkedCall(fn, *args, blas_threads=blas_threads)
         except OSError:
