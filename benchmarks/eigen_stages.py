@@ -9,6 +9,11 @@ a progress callback whose every line is timed (assembly, the a-set, the split in
 each part's factor and lowest-root check, the Lanczos iteration, the Rayleigh quotients and
 the g-set), then the JSON. A stage's time runs from the line before it to its own line.
 The table prints each stage's median over the runs (Markdown on stdout).
+
+Where the parts are shared with a forked process (the command line's default on a machine of
+two cores or more: ``femcal.solve.eigen._in_parts``), that process's lines arrive when this
+one next waits for it, so the parts' stages overlap and their times are those of the lines'
+arrival; the total is the wall time.
 """
 
 from __future__ import annotations
@@ -30,6 +35,8 @@ _RUN = r"""
 import json, sys, time
 T = time.perf_counter
 t0 = T()
+from femcal.parallel.executors import limit_openmp
+limit_openmp()  # as the command line does
 from femcal.deck import read_deck
 from femcal.io.modes import modes_json, write_json
 from femcal.model.build import build_model

@@ -3,6 +3,7 @@ ARPACK fallback."""
 
 from __future__ import annotations
 
+import os
 import re
 
 import numpy as np
@@ -10,6 +11,7 @@ import pytest
 import scipy.linalg as sl
 import scipy.sparse as sp
 
+from femcal.errors import SolverError
 from femcal.model import EigenRequest
 from femcal.solve.eigen import solve_modes
 from femcal.solve.factor import factorize
@@ -176,6 +178,13 @@ def test_independent_parts_follow_the_values_and_leave_the_matrices_alone(monkey
     assert len(independent_parts(K, M)) == 1  # parts below PART_MIN are not split
 
 
+def one_process(monkeypatch) -> None:
+    """Solve the parts in this process alone (no forked worker shares them)."""
+    import femcal.solve.eigen as modal
+
+    monkeypatch.setattr(modal, "_fork_factors", lambda backend: False)
+
+
 def soft_and_stiff(n: int = 700) -> tuple[sp.csr_matrix, sp.csr_matrix]:
     """A chain of n DOF beside the same chain 1e4 times stiffer: the stiff one's lowest
     root lies above the soft one's 60 lowest."""
@@ -192,6 +201,7 @@ def test_a_part_without_wanted_roots_is_not_iterated_on(monkeypatch, request_):
     import femcal.solve.parts as parts_module
 
     monkeypatch.setattr(parts_module, "PART_MIN", 500)
+    one_process(monkeypatch)
     K, M = soft_and_stiff()
     ref = reference(K, M, 40)
     if request_.nd is None:  # every root below a V2 between the 30th and 31st
@@ -248,8 +258,101 @@ def test_a_part_whose_check_does_not_converge_is_solved(monkeypatch):
         return real(solve, M, sigma, k, **kw)
 
     monkeypatch.setattr(modal, "block_lanczos", failing_check)
+    one_process(monkeypatch)
     K, M = soft_and_stiff()
     lines: list[str] = []
     res = solve_modes(K, M, EigenRequest(nd=20), progress=lines.append)
     np.testing.assert_allclose(res.eigenvalues, reference(K, M, 20), rtol=1e-9)
     assert sum("Lanczos: " in line and "roots of 700 DOF" in line for line in lines) == 2
+
+
+def _shared_and_alone(monkeypatch, K, M, request, **kw) -> tuple:
+    """(lines, result) of the parts shared with a forked worker, then the result in one
+    process."""
+    import femcal.solve.eigen as modal
+
+    monkeypatch.setattr(modal, "_fork_factors", lambda backend: True)
+    lines: list[str] = []
+    shared = solve_modes(K, M, request, progress=lines.append, **kw)
+    one_process(monkeypatch)
+    alone = solve_modes(K, M, request, **kw)
+    return lines, shared, alone
+
+
+@pytest.mark.skipif(os.name != "posix", reason="the worker is forked")
+@pytest.mark.parametrize("worker_holds", ["soft", "stiff"])
+def test_parts_shared_with_a_forked_worker_give_one_processs_roots(monkeypatch, worker_holds):
+    """The parts factored and checked in two processes at once: whether the worker holds the
+    part whose roots are wanted (its roots come back) or the one ranked out (it is stopped),
+    the roots and vectors are one process's, and the dense reference's."""
+    import femcal.solve.eigen as modal
+    import femcal.solve.parts as parts_module
+
+    monkeypatch.setattr(parts_module, "PART_MIN", 500)
+    soft_here = worker_holds == "stiff"
+    monkeypatch.setattr(modal, "_shares", lambda parts: ([0], [1]) if soft_here else ([1], [0]))
+    K, M = soft_and_stiff()
+    lines, shared, alone = _shared_and_alone(monkeypatch, K, M, EigenRequest(nd=20))
+    assert any("2 independent parts (700, 700 DOF): shared with a forked process" in line
+               for line in lines)  # fmt: skip
+    assert any("(cholmod, in the forked process)" in line or
+               "(superlu, in the forked process)" in line for line in lines)  # fmt: skip
+    assert any(line.startswith("part 2 of 2 (700 DOF) has its lowest root at")
+               and "no root of it is wanted" in line for line in lines)  # fmt: skip
+    np.testing.assert_allclose(shared.eigenvalues, alone.eigenvalues, rtol=1e-12)
+    np.testing.assert_allclose(shared.vectors, alone.vectors, rtol=0,
+                               atol=1e-10 * np.abs(alone.vectors).max())  # fmt: skip
+    np.testing.assert_allclose(shared.eigenvalues, reference(K, M, 20), rtol=1e-9)
+    assert np.all(shared.vectors[700:] == 0.0)  # the soft chain's modes
+
+
+@pytest.mark.skipif(os.name != "posix", reason="the worker is forked")
+def test_parts_both_wanted_and_shared_give_every_root(monkeypatch):
+    """Two chains whose roots interleave, each a part and each iterated on (one here, one in
+    the worker, at the same time): every root of both, as one process and the dense
+    reference have them."""
+    import femcal.solve.parts as parts_module
+
+    monkeypatch.setattr(parts_module, "PART_MIN", 500)
+    K, M = twin_chains(700)
+    K = sp.csr_matrix(sp.diags(np.r_[np.ones(700), np.full(700, 1.3)]) @ K)
+    lines, shared, alone = _shared_and_alone(monkeypatch, K, M, EigenRequest(nd=24))
+    assert sum(line.startswith("Lanczos: ") and "roots converged" in line
+               for line in lines) == 2  # fmt: skip
+    np.testing.assert_allclose(shared.eigenvalues, alone.eigenvalues, rtol=1e-12)
+    np.testing.assert_allclose(shared.eigenvalues, reference(K, M, 24), rtol=1e-9)
+    assert (shared.vectors[:700] != 0).any(axis=0).sum() > 0
+    assert (shared.vectors[700:] != 0).any(axis=0).sum() > 0
+    np.testing.assert_allclose(shared.vectors.T @ (M @ shared.vectors), np.eye(24), atol=1e-9)
+
+
+@pytest.mark.skipif(os.name != "posix", reason="the worker is forked")
+@pytest.mark.parametrize("bad_part", [0, 1])
+def test_a_part_that_cannot_be_factored_is_named_wherever_it_is_factored(monkeypatch,
+                                                                       bad_part):  # fmt: skip
+    """The solver's error for a part whose K - sigma M cannot be factored comes out the
+    same whether this process or the forked worker factors it (the worker's error is
+    raised here, and the worker ended)."""
+    import femcal.solve.eigen as modal
+    import femcal.solve.parts as parts_module
+
+    monkeypatch.setattr(parts_module, "PART_MIN", 500)
+    monkeypatch.setattr(modal, "_fork_factors", lambda backend: True)
+    K, M = twin_chains(700)
+    scale = np.ones(1400)
+    scale[700 * bad_part: 700 * (bad_part + 1)] = 2.0  # marks the part that fails
+    K = sp.csr_matrix(sp.diags(scale) @ K)
+    real = modal._shifted_factor
+
+    def failing(Kp, Mp, sigma, factoring):
+        if Kp[0, 0] == K[700 * bad_part, 700 * bad_part]:
+            raise SolverError(f"K - sigma M is singular (part of {Kp.shape[0]} DOF, pid "
+                              f"{os.getpid()})")  # fmt: skip
+        return real(Kp, Mp, sigma, factoring)
+
+    monkeypatch.setattr(modal, "_shifted_factor", failing)
+    with pytest.raises(SolverError, match=r"K - sigma M is singular \(part of 700 DOF, pid"
+                       ) as caught:  # fmt: skip
+        solve_modes(K, M, EigenRequest(nd=10))
+    in_worker = f"pid {os.getpid()})" not in str(caught.value)
+    assert in_worker == (bad_part == 1)  # the worker holds the second part

@@ -14,6 +14,8 @@ K's scale leaves K - sigma M as singular as K for free-free models and drops sti
 
 from __future__ import annotations
 
+import contextlib
+import queue
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -27,8 +29,9 @@ from threadpoolctl import ThreadpoolController
 from ..assembly.constraints import select_symmetric
 from ..errors import FemcalWarning, SolverError
 from ..model.analysis import EigenRequest
+from ..parallel.executors import ForkedPeer, may_fork_beside, openmp_forks_safely
 from ..resources import check_memory
-from .factor import NotPositiveDefinite, factorize
+from .factor import HAVE_CHOLMOD, NotPositiveDefinite, factorize
 from .lanczos import LanczosNotConverged, block_lanczos
 from .parts import independent_parts
 
@@ -313,59 +316,212 @@ def _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, factoring, progress, 
     (:func:`_lowest_root`); the parts are solved from the lowest up. Once the roots found
     answer the request up to a root lambda_cut (the ND-th, or V2), a part whose lowest root
     lies above lambda_cut has no root wanted and is not iterated on: a flat shell's membrane,
-    whose roots lie far above its bending's, then costs a few steps instead of a basis."""
+    whose roots lie far above its bending's, then costs a few steps instead of a basis.
+
+    Where a worker forked beside this process may factorise (:func:`_fork_factors`; not when
+    ``on_factor`` wants every part's factor here), the parts are shared out between the two
+    (:func:`_shares`). Each process factors and checks its own parts at the same time; the
+    worker then iterates on its parts (:func:`_parts_worker`) and this process on its lowest
+    one unless the worker's bounds have come and rank it out, both before the ranking is
+    known; roots the ranking does not want are dropped, and the worker is stopped once none
+    of its parts is wanted. A part's roots depend neither on the other parts nor on which
+    process found them, so the result is the same either way."""
     say = progress or (lambda _s: None)
     n = K.shape[0]
-    say(f"{len(parts)} independent parts ({', '.join(str(len(p)) for p in parts)} DOF): "
-        "solved one by one")  # fmt: skip
-    subs = []
-    name = ""
-    for k, idx in enumerate(parts):
-        Kp, Mp = select_symmetric(K, idx), select_symmetric(M, idx)
-        solve, name = _shifted_factor(Kp, Mp, sigma, factoring)
-        say(f"part {k + 1} of {len(parts)} ({len(idx)} DOF): K - sigma M factored ({name})")
-        subs.append((idx, Kp, Mp, solve))
-    if on_factor is not None:
-        on_factor(_block_solve(n, [(s[0], s[3]) for s in subs]), sigma)
-    ranked = []
-    for k, (idx, Kp, Mp, solve) in enumerate(subs):
-        if not Mp.count_nonzero():
-            continue  # no mass: every root of the part is infinite
-        if len(idx) <= DENSE_LIMIT:
-            dense = _dense(Kp, Mp, sigma)[:2]
-            ranked.append((dense[0][0] if len(dense[0]) else np.inf, k, idx, Kp, Mp, solve,
-                           dense))  # fmt: skip
-        else:
-            lowest = _lowest_root(solve, Mp, sigma)
-            say(f"part {k + 1} of {len(parts)}: " + (
-                "no root of finite frequency" if not np.isfinite(lowest) else
-                "the check bounds nothing, so the part is solved" if lowest <= sigma else
-                f"its lowest root lies at {_hz(lowest):.6g} Hz or above"))  # fmt: skip
-            ranked.append((lowest, k, idx, Kp, Mp, solve, None))
-    ranked.sort(key=lambda r: r[0])
-    found_lam: list[np.ndarray] = []
-    found_vec: list[np.ndarray] = []
-    for lowest, k, idx, Kp, Mp, solve, dense in ranked:
-        cut = _cutoff(np.concatenate([np.zeros(0), *found_lam]), request, lam_lo, lam_hi)
-        if cut is not None and lowest > cut:
-            say(f"part {k + 1} of {len(parts)} ({len(idx)} DOF) " + (
-                f"has its lowest root at {_hz(lowest):.6g} Hz or above, beyond the "
-                f"{_hz(cut):.6g} Hz the request reaches" if np.isfinite(lowest) else
-                "has no root of finite frequency") + ": no root of it is wanted")  # fmt: skip
-            continue
-        if dense is not None:
-            lam, vec = dense
-        else:
-            lam, vec = _iterate(Kp, Mp, sigma, solve, name, request, lam_lo, lam_hi,
-                                progress, method)  # fmt: skip
-        full = np.zeros((n, vec.shape[1]))
-        full[idx] = vec
-        found_lam.append(lam)
-        found_vec.append(full)
+    total = len(parts)
+    here, there = (_shares(parts) if on_factor is None and _fork_factors(factoring[0])
+                   else (list(range(total)), []))  # fmt: skip
+    say(f"{total} independent parts ({', '.join(str(len(p)) for p in parts)} DOF): " + (
+        "solved one by one" if not there else
+        "shared with a forked process"))  # fmt: skip
+    with (ForkedPeer(_parts_worker, K, M, parts, there, sigma, request, lam_lo, lam_hi,
+                     factoring, method) if there
+          else contextlib.nullcontext()) as peer:  # fmt: skip
+        held: dict[int, tuple] = {}
+        name = ""
+        for k in here:
+            Kp, Mp, solve, name = _factored(K, M, parts[k], sigma, factoring)
+            say(f"part {k + 1} of {total} ({len(parts[k])} DOF): K - sigma M factored ({name})")
+            held[k] = (Kp, Mp, solve)
+        if on_factor is not None:
+            on_factor(_block_solve(n, [(parts[k], held[k][2]) for k in here]), sigma)
+        ranked = [r for k in here
+                  if (r := _checked(k, total, parts[k], *held[k], sigma, say)) is not None]
+        ranked.sort(key=lambda r: (r[0], r[1]))
+        roots: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # the parts iterated on so far
+        worker = _WorkerParts(peer, say) if peer is not None else None
+        if worker is not None:
+            if ranked and ranked[0][2] is None and not worker.lowest_here():
+                # the worker's bounds have not come: iterate on the lowest part here
+                # meanwhile (its roots are wanted unless the worker's parts rank it out)
+                k = ranked[0][1]
+                Kp, Mp, solve = held.pop(k)
+                roots[k] = _iterate(Kp, Mp, sigma, solve, name, request, lam_lo, lam_hi,
+                                    progress, method)  # fmt: skip
+            ranked += [(lowest, k, None) for lowest, k in worker.lowest()]
+            ranked.sort(key=lambda r: (r[0], r[1]))
+        found_lam: list[np.ndarray] = []
+        found_vec: list[np.ndarray] = []
+        for lowest, k, dense in ranked:
+            idx = parts[k]
+            cut = _cutoff(np.concatenate([np.zeros(0), *found_lam]), request, lam_lo, lam_hi)
+            if cut is not None and lowest > cut:
+                say(f"part {k + 1} of {total} ({len(idx)} DOF) " + (
+                    f"has its lowest root at {_hz(lowest):.6g} Hz or above, beyond the "
+                    f"{_hz(cut):.6g} Hz the request reaches" if np.isfinite(lowest) else
+                    "has no root of finite frequency") + ": no root of it is wanted")  # fmt: skip
+                held.pop(k, None)
+                if worker is not None:  # (the parts after this one lie higher still)
+                    worker.stop()
+                    worker = None
+                continue
+            if k in roots:
+                lam, vec = roots.pop(k)
+            elif k in there:
+                lam, vec = worker.roots(k)
+            elif dense is not None:
+                lam, vec = dense
+            else:
+                Kp, Mp, solve = held.pop(k)
+                lam, vec = _iterate(Kp, Mp, sigma, solve, name, request, lam_lo, lam_hi,
+                                    progress, method)  # fmt: skip
+            full = np.zeros((n, vec.shape[1]))
+            full[idx] = vec
+            found_lam.append(lam)
+            found_vec.append(full)
+        if worker is not None:
+            worker.stop()
     lam = np.concatenate([np.zeros(0), *found_lam])
     vec = np.hstack([np.zeros((n, 0)), *found_vec])
     order = np.argsort(lam, kind="stable")
     return lam[order], vec[:, order], name
+
+
+class _WorkerParts:
+    """This process's view of :func:`_parts_worker`: its parts' lower bounds, then their
+    roots as they come (kept until asked for), its progress lines said on the way."""
+
+    def __init__(self, peer: ForkedPeer, say: Callable[[str], None]) -> None:
+        self.peer, self.say = peer, say
+        self.bounds: list[tuple[float, int]] | None = None
+        self.found: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+
+    def _take(self, message: tuple) -> None:
+        if message[0] == "say":
+            self.say(message[1])
+        elif message[0] == "lowest":
+            self.bounds = message[1]
+        elif message[0] == "roots":
+            self.found[message[1]] = message[2:]
+        else:  # pragma: no cover - a bug
+            raise RuntimeError(f"the forked parts' worker sent {message[0]!r}")
+
+    def lowest_here(self) -> bool:
+        """Whether the worker's bounds have come (the messages already here are read)."""
+        while self.bounds is None:
+            try:
+                self._take(self.peer.outbox.get_nowait())
+            except queue.Empty:
+                break
+        return self.bounds is not None
+
+    def lowest(self) -> list[tuple[float, int]]:
+        """(lower bound of the lowest root, part) of each of the worker's parts with mass."""
+        while self.bounds is None:
+            self._take(self.peer.receive())
+        return self.bounds
+
+    def roots(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """Part k's (roots, vectors on its DOF), waiting for them."""
+        while k not in self.found:
+            self._take(self.peer.receive())
+        return self.found.pop(k)
+
+    def stop(self) -> None:
+        """End the worker, whatever it is doing: nothing more is wanted of it."""
+        self.peer.stop()
+
+
+def _fork_factors(backend: str) -> bool:
+    """Whether a worker forked beside this process can help and may factorise: SciPy's
+    SuperLU always may, CHOLMOD where the OpenMP runtime allows it
+    (:func:`femcal.parallel.executors.openmp_forks_safely`)."""
+    return may_fork_beside() and (backend == "superlu" or not HAVE_CHOLMOD
+                                  or openmp_forks_safely())  # fmt: skip
+
+
+def _shares(parts: list[np.ndarray]) -> tuple[list[int], list[int]]:
+    """The parts (largest first) shared out between this process and a forked one: each in
+    turn to the one with fewer DOF so far, this one first on a tie."""
+    here: list[int] = []
+    there: list[int] = []
+    load = [0, 0]
+    for k, idx in enumerate(parts):
+        side = 0 if load[0] <= load[1] else 1
+        (here, there)[side].append(k)
+        load[side] += len(idx)
+    return here, there
+
+
+def _factored(K, M, idx, sigma, factoring) -> tuple:
+    """A part's (K_p, M_p, solve, backend name): its rows and columns, and the factor of
+    K_p - sigma M_p."""
+    Kp, Mp = select_symmetric(K, idx), select_symmetric(M, idx)
+    solve, name = _shifted_factor(Kp, Mp, sigma, factoring)
+    return Kp, Mp, solve, name
+
+
+def _checked(k, total, idx, Kp, Mp, solve, sigma, say) -> tuple | None:
+    """Part k's place in the ranking: (a lower bound of its lowest root, k, its roots and
+    vectors when a part this small is solved dense, else None); None for a part without
+    mass (every root of it is infinite)."""
+    if not Mp.count_nonzero():
+        return None
+    if len(idx) <= DENSE_LIMIT:
+        dense = _dense(Kp, Mp, sigma)[:2]
+        return (dense[0][0] if len(dense[0]) else np.inf), k, dense
+    lowest = _lowest_root(solve, Mp, sigma)
+    say(f"part {k + 1} of {total}: " + (
+        "no root of finite frequency" if not np.isfinite(lowest) else
+        "the check bounds nothing, so the part is solved" if lowest <= sigma else
+        f"its lowest root lies at {_hz(lowest):.6g} Hz or above"))  # fmt: skip
+    return lowest, k, None
+
+
+def _parts_worker(outbox, K, M, parts, mine, sigma, request, lam_lo, lam_hi, factoring,
+                  method) -> None:  # fmt: skip
+    """The forked worker's side of :func:`_in_parts`: factor and check the parts ``mine``,
+    send ``("lowest", [(bound, k), ...])``, then iterate on them from the lowest up, as
+    :func:`_in_parts` would with these parts alone, sending ``("roots", k, lam, vectors on
+    the part's DOF)`` for each. A part these parts' own roots rank out is ranked out by
+    all the parts' roots too (the cut only falls as roots are added). Progress lines go out
+    as ``("say", line)``."""
+    total = len(parts)
+
+    def say(line: str) -> None:
+        outbox.put(("say", line))
+
+    held: dict[int, tuple] = {}
+    name = ""
+    for k in mine:
+        Kp, Mp, solve, name = _factored(K, M, parts[k], sigma, factoring)
+        say(f"part {k + 1} of {total} ({len(parts[k])} DOF): K - sigma M factored ({name}, "
+            "in the forked process)")  # fmt: skip
+        held[k] = (Kp, Mp, solve)
+    ranked = sorted((r for k in mine
+                     if (r := _checked(k, total, parts[k], *held[k], sigma, say)) is not None),
+                    key=lambda r: (r[0], r[1]))  # fmt: skip
+    outbox.put(("lowest", [(lowest, k) for lowest, k, _ in ranked]))
+    found: list[np.ndarray] = []
+    for lowest, k, dense in ranked:
+        cut = _cutoff(np.concatenate([np.zeros(0), *found]), request, lam_lo, lam_hi)
+        if cut is not None and lowest > cut:
+            break
+        Kp, Mp, solve = held.pop(k)
+        lam, vec = dense if dense is not None else _iterate(
+            Kp, Mp, sigma, solve, name, request, lam_lo, lam_hi, say, method)  # fmt: skip
+        found.append(lam)
+        outbox.put(("roots", k, lam, vec))
 
 
 def _hz(lam: float) -> float:
