@@ -266,6 +266,13 @@ def test_a_part_whose_check_does_not_converge_is_solved(monkeypatch):
     assert sum("Lanczos: " in line and "roots of 700 DOF" in line for line in lines) == 2
 
 
+def same_modes(a, b, M) -> None:
+    """The same roots and mass-normalised modes (to rounding: the processes' factors may
+    take different BLAS threads, so their last bits may differ)."""
+    np.testing.assert_allclose(a.eigenvalues, b.eigenvalues, rtol=1e-10)
+    np.testing.assert_allclose(np.abs(np.diag(a.vectors.T @ (M @ b.vectors))), 1.0, atol=1e-8)
+
+
 def _shared_and_alone(monkeypatch, K, M, request, **kw) -> tuple:
     """(lines, result) of the parts shared with a forked worker, then the result in one
     process."""
@@ -299,9 +306,7 @@ def test_parts_shared_with_a_forked_worker_give_one_processs_roots(monkeypatch, 
                "(superlu, in the forked process)" in line for line in lines)  # fmt: skip
     assert any(line.startswith("part 2 of 2 (700 DOF) has its lowest root at")
                and "no root of it is wanted" in line for line in lines)  # fmt: skip
-    np.testing.assert_allclose(shared.eigenvalues, alone.eigenvalues, rtol=1e-12)
-    np.testing.assert_allclose(shared.vectors, alone.vectors, rtol=0,
-                               atol=1e-10 * np.abs(alone.vectors).max())  # fmt: skip
+    same_modes(shared, alone, M)
     np.testing.assert_allclose(shared.eigenvalues, reference(K, M, 20), rtol=1e-9)
     assert np.all(shared.vectors[700:] == 0.0)  # the soft chain's modes
 
@@ -319,7 +324,7 @@ def test_parts_both_wanted_and_shared_give_every_root(monkeypatch):
     lines, shared, alone = _shared_and_alone(monkeypatch, K, M, EigenRequest(nd=24))
     assert sum(line.startswith("Lanczos: ") and "roots converged" in line
                for line in lines) == 2  # fmt: skip
-    np.testing.assert_allclose(shared.eigenvalues, alone.eigenvalues, rtol=1e-12)
+    same_modes(shared, alone, M)
     np.testing.assert_allclose(shared.eigenvalues, reference(K, M, 24), rtol=1e-9)
     assert (shared.vectors[:700] != 0).any(axis=0).sum() > 0
     assert (shared.vectors[700:] != 0).any(axis=0).sum() > 0
