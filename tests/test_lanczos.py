@@ -267,8 +267,8 @@ def test_a_part_whose_check_does_not_converge_is_solved(monkeypatch):
 
 
 def same_modes(a, b, M) -> None:
-    """The same roots and mass-normalised modes (to rounding: the processes' factors may
-    take different BLAS threads, so their last bits may differ)."""
+    """The same roots and mass-normalised modes, to rounding (the same code in two
+    processes: no check of the bits a factorisation decides)."""
     np.testing.assert_allclose(a.eigenvalues, b.eigenvalues, rtol=1e-10)
     np.testing.assert_allclose(np.abs(np.diag(a.vectors.T @ (M @ b.vectors))), 1.0, atol=1e-8)
 

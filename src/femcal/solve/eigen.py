@@ -334,25 +334,19 @@ def _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, factoring, progress, 
     say(f"{total} independent parts ({', '.join(str(len(p)) for p in parts)} DOF): " + (
         "solved one by one" if not there else
         "shared with a forked process"))  # fmt: skip
-    blas = ThreadpoolController()
-    threads = _blas_threads(blas)
     with (ForkedPeer(_parts_worker, K, M, parts, there, sigma, request, lam_lo, lam_hi,
-                     factoring, method, threads, blas_threads=1) if there
+                     factoring, method) if there
           else contextlib.nullcontext()) as peer:  # fmt: skip
         held: dict[int, tuple] = {}
         name = ""
-        # while both processes factor, one BLAS thread each: two pools of a core's count
-        # would oversubscribe the cores (the factors take half as long again)
-        with blas.limit(limits=1, user_api="blas") if there else contextlib.nullcontext():
-            for k in here:
-                Kp, Mp, solve, name = _factored(K, M, parts[k], sigma, factoring)
-                say(f"part {k + 1} of {total} ({len(parts[k])} DOF): K - sigma M factored "
-                    f"({name})")  # fmt: skip
-                held[k] = (Kp, Mp, solve)
-            if on_factor is not None:
-                on_factor(_block_solve(n, [(parts[k], held[k][2]) for k in here]), sigma)
-            ranked = [r for k in here
-                      if (r := _checked(k, total, parts[k], *held[k], sigma, say)) is not None]
+        for k in here:
+            Kp, Mp, solve, name = _factored(K, M, parts[k], sigma, factoring)
+            say(f"part {k + 1} of {total} ({len(parts[k])} DOF): K - sigma M factored ({name})")
+            held[k] = (Kp, Mp, solve)
+        if on_factor is not None:
+            on_factor(_block_solve(n, [(parts[k], held[k][2]) for k in here]), sigma)
+        ranked = [r for k in here
+                  if (r := _checked(k, total, parts[k], *held[k], sigma, say)) is not None]
         ranked.sort(key=lambda r: (r[0], r[1]))
         roots: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # the parts iterated on so far
         worker = _WorkerParts(peer, say) if peer is not None else None
@@ -495,14 +489,14 @@ def _checked(k, total, idx, Kp, Mp, solve, sigma, say) -> tuple | None:
 
 
 def _parts_worker(outbox, K, M, parts, mine, sigma, request, lam_lo, lam_hi, factoring,
-                  method, threads) -> None:  # fmt: skip
+                  method) -> None:  # fmt: skip
     """The forked worker's side of :func:`_in_parts`: factor and check the parts ``mine``,
     send ``("lowest", [(bound, k), ...])``, then iterate on them from the lowest up, as
     :func:`_in_parts` would with these parts alone, sending ``("roots", k, lam, vectors on
     the part's DOF)`` for each. A part these parts' own roots rank out is ranked out by
     all the parts' roots too (the cut only falls as roots are added). Progress lines go out
-    as ``("say", line)``. It starts with one BLAS thread, and iterates with ``threads``,
-    the caller's."""
+    as ``("say", line)``. It runs with the caller's BLAS threads, so that a part's roots
+    are those the caller would find."""
     total = len(parts)
 
     def say(line: str) -> None:
@@ -520,16 +514,15 @@ def _parts_worker(outbox, K, M, parts, mine, sigma, request, lam_lo, lam_hi, fac
                     key=lambda r: (r[0], r[1]))  # fmt: skip
     outbox.put(("lowest", [(lowest, k) for lowest, k, _ in ranked]))
     found: list[np.ndarray] = []
-    with ThreadpoolController().limit(limits=threads, user_api="blas"):
-        for lowest, k, dense in ranked:
-            cut = _cutoff(np.concatenate([np.zeros(0), *found]), request, lam_lo, lam_hi)
-            if cut is not None and lowest > cut:
-                break
-            Kp, Mp, solve = held.pop(k)
-            lam, vec = dense if dense is not None else _iterate(
-                Kp, Mp, sigma, solve, name, request, lam_lo, lam_hi, say, method)  # fmt: skip
-            found.append(lam)
-            outbox.put(("roots", k, lam, vec))
+    for lowest, k, dense in ranked:
+        cut = _cutoff(np.concatenate([np.zeros(0), *found]), request, lam_lo, lam_hi)
+        if cut is not None and lowest > cut:
+            break
+        Kp, Mp, solve = held.pop(k)
+        lam, vec = dense if dense is not None else _iterate(
+            Kp, Mp, sigma, solve, name, request, lam_lo, lam_hi, say, method)  # fmt: skip
+        found.append(lam)
+        outbox.put(("roots", k, lam, vec))
 
 
 def _hz(lam: float) -> float:
