@@ -971,34 +971,3 @@ def test_a_roving_hammer_test_is_compared_in_its_reciprocal_layout(tmp_path):
     np.testing.assert_allclose(b.test_hz, a.test_hz, rtol=1e-9)
     np.testing.assert_allclose(b.H_test, a.H_test, rtol=1e-6, atol=1e-9 * np.abs(a.H_test).max())
     assert any("a roving-hammer test: compared in its reciprocal layout" in s for s in said)
-
-
-def test_hold_out_folds_predicted_side_by_side_are_those_predicted_in_turn(study, tmp_path,
-                                                                         monkeypatch):  # fmt: skip
-    """With two local workers the folds' full models (each an eigen-solution) are solved
-    half in a forked process beside the rest; the folds' parameters and deviations are
-    those of the folds solved one after another here."""
-    import femcal.calibrate.workflow as workflow
-    from femcal.parallel.executors import may_fork_beside, openmp_forks_safely
-
-    d = study[0]
-    aside: list = []
-    real = workflow.beside
-
-    def spy(fn, *args, **kw):
-        aside.append(fn)
-        return real(fn, *args, **kw)
-
-    monkeypatch.setattr(workflow, "beside", spy)
-    shared = run(read_config(d / "cal.toml"), tmp_path / "shared").holdout
-    assert len(shared.folds) >= 2
-    assert (workflow._each in aside) == (may_fork_beside() and openmp_forks_safely())
-    monkeypatch.setattr(workflow, "openmp_forks_safely", lambda: False)
-    aside.clear()
-    alone = run(read_config(d / "cal.toml"), tmp_path / "alone").holdout
-    assert workflow._each not in aside
-    for a, b in zip(shared.folds, alone.folds, strict=True):
-        assert a.name == b.name
-        np.testing.assert_allclose(a.p, b.p, rtol=0, atol=1e-9)
-        assert a.deviation_calibrated == pytest.approx(b.deviation_calibrated, rel=1e-9)
-        assert a.deviation_nominal == pytest.approx(b.deviation_nominal, rel=1e-12)

@@ -147,7 +147,6 @@ def validate(cases: Sequence[Case], terms: Sequence[Term], nominal_terms: Sequen
              *, noise_sigma: float | None, hold_ratio: float, identifiable_ratio: float,
              max_iter: int, full_residuals: Callable[[int, np.ndarray], np.ndarray],
              search: Callable[[Problem, list[np.ndarray], int], Sequence] | None = None,
-             predict: Callable[[list[tuple[int, np.ndarray]]], list[np.ndarray]] | None = None,
              progress: Callable[[str], None] | None = None) -> HoldOut:  # fmt: skip
     """Run the folds of ``plan`` (see the module docstring).
 
@@ -162,9 +161,6 @@ def validate(cases: Sequence[Case], terms: Sequence[Term], nominal_terms: Sequen
         results (with ``p`` and ``cost``) from each start point in order, wherever they run
         and kept wherever the caller keeps them (:func:`femcal.calibrate.starts.run_starts`);
         default: one after another here.
-    predict : [(case, p), ...] -> each one's ``full_residuals``, wherever they run (every
-        fold's full model is solved after all the folds' searches, so that they may run side
-        by side); default: one after another here.
     """
     say = progress or (lambda _m: None)
     kind, folds = plan
@@ -176,7 +172,7 @@ def validate(cases: Sequence[Case], terms: Sequence[Term], nominal_terms: Sequen
         r0.append(e)
         t0.append(t)
         J0.append(d[:, None] * J)
-    searched = []
+    out = []
     for n, (name, k, rows) in enumerate(folds, start=1):
         say(f"hold-out {n}/{len(folds)}: calibrating without {name}")
         keep = [np.ones(len(r), bool) for r in r0]
@@ -202,16 +198,10 @@ def validate(cases: Sequence[Case], terms: Sequence[Term], nominal_terms: Sequen
                    else [levenberg_marquardt(problem.fun, p0, lo, hi, max_iter=max_iter)
                          for p0 in points])  # fmt: skip
         best = min(results, key=lambda res: res.cost)  # (the first of equal ones)
-        searched.append((best.p, held))
-    jobs = [(k, p) for (_, k, _), (p, _) in zip(folds, searched, strict=True)]
-    predicted = (predict(jobs) if predict is not None
-                 else [full_residuals(k, p) for k, p in jobs])  # fmt: skip
-    out = []
-    for n, ((name, k, rows), (p, held), r_full) in enumerate(
-            zip(folds, searched, predicted, strict=True), start=1):  # fmt: skip
         c = nominal_terms[k].huber
-        fold = Fold(name, k, rows, p, held, huber_deviation(r0[k][rows], c),
-                    huber_deviation(r_full[rows], c))  # fmt: skip
+        r_cal = full_residuals(k, best.p)[rows]
+        fold = Fold(name, k, rows, best.p, held, huber_deviation(r0[k][rows], c),
+                    huber_deviation(r_cal, c))  # fmt: skip
         say(f"hold-out {n}/{len(folds)}: {name} predicted with deviation "
             f"{fold.deviation_calibrated:.5g} calibrated without it, {fold.deviation_nominal:.5g} "
             "nominal")  # fmt: skip

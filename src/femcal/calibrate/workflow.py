@@ -64,7 +64,7 @@ from ..correlate import mac, pair_modes, pseudo_orthogonality, serep_mass
 from ..identify import IdentifiedModel
 from ..model.model import Model
 from ..parallel.cluster import Engine, Session, result_of
-from ..parallel.executors import beside, openmp_forks_safely
+from ..parallel.executors import beside
 from ..parallel.progress import Detail
 from ..response.frf import channel_matrix
 from ..testdata.data import FRFData
@@ -571,17 +571,6 @@ def _calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *, truth: np.nda
             frf_modes=frf_modes[k], exact_gradient=False, centre_only=True)  # fmt: skip
         return residuals(sur.frf(q, case.freq), case.H_test, cfg.metric)
 
-    def predict(jobs: list[tuple[int, np.ndarray]]) -> list[np.ndarray]:
-        """The hold-out folds' full-model residuals: the first half of them in a forked
-        process beside the rest, when there are cores for both and a forked process may
-        factorise (each is an eigen-solution of the full model)."""
-        if len(jobs) < 2 or not (two_here and openmp_forks_safely()):
-            return [full_residuals(k, p) for k, p in jobs]
-        half = len(jobs) // 2
-        with beside(_each, full_residuals, jobs[:half], blas_threads=None) as call:
-            mine = [full_residuals(k, p) for k, p in jobs[half:]]
-            return result_of(call.future, "the hold-out folds' full models") + mine
-
     bound_names = [[q.name for q in case.params if q.name in at_bound] for case in cases]
     form_inputs = [(case, surs[k], modes_c[k], p_final, cfg.metric, r0s[k], bound_names[k],
                     cfg.noise_sigma) for k, case in enumerate(cases)]  # fmt: skip
@@ -597,7 +586,7 @@ def _calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *, truth: np.nda
                             search=lambda prob, pts, n: starts_in(
                                 f"holdout{n}", prob, pts, p_final,
                                 task=f"hold-out {n}/{len(plan[1])}: starts"),
-                            predict=predict, progress=say)
+                            progress=say)
                    if plan[1] else None)  # fmt: skip
         forms = (result_of(call.future, "the model-form diagnostics") if aside
                  else _model_forms(form_inputs))  # fmt: skip
@@ -613,11 +602,6 @@ def _calibrate_setups(setups: Sequence[TestSetup], cfg: Config, *, truth: np.nda
         holdout=holdout)
     say(f"deviation {result.deviation_before:.5g} -> {result.deviation_after:.5g}")
     return result
-
-
-def _each(fn: Callable, jobs: list[tuple]) -> list:
-    """``fn(*job)`` of every job, in order (a task for a forked process)."""
-    return [fn(*job) for job in jobs]
 
 
 def _build_surrogate(model: Model, params: list[Parameter], q: np.ndarray,
