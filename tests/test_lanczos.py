@@ -361,3 +361,83 @@ def test_a_part_that_cannot_be_factored_is_named_wherever_it_is_factored(monkeyp
         solve_modes(K, M, EigenRequest(nd=10))
     in_worker = f"pid {os.getpid()})" not in str(caught.value)
     assert in_worker == (bad_part == 1)  # the worker holds the second part
+
+
+def chains(scales: list[float], n: int = 700) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+    """Spring chains of n DOF side by side, the k-th stiffened by scales[k]."""
+    K1, M1 = twin_chains(n)
+    K1, M1 = K1[:n, :n], M1[:n, :n]
+    K = sp.block_diag([s * K1 for s in scales]).tocsr()
+    return K, sp.block_diag([M1] * len(scales)).tocsr()
+
+
+@pytest.mark.skipif(os.name != "posix", reason="the worker is forked")
+@pytest.mark.parametrize("request_", [EigenRequest(nd=24), EigenRequest(nd=None, v2=None)])
+def test_several_parts_on_each_side_give_one_processs_roots(monkeypatch, request_):
+    """Four parts, two here and two in the worker (the worker iterates on both of its own),
+    one of them ranked out; for an ND and a V2 request the roots are one process's and the
+    dense reference's."""
+    import femcal.solve.parts as parts_module
+
+    monkeypatch.setattr(parts_module, "PART_MIN", 500)
+    K, M = chains([1.0, 1.3, 1e4, 2.0])
+    ref = reference(K, M, 60)
+    if request_.nd is None:  # every root below a V2 between the 30th and 31st
+        request_ = EigenRequest(nd=None, v2=np.sqrt(0.5 * (ref[29] + ref[30])) / (2 * np.pi))
+    lines, shared, alone = _shared_and_alone(monkeypatch, K, M, request_)
+    assert any("4 independent parts" in line and "shared with a forked process" in line
+               for line in lines)  # fmt: skip
+    assert any(line.startswith("part 3 of 4 (700 DOF) has its lowest root")
+               for line in lines)  # fmt: skip
+    same_modes(shared, alone, M)
+    want = 24 if request_.nd else 30
+    np.testing.assert_allclose(shared.eigenvalues, ref[:want], rtol=1e-9)
+    assert np.all(shared.vectors[1400:2100] == 0.0)  # none of the stiff chain's
+
+
+@pytest.mark.skipif(os.name != "posix", reason="the worker is forked")
+def test_a_failed_fork_solves_every_part_here(monkeypatch):
+    import femcal.solve.eigen as modal
+    import femcal.solve.parts as parts_module
+
+    monkeypatch.setattr(parts_module, "PART_MIN", 500)
+    monkeypatch.setattr(modal, "_fork_factors", lambda backend: True)
+
+    def no_fork(*args, **kw):
+        raise OSError(12, "Cannot allocate memory")
+
+    monkeypatch.setattr(modal, "ForkedPeer", no_fork)
+    K, M = soft_and_stiff()
+    lines: list[str] = []
+    res = solve_modes(K, M, EigenRequest(nd=20), progress=lines.append)
+    assert any("2 independent parts (700, 700 DOF): solved one by one" in line
+               for line in lines)  # fmt: skip
+    np.testing.assert_allclose(res.eigenvalues, reference(K, M, 20), rtol=1e-9)
+
+
+@pytest.mark.skipif(os.name != "posix", reason="the worker is forked")
+def test_an_error_on_a_part_iterated_ahead_and_ranked_out_is_dropped(monkeypatch):
+    """This process iterates on its lowest part before the worker's bounds come; when the
+    worker's parts then rank that part out, an error met on it is not the solve's (one
+    process would never have iterated on it)."""
+    import femcal.solve.eigen as modal
+    import femcal.solve.parts as parts_module
+
+    monkeypatch.setattr(parts_module, "PART_MIN", 500)
+    monkeypatch.setattr(modal, "_shares", lambda parts: ([1], [0]))  # the stiff part here
+    monkeypatch.setattr(modal._WorkerParts, "lowest_here", lambda self: False)
+    real = modal._iterate
+    stiff: list[bool] = []
+
+    def failing(K, M, *args, **kw):
+        if K[0, 0] > 1e7:  # the stiff chain's
+            stiff.append(True)
+            raise modal.SolverError("no convergence on the stiff part")
+        return real(K, M, *args, **kw)
+
+    monkeypatch.setattr(modal, "_iterate", failing)
+    K, M = soft_and_stiff()
+    lines, shared, alone = _shared_and_alone(monkeypatch, K, M, EigenRequest(nd=20))
+    assert stiff  # it was iterated on ahead, and failed
+    assert any("no root of it is wanted" in line for line in lines)
+    same_modes(shared, alone, M)

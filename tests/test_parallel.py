@@ -226,8 +226,12 @@ limit_openmp()
 import numpy as np
 import scipy.sparse as sp
 from femcal.solve.factor import HAVE_CHOLMOD, factorize
-n = 20000
-A = (sp.diags([-np.ones(n - 1), 2.5 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1])).tocsc()
+m = 36  # a 3-D Laplacian: supernodal, so CHOLMOD opens OpenMP regions
+T = sp.diags([-np.ones(m - 1), 2.0 * np.ones(m), -np.ones(m - 1)], [-1, 0, 1])
+I = sp.identity(m)
+A = (sp.kron(sp.kron(T, I), I) + sp.kron(sp.kron(I, T), I) + sp.kron(sp.kron(I, I), T)
+     + 0.1 * sp.identity(m ** 3)).tocsc()
+n = A.shape[0]
 solve, name = factorize(A)  # this process's OpenMP runtime has run a factorisation
 b = np.ones(n)
 safe = openmp_forks_safely()
@@ -264,11 +268,18 @@ def test_openmp_capped_at_one_thread_lets_a_forked_process_factorise():
 
 def _talk(outbox, n: int, fail: bool) -> str:
     for k in range(n):
-        outbox.put(("line", k))
+        outbox.send(("line", k))
     if fail:
         raise ValueError("the worker's own error")
     time.sleep(60 if n == 0 else 0)  # (a worker with nothing to say goes on working)
     return "done"
+
+
+def _big_then_die(outbox, size: int) -> None:
+    import numpy as np
+
+    outbox.send(("big", np.arange(size, dtype=float)))
+    os.kill(os.getpid(), signal.SIGKILL)  # (as the kernel's out-of-memory killer would)
 
 
 @pytest.mark.skipif(os.name != "posix", reason="forked workers only where the OS forks")
@@ -278,7 +289,7 @@ def test_a_forked_peer_sends_in_order_raises_its_error_and_stops_when_asked():
     with ForkedPeer(_talk, 3, False) as peer:
         assert [peer.receive() for _ in range(3)] == [("line", 0), ("line", 1), ("line", 2)]
         assert peer.future.result(timeout=60) == "done"
-        with pytest.raises(RuntimeError, match="returned without the message expected"):
+        with pytest.raises(RuntimeError, match="ended without the message expected"):
             peer.receive()
     with ForkedPeer(_talk, 1, True) as peer:
         assert peer.receive() == ("line", 0)
@@ -290,3 +301,41 @@ def test_a_forked_peer_sends_in_order_raises_its_error_and_stops_when_asked():
         peer.stop()
     assert time.monotonic() - start < 30
     assert _wait_gone(pids, 10) == []
+    with ForkedPeer(_talk, 0, False) as peer:  # leaving the block ends a worker still busy
+        pids = [p.pid for p in peer.call.pool._processes.values()]
+    assert _wait_gone(pids, 10) == []
+
+
+@pytest.mark.skipif(os.name != "posix", reason="forked workers only where the OS forks")
+def test_a_forked_peers_large_message_arrives_whole_and_its_end_is_seen():
+    """A message of 64 MB arrives whole; a worker killed after it is seen to have ended (an
+    error, not a wait for ever)."""
+    from femcal.parallel.executors import ForkedPeer
+
+    size = 8 * 1024 * 1024
+    with ForkedPeer(_big_then_die, size) as peer:
+        kind, values = peer.receive()
+        assert kind == "big" and len(values) == size and values[-1] == size - 1
+        start = time.monotonic()
+        with pytest.raises(Exception, match=r"terminated abruptly|ended without the message"):
+            peer.receive()
+        assert time.monotonic() - start < 30
+
+
+def _may_fork() -> bool:
+    from femcal.parallel.executors import may_fork_beside
+
+    return may_fork_beside()
+
+
+@pytest.mark.skipif(os.name != "posix", reason="forked workers only where the OS forks")
+def test_a_pools_worker_forks_no_worker_of_its_own(monkeypatch):
+    """The pool shares the cores out already: its workers, forked or spawned, do not fork
+    beside themselves, where this process would."""
+    import femcal.parallel.executors as executors
+
+    monkeypatch.setattr(executors, "usable_cores", lambda: 2)
+    assert executors.may_fork_beside()
+    for fresh in (False, True):
+        with executor("processes", 2, fresh=fresh) as pool:
+            assert pool.submit(_may_fork).result(timeout=120) is False

@@ -20,8 +20,10 @@ tasks.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import multiprocessing
+import multiprocessing.connection
 import os
 import queue
 import signal
@@ -71,38 +73,68 @@ OPENMP_LIMIT = "OMP_THREAD_LIMIT"
 
 def limit_openmp() -> None:
     """Cap the OpenMP runtime at one thread unless the environment already sets a cap
-    (:data:`OPENMP_LIMIT`): for a program's entry point, before anything loads the runtime
-    (CHOLMOD does, when scikit-sparse is imported). CHOLMOD's OpenMP regions (the supernodal
-    factorisation's assembly of updates) gain nothing on top of its BLAS's own threads:
-    on two cores they oversubscribe them, and a factor takes 15-30 % longer with them. And a
-    runtime that never started a pool of threads leaves a forked child free to run parallel
-    regions (:func:`openmp_forks_safely`)."""
-    os.environ.setdefault(OPENMP_LIMIT, "1")
+    (:data:`OPENMP_LIMIT`) or the BLAS runs its own threads on OpenMP
+    (:func:`_blas_on_openmp`): for a program's entry point, before anything loads the
+    runtime (CHOLMOD does, when scikit-sparse is imported). CHOLMOD's OpenMP regions (the
+    supernodal factorisation's assembly of updates) gain nothing on top of its BLAS's own
+    threads: on two cores they oversubscribe them, and a factor takes 15-30 % longer with
+    them. And a runtime that never started a pool of threads leaves a forked child free to
+    run parallel regions (:func:`openmp_forks_safely`)."""
+    if OPENMP_LIMIT not in os.environ and not _blas_on_openmp():
+        os.environ[OPENMP_LIMIT] = "1"
+
+
+def _blas_on_openmp() -> bool:
+    """Whether the BLAS that CHOLMOD takes on Linux distributions (``libblas.so.3``) runs its
+    threads on OpenMP (an OpenMP build of OpenBLAS, or MKL): a cap on OpenMP would then
+    leave it one thread."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        blas = ctypes.CDLL("libblas.so.3")
+    except OSError:
+        return False
+    parallel = getattr(blas, "openblas_get_parallel", None)
+    if parallel is not None:
+        return int(parallel()) == 2  # 0 sequential, 1 its own threads, 2 OpenMP
+    return hasattr(blas, "MKL_Get_Max_Threads")
 
 
 def openmp_forks_safely() -> bool:
     """Whether a forked child of this process may run OpenMP parallel regions (CHOLMOD's
     factorisation does). A child inherits the parent's GNU OpenMP runtime with the pool of
     threads its parallel regions started, but not the threads, and waits for them forever
-    at its first region. It is safe when the runtime is not loaded, or is capped at one
-    thread (:func:`limit_openmp`), so that it never starts a pool."""
+    at its first region. It is safe when no OpenMP runtime is loaded, or every one loaded
+    is a GNU runtime capped at one thread (:func:`limit_openmp`), which never starts a pool;
+    any other runtime, or one that cannot be asked, counts as unsafe."""
     if not sys.platform.startswith("linux"):
         return False
-    try:
-        gomp = ctypes.CDLL("libgomp.so.1", mode=os.RTLD_NOLOAD)
-    except OSError:  # not loaded in this process: no pool to inherit
-        return True
-    try:
-        return int(gomp.omp_get_thread_limit()) == 1
-    except AttributeError:  # pragma: no cover - another library of that name
-        return False
+    from threadpoolctl import threadpool_info
+
+    for lib in threadpool_info():
+        if lib.get("user_api") != "openmp":
+            continue
+        if lib.get("prefix") != "libgomp":
+            return False
+        try:
+            gomp = ctypes.CDLL(lib["filepath"], mode=os.RTLD_NOLOAD)
+            if int(gomp.omp_get_thread_limit()) != 1:
+                return False
+        except (OSError, AttributeError, KeyError):
+            return False
+    return True
+
+
+#: Set in a worker process of this module's pools (:func:`_start_worker`): its pool already
+#: shares the cores out, so it forks no worker of its own beside.
+_IN_POOL = False
 
 
 def may_fork_beside() -> bool:
     """Whether a worker forked beside this process can help: the OS forks, this process
-    may use more than one core and may have children (it is not a pool's daemonic
-    worker)."""
-    return (os.name == "posix" and usable_cores() > 1
+    may use more than one core, and it is not a pool's worker (the pool already shares the
+    cores out; a daemonic process may not have children at all)."""
+    return (os.name == "posix" and usable_cores() > 1 and not _IN_POOL
             and not multiprocessing.current_process().daemon)  # fmt: skip
 
 
@@ -159,6 +191,8 @@ def _start_worker(parent: int, initializer: Callable[..., object] | None,
     """Prepare a worker process: Ctrl-C ignored (the parent handles it), SIGTERM's default
     action (not a handler inherited from the parent), death with the parent; then the
     caller's ``initializer(*initargs)``."""
+    global _IN_POOL
+    _IN_POOL = True
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     die_with_parent(parent)
@@ -286,17 +320,41 @@ class ForkedCall:
 PEER_POLL = 0.2
 
 
+def _tell(outbox: multiprocessing.connection.Connection, fn: Callable[..., R], *args) -> R:
+    """``fn(outbox, *args)`` in a :class:`ForkedPeer`'s worker, its end of the pipe closed
+    when it returns or raises."""
+    try:
+        return fn(outbox, *args)
+    finally:
+        outbox.close()
+
+
 class ForkedPeer:
     """``fn(outbox, *args)`` in a :class:`ForkedCall` of its own that tells the caller how
-    it gets on while it runs: what the worker puts on ``outbox`` (a queue inherited at the
-    fork, so this needs an OS that forks: :func:`may_fork_beside`) the caller
-    :meth:`receive` s, in order. ``future`` holds ``fn``'s result. The caller that needs no
-    more of it :meth:`stop` s it. Use it as a context manager: leaving the block waits for
-    ``fn`` to return (unless stopped), or, left by an exception, ends the worker at once."""
+    it gets on while it runs: what the worker sends on ``outbox`` (``outbox.send(obj)``, the
+    write end of a one-way pipe inherited at the fork, so this needs an OS that forks:
+    :func:`may_fork_beside`) the caller :meth:`receive` s, in order. A message is whole in
+    the pipe when ``send`` returns (a large one waits for the caller to read it), and only
+    the worker holds the write end, so a worker that ends, even in the middle of a message,
+    is seen as such. ``future`` holds ``fn``'s result. Use it as a context manager: leaving
+    the block ends the worker if it is still running (the caller has what it wanted, or
+    left by an exception) and closes the pipe.
+
+    Raises
+    ------
+    OSError
+        When the fork fails (a limit on processes or memory).
+    """
 
     def __init__(self, fn: Callable[..., R], *args, blas_threads: int | None = None) -> None:
-        self.outbox = _process_context().Queue()
-        self.call = ForkedCall(fn, self.outbox, *args, blas_threads=blas_threads)
+        self.inbox, outbox = multiprocessing.Pipe(duplex=False)
+        try:
+            self.call = ForkedCall(_tell, outbox, fn, *args, blas_threads=blas_threads)
+        except BaseException:
+            self.inbox.close()
+            raise
+        finally:
+            outbox.close()  # the worker's copy is the only write end left
         self.future = self.call.future
 
     def receive(self) -> object:
@@ -307,32 +365,42 @@ class ForkedPeer:
         Exception
             The worker's own, when it ended with one before sending the message.
         RuntimeError
-            When it returned without sending it.
+            When it ended without sending it.
         """
-        while True:
+        while not self.inbox.poll(PEER_POLL):
+            if self.future.done() and not self.inbox.poll(0):
+                break
+        else:
             try:
-                return self.outbox.get(timeout=PEER_POLL)
-            except queue.Empty:
-                if not self.future.done():
-                    continue
-            try:  # it has ended: what it sent before may still be on the way
-                return self.outbox.get(timeout=PEER_POLL)
-            except queue.Empty:
-                self.future.result()  # its exception, if it ended with one
-                raise RuntimeError("the forked worker returned without the message "
-                                   "expected") from None  # fmt: skip
+                return self.inbox.recv()
+            except (EOFError, OSError):  # the worker ended (in the middle of a message)
+                pass
+        # (the pool notices a worker that died a moment after its pipe closes)
+        with contextlib.suppress(TimeoutError):
+            self.future.exception(timeout=10 * PEER_POLL)
+        if self.future.done():
+            self.future.result()  # its exception, if it ended with one
+        raise RuntimeError("the forked worker ended without the message expected")
+
+    def ready(self) -> bool:
+        """Whether a message (or the worker's end) is here to :meth:`receive` at once."""
+        return self.inbox.poll(0)
 
     def stop(self) -> None:
         """End the worker now, whatever it is doing, and wait until it has ended."""
         self.call.pool.terminate()
-        self.outbox.close()
 
     def __enter__(self) -> ForkedPeer:
         return self
 
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
                  tb: TracebackType | None) -> bool:  # fmt: skip
-        return self.call.__exit__(exc_type, exc, tb)
+        try:
+            if not self.future.done():
+                self.stop()
+            return self.call.__exit__(exc_type, exc, tb)
+        finally:
+            self.inbox.close()
 
 
 class _CallHere:

@@ -15,7 +15,6 @@ K's scale leaves K - sigma M as singular as K for free-free models and drops sti
 from __future__ import annotations
 
 import contextlib
-import queue
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -322,21 +321,27 @@ def _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, factoring, progress, 
     ``on_factor`` wants every part's factor here), the parts are shared out between the two
     (:func:`_shares`). Each process factors and checks its own parts at the same time; the
     worker then iterates on its parts (:func:`_parts_worker`) and this process on its lowest
-    one unless the worker's bounds have come and rank it out, both before the ranking is
-    known; roots the ranking does not want are dropped, and the worker is stopped once none
-    of its parts is wanted. A part's roots depend neither on the other parts nor on which
-    process found them, so the result is the same either way."""
+    one unless the worker's bounds have come (or V2 rules it out), both before the ranking
+    is known; roots the ranking does not want are dropped (and so is an error met on them),
+    and the worker is stopped once none of its parts is wanted. A part's roots depend
+    neither on the other parts nor on which process found them, so the result is the same
+    either way. Where the fork fails, every part is solved here."""
     say = progress or (lambda _s: None)
     n = K.shape[0]
     total = len(parts)
     here, there = (_shares(parts) if on_factor is None and _fork_factors(factoring[0])
                    else (list(range(total)), []))  # fmt: skip
+    peer = None
+    if there:
+        try:
+            peer = ForkedPeer(_parts_worker, K, M, parts, there, sigma, request, lam_lo,
+                              lam_hi, factoring, method)  # fmt: skip
+        except OSError:  # the fork failed (a limit on processes or memory): all here
+            here, there = list(range(total)), []
     say(f"{total} independent parts ({', '.join(str(len(p)) for p in parts)} DOF): " + (
         "solved one by one" if not there else
         "shared with a forked process"))  # fmt: skip
-    with (ForkedPeer(_parts_worker, K, M, parts, there, sigma, request, lam_lo, lam_hi,
-                     factoring, method) if there
-          else contextlib.nullcontext()) as peer:  # fmt: skip
+    with peer if peer is not None else contextlib.nullcontext():
         held: dict[int, tuple] = {}
         name = ""
         for k in here:
@@ -348,16 +353,22 @@ def _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, factoring, progress, 
         ranked = [r for k in here
                   if (r := _checked(k, total, parts[k], *held[k], sigma, say)) is not None]
         ranked.sort(key=lambda r: (r[0], r[1]))
-        roots: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # the parts iterated on so far
+        roots: dict[int, tuple] = {}  # parts iterated on before the ranking was known
+        failed: dict[int, Exception] = {}  # their errors, raised if the ranking wants them
         worker = _WorkerParts(peer, say) if peer is not None else None
         if worker is not None:
-            if ranked and ranked[0][2] is None and not worker.lowest_here():
+            first = _cutoff(np.zeros(0), request, lam_lo, lam_hi)
+            if (ranked and ranked[0][2] is None and (first is None or ranked[0][0] <= first)
+                    and not worker.lowest_here()):  # fmt: skip
                 # the worker's bounds have not come: iterate on the lowest part here
                 # meanwhile (its roots are wanted unless the worker's parts rank it out)
                 k = ranked[0][1]
                 Kp, Mp, solve = held.pop(k)
-                roots[k] = _iterate(Kp, Mp, sigma, solve, name, request, lam_lo, lam_hi,
-                                    progress, method)  # fmt: skip
+                try:
+                    roots[k] = _iterate(Kp, Mp, sigma, solve, name, request, lam_lo, lam_hi,
+                                        progress, method)  # fmt: skip
+                except Exception as e:  # (one process would not have met it if ranked out)
+                    failed[k] = e
             ranked += [(lowest, k, None) for lowest, k in worker.lowest()]
             ranked.sort(key=lambda r: (r[0], r[1]))
         found_lam: list[np.ndarray] = []
@@ -371,10 +382,13 @@ def _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, factoring, progress, 
                     f"{_hz(cut):.6g} Hz the request reaches" if np.isfinite(lowest) else
                     "has no root of finite frequency") + ": no root of it is wanted")  # fmt: skip
                 held.pop(k, None)
+                roots.pop(k, None)
                 if worker is not None:  # (the parts after this one lie higher still)
                     worker.stop()
                     worker = None
                 continue
+            if k in failed:
+                raise failed[k]
             if k in roots:
                 lam, vec = roots.pop(k)
             elif k in there:
@@ -418,11 +432,8 @@ class _WorkerParts:
 
     def lowest_here(self) -> bool:
         """Whether the worker's bounds have come (the messages already here are read)."""
-        while self.bounds is None:
-            try:
-                self._take(self.peer.outbox.get_nowait())
-            except queue.Empty:
-                break
+        while self.bounds is None and self.peer.ready():
+            self._take(self.peer.receive())
         return self.bounds is not None
 
     def lowest(self) -> list[tuple[float, int]]:
@@ -500,7 +511,7 @@ def _parts_worker(outbox, K, M, parts, mine, sigma, request, lam_lo, lam_hi, fac
     total = len(parts)
 
     def say(line: str) -> None:
-        outbox.put(("say", line))
+        outbox.send(("say", line))
 
     held: dict[int, tuple] = {}
     name = ""
@@ -512,7 +523,7 @@ def _parts_worker(outbox, K, M, parts, mine, sigma, request, lam_lo, lam_hi, fac
     ranked = sorted((r for k in mine
                      if (r := _checked(k, total, parts[k], *held[k], sigma, say)) is not None),
                     key=lambda r: (r[0], r[1]))  # fmt: skip
-    outbox.put(("lowest", [(lowest, k) for lowest, k, _ in ranked]))
+    outbox.send(("lowest", [(lowest, k) for lowest, k, _ in ranked]))
     found: list[np.ndarray] = []
     for lowest, k, dense in ranked:
         cut = _cutoff(np.concatenate([np.zeros(0), *found]), request, lam_lo, lam_hi)
@@ -522,7 +533,7 @@ def _parts_worker(outbox, K, M, parts, mine, sigma, request, lam_lo, lam_hi, fac
         lam, vec = dense if dense is not None else _iterate(
             Kp, Mp, sigma, solve, name, request, lam_lo, lam_hi, say, method)  # fmt: skip
         found.append(lam)
-        outbox.put(("roots", k, lam, vec))
+        outbox.send(("roots", k, lam, vec))
 
 
 def _hz(lam: float) -> float:
