@@ -413,31 +413,3 @@ def test_a_failed_fork_solves_every_part_here(monkeypatch):
     assert any("2 independent parts (700, 700 DOF): solved one by one" in line
                for line in lines)  # fmt: skip
     np.testing.assert_allclose(res.eigenvalues, reference(K, M, 20), rtol=1e-9)
-
-
-@pytest.mark.skipif(os.name != "posix", reason="the worker is forked")
-def test_an_error_on_a_part_iterated_ahead_and_ranked_out_is_dropped(monkeypatch):
-    """This process iterates on its lowest part before the worker's bounds come; when the
-    worker's parts then rank that part out, an error met on it is not the solve's (one
-    process would never have iterated on it)."""
-    import femcal.solve.eigen as modal
-    import femcal.solve.parts as parts_module
-
-    monkeypatch.setattr(parts_module, "PART_MIN", 500)
-    monkeypatch.setattr(modal, "_shares", lambda parts: ([1], [0]))  # the stiff part here
-    monkeypatch.setattr(modal._WorkerParts, "lowest_here", lambda self: False)
-    real = modal._iterate
-    stiff: list[bool] = []
-
-    def failing(K, M, *args, **kw):
-        if K[0, 0] > 1e7:  # the stiff chain's
-            stiff.append(True)
-            raise modal.SolverError("no convergence on the stiff part")
-        return real(K, M, *args, **kw)
-
-    monkeypatch.setattr(modal, "_iterate", failing)
-    K, M = soft_and_stiff()
-    lines, shared, alone = _shared_and_alone(monkeypatch, K, M, EigenRequest(nd=20))
-    assert stiff  # it was iterated on ahead, and failed
-    assert any("no root of it is wanted" in line for line in lines)
-    same_modes(shared, alone, M)

@@ -382,10 +382,6 @@ class ForkedPeer:
             self.future.result()  # its exception, if it ended with one
         raise RuntimeError("the forked worker ended without the message expected")
 
-    def ready(self) -> bool:
-        """Whether a message (or the worker's end) is here to :meth:`receive` at once."""
-        return self.inbox.poll(0)
-
     def stop(self) -> None:
         """End the worker now, whatever it is doing, and wait until it has ended."""
         self.call.pool.terminate()

@@ -320,12 +320,14 @@ def _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, factoring, progress, 
     Where a worker forked beside this process may factorise (:func:`_fork_factors`; not when
     ``on_factor`` wants every part's factor here), the parts are shared out between the two
     (:func:`_shares`). Each process factors and checks its own parts at the same time; the
-    worker then iterates on its parts (:func:`_parts_worker`) and this process on its lowest
-    one unless the worker's bounds have come (or V2 rules it out), both before the ranking
-    is known; roots the ranking does not want are dropped (and so is an error met on them),
-    and the worker is stopped once none of its parts is wanted. A part's roots depend
-    neither on the other parts nor on which process found them, so the result is the same
-    either way. Where the fork fails, every part is solved here."""
+    worker then iterates on its parts at once (:func:`_parts_worker`), before the ranking
+    is known, while this process waits for the worker's bounds, ranks every part and
+    iterates on its own parts only as the ranking wants them (iterating ahead here would
+    compete with the worker for the cores and the memory, for roots the ranking may drop).
+    Roots the ranking does not want are dropped, and the worker is stopped once none of its
+    parts is wanted. A part's roots depend neither on the other parts nor on which process
+    found them, so the result is the same either way. Where the fork fails, every part is
+    solved here."""
     say = progress or (lambda _s: None)
     n = K.shape[0]
     total = len(parts)
@@ -353,22 +355,8 @@ def _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, factoring, progress, 
         ranked = [r for k in here
                   if (r := _checked(k, total, parts[k], *held[k], sigma, say)) is not None]
         ranked.sort(key=lambda r: (r[0], r[1]))
-        roots: dict[int, tuple] = {}  # parts iterated on before the ranking was known
-        failed: dict[int, Exception] = {}  # their errors, raised if the ranking wants them
         worker = _WorkerParts(peer, say) if peer is not None else None
         if worker is not None:
-            first = _cutoff(np.zeros(0), request, lam_lo, lam_hi)
-            if (ranked and ranked[0][2] is None and (first is None or ranked[0][0] <= first)
-                    and not worker.lowest_here()):  # fmt: skip
-                # the worker's bounds have not come: iterate on the lowest part here
-                # meanwhile (its roots are wanted unless the worker's parts rank it out)
-                k = ranked[0][1]
-                Kp, Mp, solve = held.pop(k)
-                try:
-                    roots[k] = _iterate(Kp, Mp, sigma, solve, name, request, lam_lo, lam_hi,
-                                        progress, method)  # fmt: skip
-                except Exception as e:  # (one process would not have met it if ranked out)
-                    failed[k] = e
             ranked += [(lowest, k, None) for lowest, k in worker.lowest()]
             ranked.sort(key=lambda r: (r[0], r[1]))
         found_lam: list[np.ndarray] = []
@@ -382,16 +370,11 @@ def _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, factoring, progress, 
                     f"{_hz(cut):.6g} Hz the request reaches" if np.isfinite(lowest) else
                     "has no root of finite frequency") + ": no root of it is wanted")  # fmt: skip
                 held.pop(k, None)
-                roots.pop(k, None)
                 if worker is not None:  # (the parts after this one lie higher still)
                     worker.stop()
                     worker = None
                 continue
-            if k in failed:
-                raise failed[k]
-            if k in roots:
-                lam, vec = roots.pop(k)
-            elif k in there:
+            if k in there:
                 lam, vec = worker.roots(k)
             elif dense is not None:
                 lam, vec = dense
@@ -429,12 +412,6 @@ class _WorkerParts:
             self.found[message[1]] = message[2:]
         else:  # pragma: no cover - a bug
             raise RuntimeError(f"the forked parts' worker sent {message[0]!r}")
-
-    def lowest_here(self) -> bool:
-        """Whether the worker's bounds have come (the messages already here are read)."""
-        while self.bounds is None and self.peer.ready():
-            self._take(self.peer.receive())
-        return self.bounds is not None
 
     def lowest(self) -> list[tuple[float, int]]:
         """(lower bound of the lowest root, part) of each of the worker's parts with mass."""
