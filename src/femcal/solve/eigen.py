@@ -558,19 +558,14 @@ def _block_solve(n: int, parts: list[tuple[np.ndarray, Callable]]) -> Callable:
     return solve
 
 
-def _blas_threads(blas: ThreadpoolController) -> int:
-    """The most threads any BLAS library loaded here may use now."""
-    return max((c.num_threads for c in blas.select(user_api="blas").lib_controllers),
-               default=1)  # fmt: skip
-
-
 def _iterate(K, M, sigma, solve, name, request, lam_lo, lam_hi, progress, method):
     """The Lanczos iteration on a factor of K - sigma M: (lam ascending, vectors)."""
     n = K.shape[0]
     want = request.nd if request.nd is not None else 20
     k = min(max(want + 2, 12), n - 2)
     blas = ThreadpoolController()
-    threads = _blas_threads(blas)
+    threads = max((c.num_threads for c in blas.select(user_api="blas").lib_controllers),
+                  default=1)  # fmt: skip
 
     def wide() -> object:
         return blas.limit(limits=threads, user_api="blas")
