@@ -178,6 +178,45 @@ def test_independent_parts_follow_the_values_and_leave_the_matrices_alone(monkey
     assert len(independent_parts(K, M)) == 1  # parts below PART_MIN are not split
 
 
+def test_independent_parts_join_sets_an_entry_joins_one_way_only(monkeypatch):
+    """An entry stored on one side of the diagonal only (a pattern that is not symmetric)
+    joins two sets as an entry on both sides does: the strong search's two sets become one
+    part."""
+    import femcal.solve.parts as parts_module
+    from femcal.solve.parts import independent_parts
+
+    monkeypatch.setattr(parts_module, "PART_MIN", 100)
+    K, M = twin_chains(300)
+    c = K.tocoo()
+    for row, col in ((0, 300), (300, 0), (150, 450)):
+        one_way = sp.csr_matrix((np.r_[c.data, 1e-30], (np.r_[c.row, row], np.r_[c.col, col])),
+                                shape=K.shape)  # fmt: skip
+        assert [len(p) for p in independent_parts(one_way, M)] == [600]
+
+
+def test_independent_parts_are_ordered_by_their_lowest_dof_whatever_the_search_numbers(
+        monkeypatch):  # fmt: skip
+    """Parts of equal size come in the order of their lowest DOF (which part a forked worker
+    takes depends on it), also when the graph search numbers its sets the other way."""
+    import femcal.solve.parts as parts_module
+    from femcal.solve.parts import independent_parts
+
+    monkeypatch.setattr(parts_module, "PART_MIN", 100)
+    K, M = twin_chains(300)
+    found = independent_parts(K, M)
+    real = parts_module.connected_components
+
+    def reversed_labels(*args, **kwargs):
+        count, label = real(*args, **kwargs)
+        return count, count - 1 - label
+
+    monkeypatch.setattr(parts_module, "connected_components", reversed_labels)
+    again = independent_parts(K, M)
+    assert [p[0] for p in again] == [0, 300]
+    for a, b in zip(found, again, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
 def one_process(monkeypatch) -> None:
     """Solve the parts in this process alone (no forked worker shares them)."""
     import femcal.solve.eigen as modal

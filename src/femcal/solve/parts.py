@@ -42,7 +42,7 @@ def independent_parts(K: sp.spmatrix, M: sp.spmatrix) -> list[np.ndarray]:
     graph = _coupling(K)
     if not is_diagonal(M):
         graph = graph + _coupling(M)
-    count, label = connected_components(graph, directed=True, connection="weak")
+    count, label = _components(graph)
     if count < 2:
         return whole
     size = np.bincount(label, minlength=count)
@@ -59,10 +59,51 @@ def independent_parts(K: sp.spmatrix, M: sp.spmatrix) -> list[np.ndarray]:
     return parts
 
 
+def _components(graph: sp.csr_matrix) -> tuple[int, np.ndarray]:
+    """(count, label (n,)) of the graph's connected sets, an entry (i, j) joining i and j
+    whichever way it points, numbered by their lowest vertex.
+
+    The strongly connected sets are found first (Pearce's algorithm, on the graph as it is).
+    A symmetric pattern's, K's and M's, are its connected sets; where an entry joins two of
+    them (a pattern that is not symmetric) the weakly connected sets are found instead, on
+    the graph and its transpose. The transpose of a large graph costs several times the
+    strong search (at 1 M DOF 0.7-2.1 s against 0.3 s)."""
+    count, label = connected_components(graph, directed=True, connection="strong")
+    if count > 1 and _joins_sets(graph, label):
+        count, label = connected_components(graph, directed=True, connection="weak")
+    # numbered by each set's lowest vertex, as the weak search numbers them (SciPy's strong
+    # search does too on a symmetric pattern; the renumbering does not rely on it)
+    running = np.maximum.accumulate(label)
+    if running[0] != 0 or (np.diff(running) > 1).any() or running[-1] != count - 1:
+        _, first = np.unique(label, return_index=True)
+        rank = np.empty(count, dtype=label.dtype)
+        rank[np.argsort(first, kind="stable")] = np.arange(count, dtype=label.dtype)
+        label = rank[label]
+    return count, label
+
+
+def _joins_sets(graph: sp.csr_matrix, label: np.ndarray) -> bool:
+    """Whether an entry of the graph lies between two of the labelled sets."""
+    counts = np.diff(graph.indptr)
+    rows = np.flatnonzero(counts)
+    if not len(rows):
+        return False
+    theirs = label[graph.indices[: graph.indptr[-1]]]
+    starts = graph.indptr[rows]
+    low = np.minimum.reduceat(theirs, starts)
+    high = np.maximum.reduceat(theirs, starts)
+    own = label[rows]
+    return bool((low != own).any() or (high != own).any())
+
+
 def _coupling(A: sp.spmatrix) -> sp.csr_matrix:
-    """The graph of A's nonzero values (int8 ones; explicit zeros dropped; A untouched)."""
+    """The graph of A's nonzero values (float64: SciPy's graph searches convert any other
+    type to it; explicit zeros dropped; A untouched). A CSR matrix of float64 values without
+    stored zeros is its own graph (no copy)."""
     A = sp.csr_matrix(A)
-    keep = (A.data != 0).view(np.int8)
+    if A.dtype == np.float64 and np.count_nonzero(A.data) == A.nnz:
+        return A
+    keep = (A.data != 0).astype(np.float64)
     G = sp.csr_matrix((keep, A.indices.copy(), A.indptr.copy()), shape=A.shape)
     G.eliminate_zeros()
     return G
