@@ -176,15 +176,17 @@ def solve_modes(
         lam, vec, name = _lanczos(K, M, sigma, request, lam_lo, lam_hi, (backend, ordering),
                                   progress, on_factor, method)  # fmt: skip
     keep = (lam >= lam_lo) & (lam <= lam_hi)
-    lam, vec = lam[keep], vec[:, keep]
+    if not keep.all():
+        lam, vec = lam[keep], vec[:, keep]
     if request.nd is not None:
         lam, vec = lam[: request.nd], vec[:, : request.nd]
     gm = np.einsum("ik,ik->k", vec, M @ vec)
+    # (the vectors are this function's own: scaled in place, one array fewer of n x k)
     if request.norm.upper() == "MAX":
         big = vec[np.argmax(np.abs(vec), axis=0), np.arange(vec.shape[1])]
-        vec = vec / big
+        vec /= big
     else:
-        vec = vec / np.sqrt(np.where(gm > 0, gm, 1.0))
+        vec /= np.sqrt(np.where(gm > 0, gm, 1.0))
     gm = np.einsum("ik,ik->k", vec, M @ vec)
     gk = np.einsum("ik,ik->k", vec, K @ vec)
     if name != "dense":
@@ -194,8 +196,9 @@ def solve_modes(
         # vectors' error squared and the rounding of two products
         lam = gk / gm
         order = np.argsort(lam, kind="stable")
-        lam, vec, gm, gk = lam[order], vec[:, order], gm[order], gk[order]
-    return EigenResult(lam, vec, gm, gk, name)
+        if (order != np.arange(len(order))).any():
+            lam, vec, gm, gk = lam[order], vec[:, order], gm[order], gk[order]
+    return EigenResult(lam, np.ascontiguousarray(vec), gm, gk, name)
 
 
 def shift_and_range(
@@ -360,7 +363,7 @@ def _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, factoring, progress, 
             ranked += [(lowest, k, None) for lowest, k in worker.lowest()]
             ranked.sort(key=lambda r: (r[0], r[1]))
         found_lam: list[np.ndarray] = []
-        found_vec: list[np.ndarray] = []
+        found_vec: list[tuple[np.ndarray, np.ndarray]] = []  # (the part's DOF, vectors on them)
         for lowest, k, dense in ranked:
             idx = parts[k]
             cut = _cutoff(np.concatenate([np.zeros(0), *found_lam]), request, lam_lo, lam_hi)
@@ -382,16 +385,22 @@ def _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, factoring, progress, 
                 Kp, Mp, solve = held.pop(k)
                 lam, vec = _iterate(Kp, Mp, sigma, solve, name, request, lam_lo, lam_hi,
                                     progress, method)  # fmt: skip
-            full = np.zeros((n, vec.shape[1]))
-            full[idx] = vec
             found_lam.append(lam)
-            found_vec.append(full)
+            found_vec.append((idx, vec))
         if worker is not None:
             worker.stop()
     lam = np.concatenate([np.zeros(0), *found_lam])
-    vec = np.hstack([np.zeros((n, 0)), *found_vec])
     order = np.argsort(lam, kind="stable")
-    return lam[order], vec[:, order], name
+    # each part's vectors written once, on its rows, into its roots' places in that order
+    place = np.empty(len(lam), dtype=np.int64)
+    place[order] = np.arange(len(lam))
+    vec = np.zeros((n, len(lam)))
+    start = 0
+    for idx, part_vec in found_vec:
+        cols = place[start : start + part_vec.shape[1]]
+        vec[idx[:, None], cols[None, :]] = part_vec
+        start += part_vec.shape[1]
+    return lam[order], vec, name
 
 
 class _WorkerParts:
