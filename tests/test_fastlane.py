@@ -96,6 +96,16 @@ fields8 = st.sampled_from(
         "2.5E+1",
     ]
 )
+wide_fields = st.one_of(
+    fields8,
+    st.sampled_from([
+        "2.4390243902439024", "-0.30000000000000004", "1.7976931348623157E+308",
+        "123456789", "12345678901234567", "-1.234567890123-5", " 12.5 ", "1.0 2",
+        "7.85E-09", "1.5D+03", "0.", "  ", "123456", "x" * 33, "1." + "0" * 30, "1." + "0" * 29,
+        "\r1.", "2.\x0c", "1.E400",
+    ]),
+    st.text(alphabet="0123456789.+-E ", min_size=0, max_size=34),
+)  # fmt: skip
 names = st.sampled_from(
     [
         "GRID",
@@ -123,7 +133,8 @@ def lines(draw):
     vals = draw(st.lists(fields8, min_size=0, max_size=8))
     line = f"{name:<8}" + "".join(f"{v:>8}" if draw(st.booleans()) else f"{v:<8}" for v in vals)
     kind = draw(st.sampled_from(["card", "card", "card", "cont", "comment", "blank", "free",
-                                 "free", "free cont", "free long"]))  # fmt: skip
+                                 "free", "free cont", "free long", "free wide",
+                                 "free wide"]))  # fmt: skip
     if kind == "cont":
         line = "+" + line[1:8].replace(name[1:], " " * (len(name) - 1)) + line[8:]
     elif kind == "comment":
@@ -138,10 +149,15 @@ def lines(draw):
         line = ",".join(["+", *vals])
     elif kind == "free long":  # a field too long for small field, or a continuation field
         line = ",".join([name, *vals, "1.23456789"] if vals else [name, *([""] * 8), "+C"])
+    elif kind == "free wide":  # free fields of any length, spaces around and inside
+        wide = draw(st.lists(wide_fields, min_size=0, max_size=9))
+        head = draw(st.sampled_from([name, f" {name} ", name.lower(), f"{name}*", "+", "",
+                                     "LONGNAME9", "*" + name]))  # fmt: skip
+        line = ",".join([head, *wide])
     return line
 
 
-@settings(max_examples=200, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=400, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(st.lists(lines(), min_size=1, max_size=25), st.integers(min_value=1, max_value=6))
 def test_random_decks_read_the_same_in_both_lanes(write, monkeypatch, body, block):
     monkeypatch.setattr(reader_module, "BLOCK_LINES", block)
@@ -150,3 +166,32 @@ def test_random_decks_read_the_same_in_both_lanes(write, monkeypatch, body, bloc
         assert fast == slow  # the same problems, in the same words
     else:
         same_deck(fast, slow)
+
+
+def test_free_field_cards_with_long_fields_take_the_fast_lane(write):
+    """Free-field lines of any field length up to FREE_WIDTH, spaces around the fields and
+    names in any case, are read with NumPy (the field-by-field reader gets none of them),
+    to the values the field-by-field reader reads; longer fields, a name of 9 characters, a
+    tab or a continuation field leave their line to it."""
+    from femcal.deck.fastlane import FREE_WIDTH, split_block
+    from femcal.deck.reader import FAST_LAYOUTS
+
+    body = ["GRID,1,,2.4390243902439024,-0.30000000000000004,1.7976931348623157E+308",
+            " grid , 2 ,0, 1.5D+03 ,7.85-9,  0.",
+            "CQUAD4,1,1,1,2,3,4",
+            "GRID,3,,1.," + "2." + "0" * (FREE_WIDTH - 2) + ",3.",  # FREE_WIDTH characters
+            "GRID,4,,1.," + "2." + "0" * (FREE_WIDTH - 1) + ",3.",  # one more
+            "GRID,5,,1.,2.,3.,,,,+C",
+            "GRID,6\t,,1.,2.,3.",
+            "LONGNAME9,1,2"]  # fmt: skip
+    split = split_block(body, True, FAST_LAYOUTS)
+    assert sorted(split.slow.tolist()) == [4, 5, 6, 7]
+    assert sorted(g.name for g in split.groups) == ["CQUAD4", "GRID"]
+    grid = next(g for g in split.groups if g.name == "GRID")
+    assert grid.lines.tolist() == [0, 1, 3]
+    path = write(HEAD + "\n".join(body[:4]) + "\n")
+    fast, slow = read_both(path)
+    same_deck(fast, slow)
+    xyz = fast.table("GRID")
+    assert xyz["x2"][0] == -0.30000000000000004 and xyz["x1"][1] == 1500.0
+    assert xyz["x3"][0] == 1.7976931348623157e308 and xyz["x2"][1] == 7.85e-9

@@ -1,9 +1,11 @@
-"""Column readers of 8-character NASTRAN fields, for the reader's fast lane.
+"""Column readers of NASTRAN fields, for the reader's fast lane.
 
-A field column arrives as an ``(n,)`` uint64 array: each element holds the field's 8 bytes
-(upper-case text padded with spaces) in memory order. Whole-column tests work on all 8 bytes
-at once with the usual SWAR (SIMD within a register) tricks; the conversion itself is Python's
-``int()`` and ``float()`` mapped over the column's texts (C loops, no per-field Python code).
+A field column arrives as an ``(n,)`` uint64 array, each element the field's 8 bytes
+(upper-case text padded with spaces) in memory order, or as an ``(n, w)`` array of w such
+words for a wider field (a free-field card's field of up to 16 characters: w = 2). Whole-column
+tests work on 8 bytes at once with the usual SWAR (SIMD within a register) tricks; the
+conversion itself is Python's ``int()`` and ``float()`` mapped over the column's texts (C
+loops, no per-field Python code).
 
 Each reader returns ``(values, ok, blank)``. ``ok[i]`` is False where the text is blank or
 not a valid field of that type; the fast lane then leaves that card to the field-by-field
@@ -32,18 +34,32 @@ def has_byte(v: np.ndarray, byte: int) -> np.ndarray:
     return ((t - ONES) & ~t & HIGHS) != 0
 
 
+def any_byte(v: np.ndarray, byte: int) -> np.ndarray:
+    """(n,) bool: whether a field of the column (of one word or several) holds ``byte``."""
+    hit = has_byte(v, byte)
+    return hit if hit.ndim == 1 else hit.any(axis=1)
+
+
+def blank_fields(v: np.ndarray) -> np.ndarray:
+    """(n,) bool: whether each field of the column (of one word or several) is all spaces."""
+    same = v == SPACES
+    return same if same.ndim == 1 else same.all(axis=1)
+
+
 def texts(v: np.ndarray) -> list[bytes]:
-    """The 8-byte texts of a uint64 field column."""
-    return np.ascontiguousarray(v).view("S8").tolist()
+    """The texts (8 bytes a word) of a uint64 field column of one word or several."""
+    v = np.ascontiguousarray(v)
+    width = 8 * (v.shape[1] if v.ndim == 2 else 1)
+    return v.view(f"S{width}").reshape(len(v)).tolist()
 
 
 def read_ints(v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Integer fields (optional sign, digits). Returns (values int64, ok, blank), each (n,)."""
     n = len(v)
-    blank = v == SPACES
+    blank = blank_fields(v)
     values = np.zeros(n, np.int64)
     ok = np.zeros(n, bool)
-    rows = np.flatnonzero(~blank & ~has_byte(v, ord("_")))
+    rows = np.flatnonzero(~blank & ~any_byte(v, ord("_")))
     if len(rows) == 0:
         return values, ok, blank
     words = texts(v[rows])
@@ -63,11 +79,11 @@ def read_ints(v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def read_reals(v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Real fields in every NASTRAN form. Returns (values float64, ok, blank), each (n,)."""
     n = len(v)
-    blank = v == SPACES
+    blank = blank_fields(v)
     values = np.zeros(n, np.float64)
     ok = np.zeros(n, bool)
-    candidate = ~blank & ~has_byte(v, ord("_"))
-    pointed = candidate & (has_byte(v, ord(".")) | has_byte(v, ord("E")))
+    candidate = ~blank & ~any_byte(v, ord("_"))
+    pointed = candidate & (any_byte(v, ord(".")) | any_byte(v, ord("E")))
     rows = np.flatnonzero(pointed)
     if len(rows):
         words = texts(v[rows])
