@@ -351,6 +351,38 @@ def test_parts_shared_with_a_forked_worker_give_one_processs_roots(monkeypatch, 
 
 
 @pytest.mark.skipif(os.name != "posix", reason="the worker is forked")
+@pytest.mark.parametrize("method", ["block", "arpack"])
+def test_the_workers_lone_part_is_bounded_by_its_own_iteration(monkeypatch, method):
+    """A worker with one part runs no separate check of it: its Lanczos (or, for ARPACK, its
+    roots) bounds the lowest root, said as the check would say it; the ranking and the roots
+    are one process's."""
+    import femcal.solve.eigen as modal
+    import femcal.solve.parts as parts_module
+
+    monkeypatch.setattr(parts_module, "PART_MIN", 500)
+    monkeypatch.setattr(modal, "_shares", lambda parts: ([1], [0]))  # the soft chain there
+    here = os.getpid()
+    real = modal._lowest_root
+
+    def checked_here_only(*args):
+        if os.getpid() != here:
+            raise RuntimeError("the worker checked its lone part")
+        return real(*args)
+
+    monkeypatch.setattr(modal, "_lowest_root", checked_here_only)
+    K, M = soft_and_stiff()
+    lines, shared, alone = _shared_and_alone(monkeypatch, K, M, EigenRequest(nd=20),
+                                             method=method)  # fmt: skip
+    bound = [line for line in lines if line.startswith("part 1 of 2: its lowest root lies at")]
+    assert len(bound) == 1
+    assert float(bound[0].split(" at ")[1].split()[0]) <= shared.frequencies_hz[0]
+    assert any(line.startswith("part 2 of 2 (700 DOF) has its lowest root at")
+               and "no root of it is wanted" in line for line in lines)  # fmt: skip
+    same_modes(shared, alone, M)
+    np.testing.assert_allclose(shared.eigenvalues, reference(K, M, 20), rtol=1e-9)
+
+
+@pytest.mark.skipif(os.name != "posix", reason="the worker is forked")
 def test_parts_both_wanted_and_shared_give_every_root(monkeypatch):
     """Two chains whose roots interleave, each a part and each iterated on (one here, one in
     the worker, at the same time): every root of both, as one process and the dense

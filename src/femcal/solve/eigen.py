@@ -324,7 +324,9 @@ def _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, factoring, progress, 
     ``on_factor`` wants every part's factor here), the parts are shared out between the two
     (:func:`_shares`). Each process factors and checks its own parts at the same time; the
     worker then iterates on its parts at once (:func:`_parts_worker`), before the ranking
-    is known, while this process waits for the worker's bounds, ranks every part and
+    is known (a lone part of the worker's is not checked apart: its Lanczos bounds its lowest
+    root on the way, :func:`_lone_part`), while this process waits for the worker's bounds,
+    ranks every part and
     iterates on its own parts only as the ranking wants them (iterating ahead here would
     compete with the worker for the cores and the memory, for roots the ranking may drop).
     Roots the ranking does not want are dropped, and the worker is stopped once none of its
@@ -487,8 +489,9 @@ def _checked(k, total, idx, Kp, Mp, solve, sigma, say) -> tuple | None:
 
 def _parts_worker(outbox, K, M, parts, mine, sigma, request, lam_lo, lam_hi, factoring,
                   method) -> None:  # fmt: skip
-    """The forked worker's side of :func:`_in_parts`: factor and check the parts ``mine``,
-    send ``("lowest", [(bound, k), ...])``, then iterate on them from the lowest up, as
+    """The forked worker's side of :func:`_in_parts`: factor and check the parts ``mine``
+    (one part: see :func:`_lone_part`), send ``("lowest", [(bound, k), ...])``, then iterate
+    on them from the lowest up, as
     :func:`_in_parts` would with these parts alone, sending ``("roots", k, lam, vectors on
     the part's DOF)`` for each. A part these parts' own roots rank out is ranked out by
     all the parts' roots too (the cut only falls as roots are added). Progress lines go out
@@ -506,6 +509,11 @@ def _parts_worker(outbox, K, M, parts, mine, sigma, request, lam_lo, lam_hi, fac
         say(f"part {k + 1} of {total} ({len(parts[k])} DOF): K - sigma M factored ({name}, "
             "in the forked process)")  # fmt: skip
         held[k] = (Kp, Mp, solve)
+    lone = mine[0] if len(mine) == 1 else None
+    if lone is not None and len(parts[lone]) > DENSE_LIMIT and held[lone][1].count_nonzero():
+        _lone_part(outbox, lone, total, *held[lone], name, sigma, request, lam_lo, lam_hi,
+                   method)  # fmt: skip
+        return
     ranked = sorted((r for k in mine
                      if (r := _checked(k, total, parts[k], *held[k], sigma, say)) is not None),
                     key=lambda r: (r[0], r[1]))  # fmt: skip
@@ -520,6 +528,33 @@ def _parts_worker(outbox, K, M, parts, mine, sigma, request, lam_lo, lam_hi, fac
             Kp, Mp, sigma, solve, name, request, lam_lo, lam_hi, say, method)  # fmt: skip
         found.append(lam)
         outbox.send(("roots", k, lam, vec))
+
+
+def _lone_part(outbox, k, total, Kp, Mp, solve, name, sigma, request, lam_lo, lam_hi, method
+               ) -> None:  # fmt: skip
+    """The forked worker's one part: iterated at once, its lowest root's bound sent as the
+    Lanczos finds it (its first steps are the check's: :func:`_lowest_root` would only repeat
+    them), then its roots."""
+
+    def say(line: str) -> None:
+        outbox.send(("say", line))
+
+    sent = False
+
+    def bounded(lowest: float) -> None:
+        nonlocal sent
+        say(f"part {k + 1} of {total}: its lowest root lies at {_hz(lowest):.6g} Hz or above")
+        outbox.send(("lowest", [(lowest, k)]))
+        sent = True
+
+    lam, vec = _iterate(Kp, Mp, sigma, solve, name, request, lam_lo, lam_hi, say, method,
+                        on_lowest=bounded)  # fmt: skip
+    if not sent:  # (the iteration ended first, or ARPACK found the roots)
+        if len(lam):
+            bounded(_bound(lam[0], sigma))
+        else:
+            outbox.send(("lowest", [(np.inf, k)]))
+    outbox.send(("roots", k, lam, vec))
 
 
 def _hz(lam: float) -> float:
@@ -551,7 +586,13 @@ def _lowest_root(solve: Callable, M: sp.spmatrix, sigma: float) -> float:
         return float(sigma)
     if not len(lam):
         return np.inf
-    return float(sigma + (lam[0] - sigma) / (1.0 + CHECK_TOL))
+    return _bound(lam[0], sigma)
+
+
+def _bound(lam: float, sigma: float) -> float:
+    """The lower bound of a root that a Ritz value lam within :data:`CHECK_TOL` (relative,
+    in theta = 1 / (lambda - sigma)) of it gives."""
+    return float(sigma + (lam - sigma) / (1.0 + CHECK_TOL))
 
 
 def _block_solve(n: int, parts: list[tuple[np.ndarray, Callable]]) -> Callable:
@@ -567,8 +608,11 @@ def _block_solve(n: int, parts: list[tuple[np.ndarray, Callable]]) -> Callable:
     return solve
 
 
-def _iterate(K, M, sigma, solve, name, request, lam_lo, lam_hi, progress, method):
-    """The Lanczos iteration on a factor of K - sigma M: (lam ascending, vectors)."""
+def _iterate(K, M, sigma, solve, name, request, lam_lo, lam_hi, progress, method,
+             on_lowest: Callable[[float], None] | None = None):  # fmt: skip
+    """The Lanczos iteration on a factor of K - sigma M: (lam ascending, vectors).
+    ``on_lowest`` is told a lower bound of the lowest root (as :func:`_lowest_root`'s) once
+    the block Lanczos has one, if it does before its end."""
     n = K.shape[0]
     want = request.nd if request.nd is not None else 20
     k = min(max(want + 2, 12), n - 2)
@@ -581,6 +625,12 @@ def _iterate(K, M, sigma, solve, name, request, lam_lo, lam_hi, progress, method
 
     lam = vec = None
     solves = 0
+
+    def told(lam_low: float) -> None:
+        nonlocal on_lowest
+        if on_lowest is not None:
+            on_lowest(_bound(lam_low, sigma))
+            on_lowest = None
 
     def answered(lam: np.ndarray) -> bool:
         """Whether the roots found (ascending) answer the request: the ND lowest roots in
@@ -613,8 +663,9 @@ def _iterate(K, M, sigma, solve, name, request, lam_lo, lam_hi, progress, method
                 try:
                     # more roots wanted on the same basis, not from scratch: it returns
                     # when enough() says so or when every root of the problem is found
+                    lowest = None if on_lowest is None else (CHECK_TOL, told)
                     lam, vec, solves = block_lanczos(solve, M, sigma, k, enough=enough,
-                                                     wide=wide)  # fmt: skip
+                                                     wide=wide, lowest=lowest)  # fmt: skip
                     finished = True
                 except LanczosNotConverged as e:
                     if progress:

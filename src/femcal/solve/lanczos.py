@@ -58,6 +58,7 @@ def block_lanczos(solve: Callable[[np.ndarray], np.ndarray], M: sp.spmatrix, sig
                   progress: Callable[[str], None] | None = None,
                   enough: Callable[[np.ndarray], bool] | None = None,
                   wide: Callable[[], AbstractContextManager] | None = None,
+                  lowest: tuple[float, Callable[[float], None]] | None = None,
                   ) -> tuple[np.ndarray, np.ndarray, int]:  # fmt: skip
     """The k roots lambda nearest above ``sigma`` and their vectors.
 
@@ -78,6 +79,10 @@ def block_lanczos(solve: Callable[[np.ndarray], np.ndarray], M: sp.spmatrix, sig
         For "every root below V2" requests, whose count is not known beforehand.
     wide : a context in which the products with the whole basis run (the caller's way to give
         them more BLAS threads than the solves get); none: as the caller runs.
+    lowest : (tol_low, said): ``said(lam)`` is called once, with the Ritz value lam of the
+        largest theta, at the first step where that theta's residual is below tol_low theta
+        (the lowest root then lies within tol_low of it; see
+        :func:`femcal.solve.eigen._lowest_root`), if that comes before the end.
 
     Returns
     -------
@@ -128,6 +133,9 @@ def block_lanczos(solve: Callable[[np.ndarray], np.ndarray], M: sp.spmatrix, sig
                      if top < n else (0, np.zeros((0, bq))))  # fmt: skip
         resid = np.linalg.norm(R @ Y[m:top, -want:], axis=0)
         done = resid <= tol * np.abs(theta[-want:])
+        if lowest is not None and theta[-1] > 0 and resid[-1] <= lowest[0] * theta[-1]:
+            lowest[1](sigma + 1.0 / theta[-1])
+            lowest = None
         if progress:
             progress(Step(f"block Lanczos: basis {top}, {int(done.sum())} of {k} roots "
                           "converged", task=f"block Lanczos: {k} roots", done=int(done.sum()),
