@@ -468,16 +468,20 @@ def _allman_coefficients(xl: np.ndarray, edges: tuple[tuple[int, int], ...]) -> 
     return G
 
 
-def _membrane_bending_rows(dNxy: np.ndarray, dNbxy: np.ndarray, Gal: np.ndarray) -> np.ndarray:
+def _allman_gradients(dNbxy: np.ndarray, Gal: np.ndarray | None) -> np.ndarray | None:
+    """d(u, v)/d(x, y) per Rz_a (n, comp, deriv, nn) of the Allman edge bubbles: ``dNbxy``
+    (n, 2, n_edges) their Cartesian derivatives, ``Gal`` (n, 2, n_edges, nn) from
+    :func:`_allman_coefficients`; None without Allman terms (Gal None)."""
+    return None if Gal is None else np.einsum("edk,ecka->ecda", dNbxy, Gal)
+
+
+def _membrane_bending_rows(dNxy: np.ndarray, dR: np.ndarray | None) -> np.ndarray:
     """Rows (n, 6, 6 nn) of [eps, kappa].
 
-    ``dNxy`` (n, 2, nn) Cartesian derivatives of the node shape functions, ``dNbxy``
-    (n, 2, n_edges) of the Allman edge bubbles, ``Gal`` (n, 2, n_edges, nn) from
-    :func:`_allman_coefficients`.
+    ``dNxy`` (n, 2, nn) Cartesian derivatives of the node shape functions, ``dR`` the Allman
+    terms' gradients (:func:`_allman_gradients`; None: no Allman terms).
     """
     n, _, nn = dNxy.shape
-    # d(u, v)/d(x, y) per Rz_a: (n, comp, deriv, nn)
-    dR = np.einsum("edk,ecka->ecda", dNbxy, Gal)
     Bm = np.zeros((n, 6, 6 * nn))
     for a in range(nn):
         dx, dy = dNxy[:, 0, a], dNxy[:, 1, a]
@@ -486,9 +490,10 @@ def _membrane_bending_rows(dNxy: np.ndarray, dNbxy: np.ndarray, Gal: np.ndarray)
         Bm[:, 1, c + 1] = dy
         Bm[:, 2, c] = dy
         Bm[:, 2, c + 1] = dx
-        Bm[:, 0, c + 5] = dR[:, 0, 0, a]
-        Bm[:, 1, c + 5] = dR[:, 1, 1, a]
-        Bm[:, 2, c + 5] = dR[:, 0, 1, a] + dR[:, 1, 0, a]
+        if dR is not None:
+            Bm[:, 0, c + 5] = dR[:, 0, 0, a]
+            Bm[:, 1, c + 5] = dR[:, 1, 1, a]
+            Bm[:, 2, c + 5] = dR[:, 0, 1, a] + dR[:, 1, 0, a]
         # beta_x = Ry, beta_y = -Rx
         Bm[:, 3, c + 4] = dx
         Bm[:, 4, c + 3] = -dy
@@ -514,21 +519,16 @@ def _covariant_shear_rows(N: np.ndarray, dN: np.ndarray, xl: np.ndarray) -> np.n
     return rows
 
 
-def _drill_row(
-    N: np.ndarray,
-    dNxy: np.ndarray,
-    dNbxy: np.ndarray,
-    Gal: np.ndarray,
-) -> np.ndarray:
-    """Row (n, 6 nn) of ``Rz - (v,x - u,y) / 2`` (membrane field including Allman terms)."""
+def _drill_row(N: np.ndarray, dNxy: np.ndarray, dR: np.ndarray | None) -> np.ndarray:
+    """Row (n, 6 nn) of ``Rz - (v,x - u,y) / 2`` (membrane field including Allman terms;
+    ``dR`` as :func:`_membrane_bending_rows` takes it)."""
     n, _, nn = dNxy.shape
-    dR = np.einsum("edk,ecka->ecda", dNbxy, Gal)
     r = np.zeros((n, 6 * nn))
     for a in range(nn):
         c = 6 * a
         r[:, c] = 0.5 * dNxy[:, 1, a]
         r[:, c + 1] = -0.5 * dNxy[:, 0, a]
-        r[:, c + 5] = N[a] - 0.5 * (dR[:, 1, 0, a] - dR[:, 0, 1, a])
+        r[:, c + 5] = N[a] if dR is None else N[a] - 0.5 * (dR[:, 1, 0, a] - dR[:, 0, 1, a])
     return r
 
 
@@ -631,7 +631,7 @@ def quad_geometry(xl: np.ndarray, drilling: bool = True) -> QuadGeometry:
     if drilling:
         Gal = _allman_coefficients(xl, _QUAD_EDGES)
     else:  # no Allman terms
-        Gal = np.zeros((n, 2, len(_QUAD_EDGES), 4))
+        Gal = None
         J0inv = np.linalg.inv(np.einsum("ra,eai->eri", _quad_shape(0.0, 0.0)[1], xl))
         det0 = area / 4.0  # det J at the centre of a bilinear map is the mean
     k = 12 if drilling else 16  # + u, v times (1 - xi^2), (1 - eta^2), condensed below
@@ -645,15 +645,16 @@ def quad_geometry(xl: np.ndarray, drilling: bool = True) -> QuadGeometry:
         N, dN = _quad_shape(xi, eta)
         Jinv = np.linalg.inv(J)
         dNxy = np.einsum("eir,ra->eia", Jinv, dN)
-        dNbxy = np.einsum("eir,rk->eik", Jinv, _quad_bubbles(xi, eta))
+        dR = None if Gal is None else _allman_gradients(
+            np.einsum("eir,rk->eik", Jinv, _quad_bubbles(xi, eta)), Gal)  # fmt: skip
         root = np.sqrt(dJ)[:, None, None]
-        Bg = _membrane_bending_rows(dNxy, dNbxy, Gal)
+        Bg = _membrane_bending_rows(dNxy, dR)
         plane[:, q, :3, :12] = root * Bg[:, :3, _QUAD_PLANE]
         bending[:, q, :3] = root * Bg[:, 3:6, _QUAD_OUT]
         e_xi = 0.5 * (1.0 - eta) * tie[0.0, -1.0][:, 0] + 0.5 * (1.0 + eta) * tie[0.0, 1.0][:, 0]
         e_eta = 0.5 * (1.0 - xi) * tie[-1.0, 0.0][:, 1] + 0.5 * (1.0 + xi) * tie[1.0, 0.0][:, 1]
         bending[:, q, 3:] = root * (Jinv @ np.stack([e_xi, e_eta], axis=1))[:, :, _QUAD_OUT]
-        plane[:, q, 3, :12] = root[:, 0] * _drill_row(N, dNxy, dNbxy, Gal)[:, _QUAD_PLANE]
+        plane[:, q, 3, :12] = root[:, 0] * _drill_row(N, dNxy, dR)[:, _QUAD_PLANE]
         if not drilling:  # Taylor: centre Jacobian, det0 / det J, so the modes' strains
             g = np.einsum("eir,rk->eik", J0inv, np.diag([-2.0 * xi, -2.0 * eta]))  # mean 0
             g *= (det0 / np.sqrt(dJ))[:, None, None]
@@ -785,7 +786,7 @@ def _tria3_local(
     C = _constitutive(A, D, S, B)
     Jinv = np.linalg.inv(J)
     dNxy = np.einsum("eir,ra->eia", Jinv, dN)
-    Gal = _allman_coefficients(xl, _TRI_EDGES) if drilling else np.zeros((n, 2, 3, 3))
+    Gal = _allman_coefficients(xl, _TRI_EDGES) if drilling else None
 
     # MITC3 tying: e_r at (1/2, 0), e_s at (0, 1/2), both at (1/2, 1/2).
     t1 = _covariant_shear_rows(*_tri_shape(0.5, 0.0), xl)[:, 0]
@@ -798,14 +799,15 @@ def _tria3_local(
     Mcons = np.zeros((n, 3, 3))
     for r, s in _TRI_POINTS:
         N, _ = _tri_shape(r, s)
-        dNbxy = np.einsum("eir,rk->eik", Jinv, _tri_bubbles(r, s))
+        dR = None if Gal is None else _allman_gradients(
+            np.einsum("eir,rk->eik", Jinv, _tri_bubbles(r, s)), Gal)  # fmt: skip
         Bg = np.zeros((n, 8, 18))
-        Bg[:, 0:6] = _membrane_bending_rows(dNxy, dNbxy, Gal)
+        Bg[:, 0:6] = _membrane_bending_rows(dNxy, dR)
         e = np.stack([t1 + s * c, t2 - r * c], axis=1)
         Bg[:, 6:8] = Jinv @ e
         w = _TRI_WEIGHT * detJ
         K += w[:, None, None] * (np.swapaxes(Bg, 1, 2) @ (C @ Bg))
-        rd = _drill_row(N, dNxy, dNbxy, Gal)
+        rd = _drill_row(N, dNxy, dR)
         K += (alpha * w)[:, None, None] * rd[:, :, None] * rd[:, None, :]
         Nint += w[:, None] * N
         Mcons += w[:, None, None] * np.outer(N, N)
