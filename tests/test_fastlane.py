@@ -195,3 +195,13 @@ def test_free_field_cards_with_long_fields_take_the_fast_lane(write):
     xyz = fast.table("GRID")
     assert xyz["x2"][0] == -0.30000000000000004 and xyz["x1"][1] == 1500.0
     assert xyz["x3"][0] == 1.7976931348623157e308 and xyz["x2"][1] == 7.85e-9
+
+
+def test_a_nul_byte_at_a_fields_end_is_read_as_the_field_reader_reads_it(write):
+    """NumPy's byte strings drop a NUL at a field's end, the field-by-field reader keeps it
+    (and says the field is not a number): such a line is left to that reader, small field
+    or free."""
+    for line in ("GRID          1\x00", "PSHELL        1\x00        1.7976930       1.000000",
+                 "CONM2   11111111      1\x00", "GRID,1,,1.\x00,2.,3."):  # fmt: skip
+        fast, slow = read_both(write(HEAD + line + "\n"))
+        assert isinstance(fast, list) and fast == slow, line

@@ -7,7 +7,7 @@ never reports a problem itself: every line it does not take, and every card with
 cannot read, is handed back to the field-by-field reader, which reads it or says what is
 wrong. So the fast lane changes speed, never results (the tests check both lanes agree).
 
-A card qualifies when its line has no tab, comma or ``$``, is at most 80 characters, its
+A card qualifies when its line has no tab, comma, NUL or ``$``, is at most 80 characters, its
 name is in columns 1-8 without ``*``, its layout is a fixed table layout, and the next
 significant line (not blank, not a comment) starts a new card. A simple free-field line (one
 line, a name of at most 8 characters, at most 8 data fields of at most :data:`FREE_WIDTH`
@@ -28,7 +28,7 @@ from .spec import Column, Layout
 from .vecfields import SPACES, blank_fields, has_byte, read_ints, read_reals, texts
 
 _W = 80
-_SPACE, _PLUS, _STAR, _DOLLAR, _TAB, _COMMA = 32, 43, 42, 36, 9, 44
+_SPACE, _PLUS, _STAR, _DOLLAR, _TAB, _COMMA, _NUL = 32, 43, 42, 36, 9, 44, 0
 
 
 @dataclass
@@ -104,7 +104,8 @@ def split_block(lines: list[str], at_end: bool, layouts: dict[str, Layout]) -> B
     blank = (U == SPACES).all(axis=1) & (lens <= _W)
     comment = first == _DOLLAR
     odd = lens > _W
-    for b in (_TAB, _COMMA, _DOLLAR):
+    # (a NUL: NumPy's byte strings drop one at a field's end, the field reader keeps it)
+    for b in (_TAB, _COMMA, _DOLLAR, _NUL):
         hit = has_byte(U[:, 0], b)
         for j in range(1, 10):
             hit |= has_byte(U[:, j], b)
