@@ -42,3 +42,14 @@ def test_zero_rows_with_and_without_stored_zeros():
     B.sum_duplicates()
     assert B.nnz > A.nnz and np.count_nonzero(B.data) < B.nnz
     np.testing.assert_array_equal(_zero_rows(B), expected)
+
+
+def test_zero_rows_of_duplicates_that_cancel():
+    """Duplicates that cancel (+1 and -1 at one place) leave a zero row, as the sum of the
+    magnitudes of the summed entries says; a row count would not."""
+    from femcal.assembly.constraints import _zero_rows
+
+    A = sp.csr_matrix((np.array([1.0, -1.0, 2.0]), np.array([1, 1, 0]), np.array([0, 2, 3, 3])),
+                      shape=(3, 3))  # fmt: skip
+    assert not A.has_canonical_format
+    np.testing.assert_array_equal(_zero_rows(A), [True, False, True])

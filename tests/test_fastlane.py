@@ -205,3 +205,23 @@ def test_a_nul_byte_at_a_fields_end_is_read_as_the_field_reader_reads_it(write):
                  "CONM2   11111111      1\x00", "GRID,1,,1.\x00,2.,3."):  # fmt: skip
         fast, slow = read_both(write(HEAD + line + "\n"))
         assert isinstance(fast, list) and fast == slow, line
+
+
+def test_integers_at_the_int64_limit_and_enddata_behind_white_space(write):
+    """Both lanes refuse -2^63 (the field reader's limit is a magnitude below 2^63) and read
+    2^63 - 1; ENDDATA behind a form feed or another white space that a strip removes ends
+    the bulk data in both, ENDDATA in field 2 in neither."""
+    for body in ("GRID,-9223372036854775808,,1.,2.,3.",
+                 "GRID,9223372036854775807,,1.,2.,3.",
+                 "GRID,1,,1.,2.,3.\n\x0cENDDATA,\nGRID,2,,1.,2.,3.",
+                 "GRID,1,,1.,2.,3.\n\x0cENDDATA\nGRID,2,,1.,2.,3.",
+                 "GRID,1,,1.,2.,3.\n\xa0ENDDATA,\nGRID,2,,1.,2.,3.",
+                 "GRID    1               1.      2.      3.\n        ENDDATA\n"
+                 "GRID,2,,1.,2.,3."):  # fmt: skip
+        fast, slow = read_both(write(HEAD + body + "\n"))
+        if isinstance(fast, list) or isinstance(slow, list):
+            assert fast == slow, body
+        else:
+            same_deck(fast, slow)
+    fast, _ = read_both(write(HEAD + "GRID,1,,1.,2.,3.\n\x0cENDDATA,\nGRID,2,,1.,2.,3.\n"))
+    assert fast.table("GRID")["id"].tolist() == [1]

@@ -217,6 +217,39 @@ def test_independent_parts_are_ordered_by_their_lowest_dof_whatever_the_search_n
         np.testing.assert_array_equal(a, b)
 
 
+def test_independent_parts_are_joined_where_k_and_m_cancel_and_by_duplicates(monkeypatch):
+    """An entry where K_ij = -M_ij joins two sets (the patterns' union, not the values' sum,
+    decides), and so do duplicated entries that cancel. A matrix with duplicates is split as
+    its canonical form is: the graph searched is canonical (SciPy's strong search never
+    ends on a duplicated entry)."""
+    import femcal.solve.parts as parts_module
+    from femcal.solve.parts import _coupling, independent_parts
+
+    monkeypatch.setattr(parts_module, "PART_MIN", 100)
+    K, M = twin_chains(300)
+    K, Mc = K.tolil(), (4.0 * sp.identity(600)).tolil()
+    K[0, 300] = K[300, 0] = -2.0
+    Mc[0, 300] = Mc[300, 0] = 2.0
+    assert [len(p) for p in independent_parts(K.tocsr(), Mc.tocsr())] == [600]
+    # every entry stored twice, half each: the same parts as the matrix itself
+    K, M = twin_chains(300)
+    c = K.tocoo()
+
+    def raw_csr(rows, cols, vals):  # duplicates kept (SciPy's COO conversion sums them)
+        order = np.argsort(rows, kind="stable")
+        indptr = np.r_[0, np.cumsum(np.bincount(rows, minlength=600))]
+        return sp.csr_matrix((vals[order], cols[order], indptr), shape=(600, 600))
+
+    twice = raw_csr(np.r_[c.row, c.row], np.r_[c.col, c.col], np.r_[c.data, c.data] / 2)
+    assert not twice.has_canonical_format
+    assert _coupling(twice).has_canonical_format
+    assert [len(p) for p in independent_parts(twice, M)] == [300, 300]
+    # a duplicate pair that cancels still couples (as it did)
+    cancel = raw_csr(np.r_[c.row, 0, 0, 300, 300], np.r_[c.col, 300, 300, 0, 0],
+                     np.r_[c.data, 1.0, -1.0, 1.0, -1.0])  # fmt: skip
+    assert [len(p) for p in independent_parts(cancel, M)] == [600]
+
+
 def one_process(monkeypatch) -> None:
     """Solve the parts in this process alone (no forked worker shares them)."""
     import femcal.solve.eigen as modal
@@ -353,9 +386,9 @@ def test_parts_shared_with_a_forked_worker_give_one_processs_roots(monkeypatch, 
 @pytest.mark.skipif(os.name != "posix", reason="the worker is forked")
 @pytest.mark.parametrize("method", ["block", "arpack"])
 def test_the_workers_lone_part_is_bounded_by_its_own_iteration(monkeypatch, method):
-    """A worker with one part runs no separate check of it: its Lanczos (or, for ARPACK, its
-    roots) bounds the lowest root, said as the check would say it; the ranking and the roots
-    are one process's."""
+    """A worker with one part runs no separate check of it: its block Lanczos bounds the
+    lowest root on the way, said as the check would say it (ARPACK, which gives no bound
+    before its end, keeps the check); the ranking and the roots are one process's."""
     import femcal.solve.eigen as modal
     import femcal.solve.parts as parts_module
 
@@ -365,7 +398,7 @@ def test_the_workers_lone_part_is_bounded_by_its_own_iteration(monkeypatch, meth
     real = modal._lowest_root
 
     def checked_here_only(*args):
-        if os.getpid() != here:
+        if os.getpid() != here and method == "block":
             raise RuntimeError("the worker checked its lone part")
         return real(*args)
 
@@ -380,6 +413,52 @@ def test_the_workers_lone_part_is_bounded_by_its_own_iteration(monkeypatch, meth
                and "no root of it is wanted" in line for line in lines)  # fmt: skip
     same_modes(shared, alone, M)
     np.testing.assert_allclose(shared.eigenvalues, reference(K, M, 20), rtol=1e-9)
+
+
+@pytest.mark.skipif(os.name != "posix", reason="the worker is forked")
+def test_a_lone_part_that_fails_before_its_bound_is_still_ranked_out(monkeypatch):
+    """The worker's lone part fails in its iteration before a bound (here: too little memory
+    for its basis): the check bounds it instead, this process ranks it out (its roots lie
+    above those wanted) and never sees the failure, as when the check ran first."""
+    import femcal.solve.eigen as modal
+    import femcal.solve.parts as parts_module
+    from femcal.errors import ResourceError
+
+    monkeypatch.setattr(parts_module, "PART_MIN", 500)
+    monkeypatch.setattr(modal, "_shares", lambda parts: ([0], [1]))  # the stiff chain there
+    here = os.getpid()
+    real = modal.check_memory
+
+    def no_memory_there(*args, **kwargs):
+        if os.getpid() != here:
+            raise ResourceError("no memory in the worker")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(modal, "check_memory", no_memory_there)
+    K, M = soft_and_stiff()
+    lines, shared, alone = _shared_and_alone(monkeypatch, K, M, EigenRequest(nd=20))
+    assert any(line.startswith("part 2 of 2: its lowest root lies at") for line in lines)
+    assert any(line.startswith("part 2 of 2 (700 DOF) has its lowest root at")
+               and "no root of it is wanted" in line for line in lines)  # fmt: skip
+    same_modes(shared, alone, M)
+
+
+@pytest.mark.skipif(os.name != "posix", reason="the worker is forked")
+def test_equal_roots_of_two_parts_come_in_the_parts_order_on_either_path(monkeypatch):
+    """Two identical parts have equal roots: their vectors come in the parts' order whether
+    a forked worker found half of them or not (their bounds, from a check here and from the
+    worker's Lanczos there, differ in their last digits)."""
+    import femcal.solve.parts as parts_module
+
+    monkeypatch.setattr(parts_module, "PART_MIN", 500)
+    K, M = twin_chains(700)
+    _, shared, alone = _shared_and_alone(monkeypatch, K, M, EigenRequest(nd=16))
+    np.testing.assert_array_equal(shared.eigenvalues, alone.eigenvalues)
+    for modes in (shared, alone):
+        first = (modes.vectors[:700] != 0).any(axis=0)
+        np.testing.assert_array_equal(first, np.arange(16) % 2 == 0)  # part 1's, then 2's
+    np.testing.assert_allclose(np.abs(np.diag(shared.vectors.T @ (M @ alone.vectors))), 1.0,
+                               atol=1e-8)  # fmt: skip
 
 
 @pytest.mark.skipif(os.name != "posix", reason="the worker is forked")

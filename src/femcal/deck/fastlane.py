@@ -20,6 +20,7 @@ from words of FREE_WIDTH bytes.
 from __future__ import annotations
 
 import itertools
+import string
 from dataclasses import dataclass
 
 import numpy as np
@@ -231,14 +232,30 @@ def _first_stop(lines: list[str], U: np.ndarray, up: bytes) -> int | None:
         hits = np.flatnonzero((U[:, 0] & _LOW7) == np.uint64(_INCLUDE))
         if len(hits):
             found.append(int(hits[0]))
+    rows = set()
     at = up.find(b"ENDDATA")
     while at >= 0:
-        row = at // _COLS
-        if not up[row * _COLS : at].strip(b" \t"):
+        rows.add(at // _COLS)
+        at = up.find(b"ENDDATA", at + 1)
+    if len(up) > 0 and max(map(len, lines)) > _COLS:  # (text past the columns in ``up``)
+        rows.update(i for i, line in enumerate(lines) if "ENDDATA" in line.upper())
+    for row in sorted(rows):
+        if _ends_bulk(lines[row]):
             found.append(row)
             break
-        at = up.find(b"ENDDATA", at + 1)
     return min(found) if found else None
+
+
+_ASCII_UPPER = str.maketrans(string.ascii_lowercase, string.ascii_uppercase)
+
+
+def _ends_bulk(line: str) -> bool:
+    """Whether the field-by-field reader reads ``line`` as ENDDATA: its first field (free
+    field: before the first comma; else columns 1-8), stripped, after the comment is cut,
+    tabs expanded and ASCII letters upper-cased."""
+    s = line.split("$", 1)[0].rstrip().expandtabs(8).translate(_ASCII_UPPER)
+    head = s.split(",", 1)[0].strip() if "," in s else s[:8].strip()
+    return head.rstrip("*") == "ENDDATA"
 
 
 def _continues(line: str) -> bool:

@@ -73,6 +73,7 @@ def read_ints(v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
                 ok[r] = True
             except (ValueError, OverflowError):
                 pass
+    ok &= values != np.iinfo(np.int64).min  # -2^63: beyond the field reader's magnitude
     return values, ok, blank
 
 

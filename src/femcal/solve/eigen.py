@@ -176,12 +176,11 @@ def solve_modes(
         lam, vec, name = _lanczos(K, M, sigma, request, lam_lo, lam_hi, (backend, ordering),
                                   progress, on_factor, method)  # fmt: skip
     keep = (lam >= lam_lo) & (lam <= lam_hi)
-    if not keep.all():
-        lam, vec = lam[keep], vec[:, keep]
+    lam, vec = lam[keep], vec[:, keep]  # (a copy, laid out as the products below expect)
     if request.nd is not None:
         lam, vec = lam[: request.nd], vec[:, : request.nd]
     gm = np.einsum("ik,ik->k", vec, M @ vec)
-    # (the vectors are this function's own: scaled in place, one array fewer of n x k)
+    # (the vectors are this function's own copy: scaled in place, one array fewer of n x k)
     if request.norm.upper() == "MAX":
         big = vec[np.argmax(np.abs(vec), axis=0), np.arange(vec.shape[1])]
         vec /= big
@@ -196,9 +195,8 @@ def solve_modes(
         # vectors' error squared and the rounding of two products
         lam = gk / gm
         order = np.argsort(lam, kind="stable")
-        if (order != np.arange(len(order))).any():
-            lam, vec, gm, gk = lam[order], vec[:, order], gm[order], gk[order]
-    return EigenResult(lam, np.ascontiguousarray(vec), gm, gk, name)
+        lam, vec, gm, gk = lam[order], vec[:, order], gm[order], gk[order]
+    return EigenResult(lam, vec, gm, gk, name)
 
 
 def shift_and_range(
@@ -365,7 +363,7 @@ def _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, factoring, progress, 
             ranked += [(lowest, k, None) for lowest, k in worker.lowest()]
             ranked.sort(key=lambda r: (r[0], r[1]))
         found_lam: list[np.ndarray] = []
-        found_vec: list[tuple[np.ndarray, np.ndarray]] = []  # (the part's DOF, vectors on them)
+        found: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # part -> (roots, vectors on it)
         for lowest, k, dense in ranked:
             idx = parts[k]
             cut = _cutoff(np.concatenate([np.zeros(0), *found_lam]), request, lam_lo, lam_hi)
@@ -388,19 +386,23 @@ def _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, factoring, progress, 
                 lam, vec = _iterate(Kp, Mp, sigma, solve, name, request, lam_lo, lam_hi,
                                     progress, method)  # fmt: skip
             found_lam.append(lam)
-            found_vec.append((idx, vec))
+            found[k] = (lam, vec)
         if worker is not None:
             worker.stop()
-    lam = np.concatenate([np.zeros(0), *found_lam])
+    # the parts in their own order (equal roots of two parts in the same order whichever
+    # process found them, whatever their bounds), each part's vectors written once, on its
+    # rows, into its roots' places in the ascending order
+    ks = sorted(found)
+    lam = np.concatenate([np.zeros(0), *(found[k][0] for k in ks)])
     order = np.argsort(lam, kind="stable")
-    # each part's vectors written once, on its rows, into its roots' places in that order
     place = np.empty(len(lam), dtype=np.int64)
     place[order] = np.arange(len(lam))
     vec = np.zeros((n, len(lam)))
     start = 0
-    for idx, part_vec in found_vec:
+    for k in ks:
+        part_vec = found[k][1]
         cols = place[start : start + part_vec.shape[1]]
-        vec[idx[:, None], cols[None, :]] = part_vec
+        vec[parts[k][:, None], cols[None, :]] = part_vec
         start += part_vec.shape[1]
     return lam[order], vec, name
 
@@ -509,7 +511,7 @@ def _parts_worker(outbox, K, M, parts, mine, sigma, request, lam_lo, lam_hi, fac
         say(f"part {k + 1} of {total} ({len(parts[k])} DOF): K - sigma M factored ({name}, "
             "in the forked process)")  # fmt: skip
         held[k] = (Kp, Mp, solve)
-    lone = mine[0] if len(mine) == 1 else None
+    lone = mine[0] if len(mine) == 1 and method == "block" else None
     if lone is not None and len(parts[lone]) > DENSE_LIMIT and held[lone][1].count_nonzero():
         _lone_part(outbox, lone, total, *held[lone], name, sigma, request, lam_lo, lam_hi,
                    method)  # fmt: skip
@@ -532,9 +534,9 @@ def _parts_worker(outbox, K, M, parts, mine, sigma, request, lam_lo, lam_hi, fac
 
 def _lone_part(outbox, k, total, Kp, Mp, solve, name, sigma, request, lam_lo, lam_hi, method
                ) -> None:  # fmt: skip
-    """The forked worker's one part: iterated at once, its lowest root's bound sent as the
-    Lanczos finds it (its first steps are the check's: :func:`_lowest_root` would only repeat
-    them), then its roots."""
+    """The forked worker's one part: iterated at once (block Lanczos), its lowest root's
+    bound sent as the Lanczos finds it (its first steps are the check's: :func:`_lowest_root`
+    would only repeat them), then its roots."""
 
     def say(line: str) -> None:
         outbox.send(("say", line))
@@ -547,8 +549,16 @@ def _lone_part(outbox, k, total, Kp, Mp, solve, name, sigma, request, lam_lo, la
         outbox.send(("lowest", [(lowest, k)]))
         sent = True
 
-    lam, vec = _iterate(Kp, Mp, sigma, solve, name, request, lam_lo, lam_hi, say, method,
-                        on_lowest=bounded)  # fmt: skip
+    try:
+        lam, vec = _iterate(Kp, Mp, sigma, solve, name, request, lam_lo, lam_hi, say, method,
+                            on_lowest=bounded)  # fmt: skip
+    except Exception:
+        # failed before its bound: the check bounds the part instead, so that this process
+        # can rank it out (and never see the failure) as it would have
+        if not sent:
+            with contextlib.suppress(Exception):
+                bounded(_lowest_root(solve, Mp, sigma))
+        raise
     if not sent:  # (the iteration ended first, or ARPACK found the roots)
         if len(lam):
             bounded(_bound(lam[0], sigma))

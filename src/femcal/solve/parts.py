@@ -39,9 +39,9 @@ def independent_parts(K: sp.spmatrix, M: sp.spmatrix) -> list[np.ndarray]:
     whole = [np.arange(n)]
     if n < 2 * PART_MIN:
         return whole
-    graph = _coupling(K)
-    if not is_diagonal(M):
-        graph = graph + _coupling(M)
+    # (a diagonal M couples nothing; otherwise the two patterns' union, as a sum of ones:
+    # a sum of the values would drop an entry where K_ij = -M_ij)
+    graph = _coupling(K) if is_diagonal(M) else _ones(K) + _ones(M)
     count, label = _components(graph)
     if count < 2:
         return whole
@@ -97,13 +97,23 @@ def _joins_sets(graph: sp.csr_matrix, label: np.ndarray) -> bool:
 
 
 def _coupling(A: sp.spmatrix) -> sp.csr_matrix:
-    """The graph of A's nonzero values (float64: SciPy's graph searches convert any other
-    type to it; explicit zeros dropped; A untouched). A CSR matrix of float64 values without
-    stored zeros is its own graph (no copy)."""
+    """The graph of A's nonzero values, for SciPy's graph searches (A untouched). A CSR
+    matrix of float64 values in canonical form (sorted, no duplicates: the strong search
+    never ends on a duplicated entry) without stored zeros is its own graph, without a copy
+    (SciPy's searches would convert any other type to float64); else :func:`_ones`."""
     A = sp.csr_matrix(A)
-    if A.dtype == np.float64 and np.count_nonzero(A.data) == A.nnz:
+    if (A.dtype == np.float64 and A.has_canonical_format
+            and np.count_nonzero(A.data[: A.nnz]) == A.nnz):  # fmt: skip
         return A
+    return _ones(A)
+
+
+def _ones(A: sp.spmatrix) -> sp.csr_matrix:
+    """A's pattern of nonzero values as a canonical CSR graph of float64 ones (twos where
+    duplicates that are not zero meet: entries that cancel still couple); A untouched."""
+    A = sp.csr_matrix(A)
     keep = (A.data != 0).astype(np.float64)
     G = sp.csr_matrix((keep, A.indices.copy(), A.indptr.copy()), shape=A.shape)
     G.eliminate_zeros()
+    G.sum_duplicates()
     return G
