@@ -225,3 +225,14 @@ def test_integers_at_the_int64_limit_and_enddata_behind_white_space(write):
             same_deck(fast, slow)
     fast, _ = read_both(write(HEAD + "GRID,1,,1.,2.,3.\n\x0cENDDATA,\nGRID,2,,1.,2.,3.\n"))
     assert fast.table("GRID")["id"].tolist() == [1]
+
+
+def test_cards_are_counted_in_the_order_first_seen(write):
+    """A card read field by field before one of its name that the fast lane read in the same
+    block sets the first-seen order (the fast lane's groups are stored first)."""
+    body = ("GRID*   3                               2.              0.\n*       0.\n"
+            "CONM2   1       1               1.\n"
+            "GRID    1               0.      0.      0.\n")
+    fast, slow = read_both(write(HEAD + body))
+    same_deck(fast, slow)
+    assert list(fast.card_count) == ["GRID", "CONM2"]

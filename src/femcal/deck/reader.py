@@ -521,7 +521,7 @@ class _Reader:
                 while fields and not fields[-1]:
                     fields.pop()
                 counts[name] = counts.get(name, 0) + 1
-                if name not in first_seen:
+                if first_seen.get(name, self.seq0 + 1) > self.seq0:  # (a fast card may be later)
                     first_seen[name] = self.seq0
                 handler = handlers.get(name)
                 if handler is None:
@@ -554,7 +554,8 @@ class _Reader:
             fields.pop()
         counts = self.deck.card_count
         counts[name] = counts.get(name, 0) + 1
-        self.first_seen.setdefault(name, self.seq0)
+        if self.first_seen.get(name, self.seq0 + 1) > self.seq0:
+            self.first_seen[name] = self.seq0
         handler = self.handlers.get(name)
         if handler is None:
             handler = self.handlers[name] = self._handler(name)
