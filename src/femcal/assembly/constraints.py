@@ -338,7 +338,7 @@ def _zero_rows(A: sp.spmatrix) -> np.ndarray:
     """(n,) whether each row of A holds no nonzero value (the sum of its magnitudes is 0).
     Where A is canonical (no duplicates, which could cancel) and stores no zeros (the a-set's
     selection drops them), that is a row that stores nothing, found without a pass over the
-    values (at 1 M DOF 0.6 s for the sum of their magnitudes)."""
+    values."""
     A = sp.csr_matrix(A)
     if A.has_canonical_format and np.count_nonzero(A.data[: A.nnz]) == A.nnz:
         return np.diff(A.indptr) == 0

@@ -79,7 +79,7 @@ def split_block(lines: list[str], at_end: bool, layouts: dict[str, Layout]) -> B
     text = "".join([line[:_COLS].ljust(_COLS) for line in lines])
     up = text.encode("latin-1", "replace").upper()
     U = np.frombuffer(bytearray(up), np.uint64).reshape(n, _COLS // 8)
-    stop = _first_stop(lines, U, up)
+    stop = _first_stop(lines, lens, U, up)
     if stop is not None:
         n = stop
         U, lens, lines = U[:n], lens[:n], lines[:n]
@@ -225,7 +225,7 @@ def _free_fields(lines: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return ~bad, names.view(np.uint64), data[:, :, 0] if width == 8 else data
 
 
-def _first_stop(lines: list[str], U: np.ndarray, up: bytes) -> int | None:
+def _first_stop(lines: list[str], lens: np.ndarray, U: np.ndarray, up: bytes) -> int | None:
     """Index of the first INCLUDE (column 1) or ENDDATA (after blanks) line, or None."""
     found = []
     if b"INCLUDE" in up:
@@ -237,8 +237,9 @@ def _first_stop(lines: list[str], U: np.ndarray, up: bytes) -> int | None:
     while at >= 0:
         rows.add(at // _COLS)
         at = up.find(b"ENDDATA", at + 1)
-    if len(up) > 0 and max(map(len, lines)) > _COLS:  # (text past the columns in ``up``)
-        rows.update(i for i, line in enumerate(lines) if "ENDDATA" in line.upper())
+    for i in np.flatnonzero(lens > _COLS).tolist():  # (text past the columns in ``up``)
+        if "ENDDATA" in lines[i].upper():
+            rows.add(i)
     for row in sorted(rows):
         if _ends_bulk(lines[row]):
             found.append(row)

@@ -2,7 +2,7 @@
 
 A field column arrives as an ``(n,)`` uint64 array, each element the field's 8 bytes
 (upper-case text padded with spaces) in memory order, or as an ``(n, w)`` array of w such
-words for a wider field (a free-field card's field of up to 16 characters: w = 2). Whole-column
+words for a wider field (a free-field card's field of up to 8 w characters). Whole-column
 tests work on 8 bytes at once with the usual SWAR (SIMD within a register) tricks; the
 conversion itself is Python's ``int()`` and ``float()`` mapped over the column's texts (C
 loops, no per-field Python code).

@@ -468,11 +468,15 @@ def _allman_coefficients(xl: np.ndarray, edges: tuple[tuple[int, int], ...]) -> 
     return G
 
 
-def _allman_gradients(dNbxy: np.ndarray, Gal: np.ndarray | None) -> np.ndarray | None:
-    """d(u, v)/d(x, y) per Rz_a (n, comp, deriv, nn) of the Allman edge bubbles: ``dNbxy``
-    (n, 2, n_edges) their Cartesian derivatives, ``Gal`` (n, 2, n_edges, nn) from
-    :func:`_allman_coefficients`; None without Allman terms (Gal None)."""
-    return None if Gal is None else np.einsum("edk,ecka->ecda", dNbxy, Gal)
+def _allman_gradients(Jinv: np.ndarray, bubbles: np.ndarray, Gal: np.ndarray | None
+                      ) -> np.ndarray | None:  # fmt: skip
+    """d(u, v)/d(x, y) per Rz_a (n, comp, deriv, nn) of the Allman edge bubbles at a point:
+    ``Jinv`` (n, 2, 2) the inverse Jacobian there, ``bubbles`` (2, n_edges) the bubbles'
+    natural derivatives, ``Gal`` (n, 2, n_edges, nn) from :func:`_allman_coefficients`;
+    None without Allman terms (Gal None)."""
+    if Gal is None:
+        return None
+    return np.einsum("edk,ecka->ecda", np.einsum("eir,rk->eik", Jinv, bubbles), Gal)
 
 
 def _membrane_bending_rows(dNxy: np.ndarray, dR: np.ndarray | None) -> np.ndarray:
@@ -645,8 +649,7 @@ def quad_geometry(xl: np.ndarray, drilling: bool = True) -> QuadGeometry:
         N, dN = _quad_shape(xi, eta)
         Jinv = np.linalg.inv(J)
         dNxy = np.einsum("eir,ra->eia", Jinv, dN)
-        dR = None if Gal is None else _allman_gradients(
-            np.einsum("eir,rk->eik", Jinv, _quad_bubbles(xi, eta)), Gal)  # fmt: skip
+        dR = _allman_gradients(Jinv, _quad_bubbles(xi, eta), Gal)
         root = np.sqrt(dJ)[:, None, None]
         Bg = _membrane_bending_rows(dNxy, dR)
         plane[:, q, :3, :12] = root * Bg[:, :3, _QUAD_PLANE]
@@ -799,8 +802,7 @@ def _tria3_local(
     Mcons = np.zeros((n, 3, 3))
     for r, s in _TRI_POINTS:
         N, _ = _tri_shape(r, s)
-        dR = None if Gal is None else _allman_gradients(
-            np.einsum("eir,rk->eik", Jinv, _tri_bubbles(r, s)), Gal)  # fmt: skip
+        dR = _allman_gradients(Jinv, _tri_bubbles(r, s), Gal)
         Bg = np.zeros((n, 8, 18))
         Bg[:, 0:6] = _membrane_bending_rows(dNxy, dR)
         e = np.stack([t1 + s * c, t2 - r * c], axis=1)

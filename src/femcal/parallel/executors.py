@@ -77,9 +77,9 @@ def limit_openmp() -> None:
     (:func:`_blas_on_openmp`): for a program's entry point, before anything loads the
     runtime (CHOLMOD does, when scikit-sparse is imported). CHOLMOD's OpenMP regions (the
     supernodal factorisation's assembly of updates) gain nothing on top of its BLAS's own
-    threads: on two cores they oversubscribe them, and a factor takes 15-30 % longer with
-    them. And a runtime that never started a pool of threads leaves a forked child free to
-    run parallel regions (:func:`openmp_forks_safely`)."""
+    threads: on two cores they oversubscribe them and slow a factor down. And a runtime
+    that never started a pool of threads leaves a forked child free to run parallel regions
+    (:func:`openmp_forks_safely`)."""
     if OPENMP_LIMIT not in os.environ and not _blas_on_openmp():
         os.environ[OPENMP_LIMIT] = "1"
 

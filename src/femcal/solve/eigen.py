@@ -324,9 +324,9 @@ def _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, factoring, progress, 
     worker then iterates on its parts at once (:func:`_parts_worker`), before the ranking
     is known (a lone part of the worker's is not checked apart: its Lanczos bounds its lowest
     root on the way, :func:`_lone_part`), while this process waits for the worker's bounds,
-    ranks every part and
-    iterates on its own parts only as the ranking wants them (iterating ahead here would
-    compete with the worker for the cores and the memory, for roots the ranking may drop).
+    ranks every part and iterates on its own parts only as the ranking wants them (iterating
+    ahead here would compete with the worker for the cores and the memory, for roots the
+    ranking may drop).
     Roots the ranking does not want are dropped, and the worker is stopped once none of its
     parts is wanted. A part's roots depend neither on the other parts nor on which process
     found them, so the result is the same either way. Where the fork fails, every part is
@@ -362,11 +362,11 @@ def _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, factoring, progress, 
         if worker is not None:
             ranked += [(lowest, k, None) for lowest, k in worker.lowest()]
             ranked.sort(key=lambda r: (r[0], r[1]))
-        found_lam: list[np.ndarray] = []
         found: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # part -> (roots, vectors on it)
         for lowest, k, dense in ranked:
             idx = parts[k]
-            cut = _cutoff(np.concatenate([np.zeros(0), *found_lam]), request, lam_lo, lam_hi)
+            cut = _cutoff(np.concatenate([np.zeros(0), *(r[0] for r in found.values())]),
+                          request, lam_lo, lam_hi)  # fmt: skip
             if cut is not None and lowest > cut:
                 say(f"part {k + 1} of {total} ({len(idx)} DOF) " + (
                     f"has its lowest root at {_hz(lowest):.6g} Hz or above, beyond the "
@@ -385,7 +385,6 @@ def _in_parts(K, M, parts, sigma, request, lam_lo, lam_hi, factoring, progress, 
                 Kp, Mp, solve = held.pop(k)
                 lam, vec = _iterate(Kp, Mp, sigma, solve, name, request, lam_lo, lam_hi,
                                     progress, method)  # fmt: skip
-            found_lam.append(lam)
             found[k] = (lam, vec)
         if worker is not None:
             worker.stop()
@@ -493,12 +492,11 @@ def _parts_worker(outbox, K, M, parts, mine, sigma, request, lam_lo, lam_hi, fac
                   method) -> None:  # fmt: skip
     """The forked worker's side of :func:`_in_parts`: factor and check the parts ``mine``
     (one part: see :func:`_lone_part`), send ``("lowest", [(bound, k), ...])``, then iterate
-    on them from the lowest up, as
-    :func:`_in_parts` would with these parts alone, sending ``("roots", k, lam, vectors on
-    the part's DOF)`` for each. A part these parts' own roots rank out is ranked out by
-    all the parts' roots too (the cut only falls as roots are added). Progress lines go out
-    as ``("say", line)``. It runs with the caller's BLAS threads, so that a part's roots
-    are those the caller would find."""
+    on them from the lowest up, as :func:`_in_parts` would with these parts alone, sending
+    ``("roots", k, lam, vectors on the part's DOF)`` for each. A part these parts' own
+    roots rank out is ranked out by all the parts' roots too (the cut only falls as roots
+    are added). Progress lines go out as ``("say", line)``. It runs with the caller's BLAS
+    threads, so that a part's roots are those the caller would find."""
     total = len(parts)
 
     def say(line: str) -> None:
@@ -513,8 +511,8 @@ def _parts_worker(outbox, K, M, parts, mine, sigma, request, lam_lo, lam_hi, fac
         held[k] = (Kp, Mp, solve)
     lone = mine[0] if len(mine) == 1 and method == "block" else None
     if lone is not None and len(parts[lone]) > DENSE_LIMIT and held[lone][1].count_nonzero():
-        _lone_part(outbox, lone, total, *held[lone], name, sigma, request, lam_lo, lam_hi,
-                   method)  # fmt: skip
+        _lone_part(outbox, say, lone, total, *held[lone], name, sigma, request, lam_lo,
+                   lam_hi, method)  # fmt: skip
         return
     ranked = sorted((r for k in mine
                      if (r := _checked(k, total, parts[k], *held[k], sigma, say)) is not None),
@@ -532,15 +530,11 @@ def _parts_worker(outbox, K, M, parts, mine, sigma, request, lam_lo, lam_hi, fac
         outbox.send(("roots", k, lam, vec))
 
 
-def _lone_part(outbox, k, total, Kp, Mp, solve, name, sigma, request, lam_lo, lam_hi, method
-               ) -> None:  # fmt: skip
+def _lone_part(outbox, say, k, total, Kp, Mp, solve, name, sigma, request, lam_lo, lam_hi,
+               method) -> None:  # fmt: skip
     """The forked worker's one part: iterated at once (block Lanczos), its lowest root's
     bound sent as the Lanczos finds it (its first steps are the check's: :func:`_lowest_root`
-    would only repeat them), then its roots."""
-
-    def say(line: str) -> None:
-        outbox.send(("say", line))
-
+    would only repeat them), then its roots. ``say`` sends a progress line."""
     sent = False
 
     def bounded(lowest: float) -> None:
